@@ -1,0 +1,10 @@
+//! detnoise: read-noise models of sCMOS and EMCCD cameras for Shack-Hartmann wavefront sensors.
+//!
+//! Data flows one way: frames (`io`) -> maps (`calib`) -> fitted models (`pdf`, `fit`)
+//! -> Monte-Carlo (`spot`, `detector`, `centroid`, `montecarlo`) -> tables and charts
+//! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
+
+pub mod error;
+pub mod rng;
+
+pub use error::{Error, Result};
