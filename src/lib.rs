@@ -4,7 +4,10 @@
 //! -> Monte-Carlo (`spot`, `detector`, `centroid`, `montecarlo`) -> tables and charts
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
+pub mod detector;
 pub mod error;
+pub mod pdf;
 pub mod rng;
+pub mod stats;
 
 pub use error::{Error, Result};
