@@ -4,10 +4,15 @@
 //! -> Monte-Carlo (`spot`, `detector`, `centroid`, `montecarlo`) -> tables and charts
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
+pub mod centroid;
+pub mod cli;
 pub mod detector;
 pub mod error;
+pub mod montecarlo;
+pub mod output;
 pub mod pdf;
 pub mod rng;
+pub mod spot;
 pub mod stats;
 
 pub use error::{Error, Result};

@@ -1,1 +1,5 @@
-fn main() {}
+//! The `detnoise` binary: see `detnoise --help`.
+
+fn main() {
+    std::process::exit(detnoise::cli::main());
+}

@@ -1,0 +1,53 @@
+//! The `detnoise` command line: a thin layer over the library.
+
+pub mod args;
+mod charts;
+pub mod progress;
+pub mod simulate;
+
+use clap::{Parser, Subcommand};
+
+/// detnoise: read-noise models of sCMOS and EMCCD cameras for Shack-Hartmann wavefront sensors.
+///
+/// Units: positions and errors in pixels (px), signals in photons per sub-aperture, noise and
+/// background levels in electrons (e-) referred to the detector input.
+#[derive(Parser, Debug)]
+#[command(name = "detnoise", version, about, long_about = None, max_term_width = 100)]
+pub struct Cli {
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, global = true)]
+    pub threads: Option<usize>,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Sub-aperture Monte-Carlo: mean radial centroid error R for readout models over a sweep.
+    Simulate(simulate::SimulateArgs),
+}
+
+/// Parse the command line, run it, and return the process exit code.
+pub fn main() -> i32 {
+    let cli = Cli::parse();
+    if let Some(t) = cli.threads {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(t.max(1))
+            .build_global()
+        {
+            eprintln!("detnoise: cannot set --threads: {e}");
+            return 2;
+        }
+    }
+    let result = match &cli.command {
+        Command::Simulate(a) => simulate::run_cli(a),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("detnoise: error: {e}");
+            e.exit_code()
+        }
+    }
+}
