@@ -7,6 +7,7 @@
 pub mod centroid;
 pub mod cli;
 pub mod detector;
+pub mod effective;
 pub mod error;
 pub mod montecarlo;
 pub mod output;

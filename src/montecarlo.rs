@@ -262,7 +262,7 @@ impl Acc {
 /// Run the Monte-Carlo for every model; `on_progress` receives iteration counts as chunks finish.
 pub fn run(
     cfg: &SimConfig,
-    models: &[Box<dyn Readout>],
+    models: &[&dyn Readout],
     on_progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Vec<SimResult>> {
     cfg.validate()?;
@@ -310,7 +310,7 @@ fn run_chunk(
     cfg: &SimConfig,
     renderer: &SpotRenderer,
     levels: &[f64],
-    models: &[Box<dyn Readout>],
+    models: &[&dyn Readout],
     iters: std::ops::Range<u64>,
 ) -> Vec<Acc> {
     let n = cfg.subap_px;
@@ -424,14 +424,18 @@ mod tests {
             .collect()
     }
 
+    fn refs(models: &[Box<dyn Readout>]) -> Vec<&dyn Readout> {
+        models.iter().map(|m| m.as_ref()).collect()
+    }
+
     #[test]
     fn noiseless_readout_with_huge_signal_has_tiny_error() {
         // sigma = 0 and 1e7 photons: shot noise alone moves the CoG by ~ spot width / sqrt(S).
         let mut cfg = SimConfig::paper(8);
         cfg.signal_photons = 1e7;
         cfg.iters = 200;
-        let m: Vec<Box<dyn Readout>> = vec![Box::new(ScmosConstant::new(0.0, "none".into()))];
-        let r = &run(&cfg, &m, &|_| {}).unwrap()[0];
+        let m = ScmosConstant::new(0.0, "none".into());
+        let r = &run(&cfg, &[&m], &|_| {}).unwrap()[0];
         assert!(r.r_px < 1e-3, "R = {}", r.r_px);
         assert_eq!(r.zero_frames, 0);
     }
@@ -446,7 +450,7 @@ mod tests {
                 .num_threads(threads)
                 .build()
                 .unwrap();
-            pool.install(|| run(&cfg, &models(&names, 6), &|_| {}).unwrap())
+            pool.install(|| run(&cfg, &refs(&models(&names, 6)), &|_| {}).unwrap())
         };
         let (a, b) = (run_with(1), run_with(3));
         for (x, y) in a.iter().zip(&b) {
@@ -470,7 +474,7 @@ mod tests {
             ],
             8,
         );
-        let r: Vec<f64> = run(&cfg, &m, &|_| {})
+        let r: Vec<f64> = run(&cfg, &refs(&m), &|_| {})
             .unwrap()
             .iter()
             .map(|s| s.r_px)
@@ -484,7 +488,7 @@ mod tests {
         // where most frames are empty (SPEC 3.7); the reported optimum must not.
         let mut cfg = SimConfig::paper(16);
         cfg.iters = 2000;
-        let r = &run(&cfg, &models(&["scmos-random"], 16), &|_| {}).unwrap()[0];
+        let r = &run(&cfg, &refs(&models(&["scmos-random"], 16)), &|_| {}).unwrap()[0];
         assert!(r.zero_frames as f64 <= 0.01 * cfg.iters as f64);
         assert!(!r.b_at_grid_edge);
         let raw = r

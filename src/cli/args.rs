@@ -10,7 +10,7 @@ use std::sync::Arc;
 #[derive(clap::Args, Debug, Clone)]
 pub struct SweepArgs {
     /// Sub-aperture sizes, pixels per side, comma-separated (e.g. 4,8,16).
-    #[arg(long, default_value = "16")]
+    #[arg(long, default_value = "16", allow_hyphen_values = true)]
     pub subap: String,
     /// Spot shapes: airy:D (first-dark-ring diameter D px; airy:1,2,4 gives three spots) or
     /// gauss:SX,SY (standard deviations in px). Repeat the option for several Gaussians.
@@ -20,10 +20,10 @@ pub struct SweepArgs {
     #[arg(long, value_enum, default_value_t = Sampling::Integrated)]
     pub sampling: Sampling,
     /// Signal levels, photons per sub-aperture before QE, comma-separated.
-    #[arg(long, default_value = "50")]
+    #[arg(long, default_value = "50", allow_hyphen_values = true)]
     pub signal: String,
     /// Quantum efficiency (photo-electrons per photon, 0-1], applied to every model.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
     pub qe: f64,
     /// Monte-Carlo iterations (frames) per configuration.
     #[arg(long, default_value_t = 10_000)]
@@ -36,7 +36,7 @@ pub struct SweepArgs {
     #[arg(long, default_value = "auto")]
     pub bg_grid: String,
     /// Half-width of the random spot offset, px: offsets are uniform in [-h, h] in x and y.
-    #[arg(long, default_value_t = 0.5)]
+    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
     pub position_range: f64,
     /// Largest fraction of empty frames (nothing above the level) for a level to be eligible.
     #[arg(long, default_value_t = 0.01)]

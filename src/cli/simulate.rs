@@ -119,7 +119,8 @@ pub fn simulate(args: &SimulateArgs) -> Result<Vec<SimRecord>> {
             .iter()
             .map(|s| s.build(&params, cfg.subap_px))
             .collect();
-        for r in run(cfg, &models, &|k| progress.inc(k))? {
+        let refs: Vec<&dyn Readout> = models.iter().map(|m| m.as_ref()).collect();
+        for r in run(cfg, &refs, &|k| progress.inc(k))? {
             if r.b_at_grid_edge {
                 eprintln!("warning: {} at {}x{} px, {}, S = {}: the optimum background is the top of the grid; widen --bg-grid", r.model, cfg.subap_px, cfg.subap_px, cfg.spot.label(), cfg.signal_photons);
             }
