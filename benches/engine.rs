@@ -40,7 +40,8 @@ fn main() {
         let mut cfg = SimConfig::paper(n);
         cfg.iters = if n == 4 { 200_000 } else { 20_000 };
         for name in MODELS {
-            let built: Box<dyn Readout> = ModelSpec::parse(name).unwrap().build(&params, n);
+            let built: Box<dyn Readout> =
+                ModelSpec::parse(name).unwrap().build(&params, n).unwrap();
             let model = [built.as_ref()];
             // Warm-up builds the spot table and touches the caches.
             let mut warm = cfg.clone();

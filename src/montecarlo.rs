@@ -420,6 +420,7 @@ mod tests {
                 ModelSpec::parse(m)
                     .unwrap()
                     .build(&ModelParams::default(), n)
+                    .unwrap()
             })
             .collect()
     }

@@ -127,6 +127,7 @@ impl DetectorArgs {
             sigma_e: self.sigma,
             pdf: Arc::new(crate::pdf::paper()),
             pattern_seed: self.pattern_seed,
+            map: None,
         })
     }
 }

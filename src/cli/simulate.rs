@@ -118,7 +118,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<Vec<SimRecord>> {
         let models: Vec<Box<dyn Readout>> = specs
             .iter()
             .map(|s| s.build(&params, cfg.subap_px))
-            .collect();
+            .collect::<Result<_>>()?;
         let refs: Vec<&dyn Readout> = models.iter().map(|m| m.as_ref()).collect();
         for r in run(cfg, &refs, &|k| progress.inc(k))? {
             if r.b_at_grid_edge {

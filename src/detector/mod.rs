@@ -9,7 +9,7 @@ mod scmos;
 
 pub use emccd::{EmccdDistribution, EmccdSimple, EmccdStochastic};
 pub use register::EmRegister;
-pub use scmos::{PerPixelSigma, ScmosConstant, ScmosRandom};
+pub use scmos::{NoiseMap, PerPixelSigma, ScmosConstant, ScmosMap, ScmosRandom};
 
 use crate::pdf::RmsPdf;
 use crate::rng::SimRng;
@@ -58,6 +58,8 @@ pub struct ModelParams {
     pub pdf: Arc<dyn RmsPdf>,
     /// Seed of the fixed sCMOS noise patterns (pattern K uses stream K of it).
     pub pattern_seed: u64,
+    /// Measured noise map for `scmos-map`.
+    pub map: Option<Arc<NoiseMap>>,
 }
 
 impl Default for ModelParams {
@@ -71,6 +73,7 @@ impl Default for ModelParams {
             sigma_e: 1.0,
             pdf: Arc::new(crate::pdf::paper()),
             pattern_seed: 2015,
+            map: None,
         }
     }
 }
@@ -94,11 +97,13 @@ pub enum ModelSpec {
     ScmosFixed(u32),
     /// Per-pixel sigma drawn anew from the pdf every frame.
     ScmosRandom,
+    /// Per-pixel sigma from a random window of a measured noise map (`--map FILE`).
+    ScmosMap,
 }
 
 /// Every model name accepted by [`ModelSpec::parse`], for help texts.
 pub const MODEL_NAMES: &str = "emccd-simple, emccd-stochastic, emccd-distribution, \
-scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random";
+scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map";
 
 impl ModelSpec {
     /// Parse a model name such as `scmos-fixed:3` or `scmos-constant:1.2`.
@@ -121,6 +126,7 @@ impl ModelSpec {
             "scmos-median" => no_arg(ModelSpec::ScmosMedian),
             "scmos-mean" => no_arg(ModelSpec::ScmosMean),
             "scmos-random" => no_arg(ModelSpec::ScmosRandom),
+            "scmos-map" => no_arg(ModelSpec::ScmosMap),
             "scmos-constant" => match arg {
                 None => Ok(ModelSpec::ScmosConstant(None)),
                 Some(a) => match a.parse::<f64>() {
@@ -145,11 +151,11 @@ impl ModelSpec {
     }
 
     /// Build the readout for `subap_px` x `subap_px` sub-apertures.
-    pub fn build(&self, params: &ModelParams, subap_px: usize) -> Box<dyn Readout> {
+    pub fn build(&self, params: &ModelParams, subap_px: usize) -> Result<Box<dyn Readout>> {
         let constant = |sigma: f64, name: String| -> Box<dyn Readout> {
             Box::new(ScmosConstant::new(sigma, name))
         };
-        match self {
+        Ok(match self {
             ModelSpec::EmccdSimple => Box::new(EmccdSimple::paper()),
             ModelSpec::EmccdStochastic => Box::new(EmccdStochastic::new(
                 EmRegister::new(params.gain, params.stages),
@@ -174,7 +180,16 @@ impl ModelSpec {
                 *k,
             )),
             ModelSpec::ScmosRandom => Box::new(ScmosRandom::new(params.pdf.clone())),
-        }
+            ModelSpec::ScmosMap => match &params.map {
+                Some(map) => Box::new(ScmosMap::new(map.clone(), subap_px)?),
+                None => {
+                    return Err(Error::usage(
+                        "--model",
+                        "scmos-map needs a measured noise map: give --map FILE",
+                    ))
+                }
+            },
+        })
     }
 }
 
@@ -197,7 +212,7 @@ mod tests {
             "scmos-random",
         ] {
             let spec = ModelSpec::parse(name).unwrap();
-            let built = spec.build(&ModelParams::default(), 4);
+            let built = spec.build(&ModelParams::default(), 4).unwrap();
             assert!(built.name().starts_with(name.split(':').next().unwrap()));
         }
         for bad in [
