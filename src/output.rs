@@ -170,3 +170,50 @@ mod tests {
         assert!(write_atomic(&dir.path().join("missing/a.txt"), b"x").is_err());
     }
 }
+
+/// An output directory built in a temporary sibling and moved into place only on success,
+/// so a failed run leaves neither a half-written directory nor a damaged earlier one.
+pub struct OutputDir {
+    target: std::path::PathBuf,
+    tmp: tempfile::TempDir,
+}
+
+impl OutputDir {
+    /// Start building the directory `target`.
+    pub fn new(target: &Path) -> Result<Self> {
+        let parent = match target.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => std::path::PathBuf::from("."),
+        };
+        std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
+        let name = target
+            .file_name()
+            .map(|n| n.to_string_lossy().to_string())
+            .unwrap_or_else(|| "out".into());
+        let tmp = tempfile::Builder::new()
+            .prefix(&format!(".{name}.partial-"))
+            .tempdir_in(&parent)
+            .map_err(|e| Error::io(&parent, e))?;
+        Ok(OutputDir {
+            target: target.to_path_buf(),
+            tmp,
+        })
+    }
+
+    /// Path of `file` inside the directory being built.
+    pub fn path(&self, file: &str) -> std::path::PathBuf {
+        self.tmp.path().join(file)
+    }
+
+    /// Move the finished directory into place, replacing an earlier one of the same name.
+    pub fn commit(self) -> Result<std::path::PathBuf> {
+        if self.target.is_dir() {
+            std::fs::remove_dir_all(&self.target).map_err(|e| Error::io(&self.target, e))?;
+        } else if self.target.exists() {
+            return Err(Error::input(&self.target, "exists and is not a directory"));
+        }
+        let tmp = self.tmp.keep();
+        std::fs::rename(&tmp, &self.target).map_err(|e| Error::io(&self.target, e))?;
+        Ok(self.target)
+    }
+}

@@ -11,3 +11,11 @@ pub fn r_against_sweep(_records: &[SimRecord], _path: &Path) -> Result<()> {
         "charts are not available in this build yet",
     ))
 }
+
+/// One heatmap per signal level: sub-aperture size x spot, colour = sigma_eff_e.
+pub fn effective_heatmaps(
+    _records: &[super::effective::EffectiveRecord],
+    _dir: &crate::output::OutputDir,
+) -> Result<Vec<std::path::PathBuf>> {
+    Ok(Vec::new())
+}

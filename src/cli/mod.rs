@@ -2,6 +2,7 @@
 
 pub mod args;
 mod charts;
+pub mod effective;
 pub mod progress;
 pub mod simulate;
 
@@ -26,6 +27,8 @@ pub struct Cli {
 pub enum Command {
     /// Sub-aperture Monte-Carlo: mean radial centroid error R for readout models over a sweep.
     Simulate(simulate::SimulateArgs),
+    /// Effective Gaussian read noise of a detector over sub-aperture sizes, spots and signals.
+    Effective(effective::EffectiveArgs),
 }
 
 /// Parse the command line, run it, and return the process exit code.
@@ -42,6 +45,7 @@ pub fn main() -> i32 {
     }
     let result = match &cli.command {
         Command::Simulate(a) => simulate::run_cli(a),
+        Command::Effective(a) => effective::run_cli(a),
     };
     match result {
         Ok(()) => 0,
