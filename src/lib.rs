@@ -5,6 +5,8 @@
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
 pub mod error;
+pub mod plot;
+pub mod pp;
 pub mod rng;
 
 pub use error::{Error, Result};
