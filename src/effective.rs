@@ -1,22 +1,24 @@
 //! Effective read noise: the constant sigma whose Monte-Carlo error R equals a detector's.
 //!
-//! R grows monotonically with a constant sigma. A short pilot run on a wide geometric grid of
-//! sigmas brackets the answer; the full run then evaluates the detector beside four constant
-//! sigmas tightly around the pilot estimate, all on common random numbers (same spots,
-//! photons and Gaussian deviates), and interpolates linearly inside the bracket.
+//! R grows monotonically with a constant sigma. A short pilot run on a wide geometric grid
+//! (with sigma = 0, the noiseless readout, at its foot) locates the answer; the full run then
+//! evaluates the detector beside four constant sigmas tightly around the pilot estimate, all on
+//! common random numbers (same spots, photons and Gaussian deviates), and interpolates inside
+//! the bracket. Where R is too flat in sigma for that bracket (high signal: shot noise
+//! dominates), a wide grid at full iterations decides.
 
 use crate::detector::{Readout, ScmosConstant};
 use crate::montecarlo::{run, SimConfig, SimResult};
 use crate::{Error, Result};
 
-/// Pilot grid: sigmas from 1/4 to 4 times the detector's noise scale, ratio 1.59.
-const PILOT_FACTORS: [f64; 7] = [0.25, 0.397, 0.63, 1.0, 1.587, 2.52, 4.0];
+/// Pilot grid: sigma = 0 (noiseless readout) and 1/4 to 4 times the detector's noise scale.
+const PILOT_FACTORS: [f64; 8] = [0.0, 0.25, 0.397, 0.63, 1.0, 1.587, 2.52, 4.0];
 /// Final grid around the pilot estimate.
 const FINAL_FACTORS: [f64; 4] = [0.85, 0.95, 1.05, 1.18];
+/// Fallback grid when R is too flat in sigma for the narrow bracket: 0 and 0.1 to 16 times the scale.
+const WIDE_FACTORS: [f64; 12] = [0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0, 6.0, 16.0];
 /// Fraction of the iterations used by the pilot run (at least 500 frames).
 const PILOT_FRACTION: f64 = 0.1;
-/// How many times the bracket may be widened before giving up.
-const MAX_WIDENINGS: usize = 4;
 
 /// The effective read noise of one configuration.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -35,6 +37,8 @@ pub struct Effective {
     pub sigma_grid_e: Vec<f64>,
     /// R of the constant-sigma model at each of them (px).
     pub r_const_px: Vec<f64>,
+    /// True when the detector's R is at or below that of a noiseless readout: sigma_eff is 0.
+    pub at_lower_bound: bool,
 }
 
 /// Solve for the effective read noise of `detector` in configuration `cfg`.
@@ -44,56 +48,89 @@ pub fn effective_sigma(
     on_progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Effective> {
     let scale = detector.noise_scale_e().max(1e-3);
+    let grid_of = |factors: &[f64], s: f64| -> Vec<f64> { factors.iter().map(|f| f * s).collect() };
     let mut pilot_cfg = cfg.clone();
     pilot_cfg.iters = ((cfg.iters as f64 * PILOT_FRACTION) as u64)
         .max(500)
         .min(cfg.iters);
     // The pilot uses other streams than the final run, so its noise does not bias the final grid.
     pilot_cfg.seed = cfg.seed ^ 0x9111_07;
-    let pilot_grid: Vec<f64> = PILOT_FACTORS.iter().map(|f| f * scale).collect();
-    let guess = solve_widening(&pilot_cfg, detector, pilot_grid, &|_| {})?.sigma_eff_e;
-    let grid: Vec<f64> = FINAL_FACTORS
-        .iter()
-        .map(|f| f * guess.max(1e-3 * scale))
-        .collect();
-    solve_widening(cfg, detector, grid, on_progress)
+    let guess = match solve_on_grid(
+        &pilot_cfg,
+        detector,
+        grid_of(&PILOT_FACTORS, scale),
+        &|_| {},
+    ) {
+        Ok(e) => e.sigma_eff_e,
+        Err(Outside::Below) => 0.0,
+        Err(Outside::Above) => PILOT_FACTORS[PILOT_FACTORS.len() - 1] * scale,
+        Err(Outside::Failed(e)) => return Err(e),
+    };
+    if guess > 0.0 {
+        match solve_on_grid(cfg, detector, grid_of(&FINAL_FACTORS, guess), on_progress) {
+            Ok(e) => return Ok(e),
+            Err(Outside::Failed(e)) => return Err(e),
+            Err(Outside::Below) | Err(Outside::Above) => {}
+        }
+    }
+    let wide = grid_of(&WIDE_FACTORS, scale.max(guess));
+    match solve_on_grid(cfg, detector, wide.clone(), on_progress) {
+        Ok(e) => Ok(e),
+        Err(Outside::Below) => lower_bound(cfg, detector, &wide, on_progress),
+        Err(Outside::Above) => Err(Error::Numeric(format!(
+            "effective read noise of {} exceeds {:.3} e- (16x its noise scale) for {}x{} px, {}, S = {} photons",
+            detector.name(),
+            wide[wide.len() - 1],
+            cfg.subap_px,
+            cfg.subap_px,
+            cfg.spot.label(),
+            cfg.signal_photons
+        ))),
+        Err(Outside::Failed(e)) => Err(e),
+    }
 }
 
-/// Solve on `grid`, scaling the whole grid down or up until it brackets the detector's R.
-fn solve_widening(
+/// The result when the detector's R is at or below R at sigma = 0 (`grid[0]` must be 0).
+fn lower_bound(
     cfg: &SimConfig,
     detector: &dyn Readout,
-    mut grid: Vec<f64>,
+    grid: &[f64],
     on_progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Effective> {
-    for _ in 0..=MAX_WIDENINGS {
-        let factor = match solve_on_grid(cfg, detector, grid.clone(), on_progress) {
-            Ok(e) => return Ok(e),
-            Err(Outside::Below) => 0.5,
-            Err(Outside::Above) => 2.0,
-            Err(Outside::Failed(e)) => return Err(e),
-        };
-        let (lo, hi) = (grid[0], grid[grid.len() - 1]);
-        // Keep the old end as the new grid's inner end so the bracket is contiguous.
-        grid = if factor < 1.0 {
-            geometric(lo * factor * factor, hi.min(lo * 1.2), grid.len())
+    let (det, consts) = run_grid(cfg, detector, grid, on_progress)?;
+    let slope = (consts[1].r_px - consts[0].r_px) / (grid[1] - grid[0]);
+    Ok(Effective {
+        sigma_eff_e: 0.0,
+        sigma_eff_se_e: if slope > 0.0 {
+            (det.r_se_px.powi(2) + consts[0].r_se_px.powi(2)).sqrt() / slope
         } else {
-            geometric(lo.max(hi / 1.2), hi * factor * factor, grid.len())
-        };
-    }
-    Err(Error::Numeric(format!(
-        "effective read noise not bracketed for {}x{} px, {}, S = {} photons after {MAX_WIDENINGS} widenings",
-        cfg.subap_px,
-        cfg.subap_px,
-        cfg.spot.label(),
-        cfg.signal_photons
-    )))
+            f64::INFINITY
+        },
+        r_px: det.r_px,
+        r_se_px: det.r_se_px,
+        b_opt_e: det.b_opt_e,
+        sigma_grid_e: grid.to_vec(),
+        r_const_px: consts.iter().map(|c| c.r_px).collect(),
+        at_lower_bound: true,
+    })
 }
 
-/// `count` geometrically spaced values from `lo` to `hi`.
-fn geometric(lo: f64, hi: f64, count: usize) -> Vec<f64> {
-    let ratio = (hi / lo).powf(1.0 / (count - 1) as f64);
-    (0..count).map(|k| lo * ratio.powi(k as i32)).collect()
+/// Run the detector beside constant-sigma models on `grid` (common random numbers).
+fn run_grid(
+    cfg: &SimConfig,
+    detector: &dyn Readout,
+    grid: &[f64],
+    on_progress: &(dyn Fn(u64) + Sync),
+) -> Result<(SimResult, Vec<SimResult>)> {
+    let constants: Vec<ScmosConstant> = grid
+        .iter()
+        .map(|s| ScmosConstant::new(*s, format!("scmos-constant:{s}")))
+        .collect();
+    let mut models: Vec<&dyn Readout> = vec![detector];
+    models.extend(constants.iter().map(|c| c as &dyn Readout));
+    let mut results = run(cfg, &models, on_progress)?;
+    let det = results.remove(0);
+    Ok((det, results))
 }
 
 /// Why a grid did not give an answer.
@@ -118,15 +155,8 @@ fn solve_on_grid(
     grid: Vec<f64>,
     on_progress: &(dyn Fn(u64) + Sync),
 ) -> std::result::Result<Effective, Outside> {
-    let constants: Vec<ScmosConstant> = grid
-        .iter()
-        .map(|s| ScmosConstant::new(*s, format!("scmos-constant:{s}")))
-        .collect();
-    let mut models: Vec<&dyn Readout> = vec![detector];
-    models.extend(constants.iter().map(|c| c as &dyn Readout));
-    let results = run(cfg, &models, on_progress)?;
-    let (det, consts) = results.split_first().expect("detector result");
-    interpolate(det, consts, &grid)
+    let (det, consts) = run_grid(cfg, detector, &grid, on_progress)?;
+    interpolate(&det, &consts, &grid)
 }
 
 fn interpolate(
@@ -170,6 +200,7 @@ fn interpolate(
         b_opt_e: det.b_opt_e,
         sigma_grid_e: grid.to_vec(),
         r_const_px: consts.iter().map(|c| c.r_px).collect(),
+        at_lower_bound: false,
     })
 }
 

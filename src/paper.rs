@@ -7,8 +7,8 @@ use crate::detector::{ModelParams, ModelSpec, Readout};
 use crate::effective::effective_sigma;
 use crate::montecarlo::{run, SimConfig};
 use crate::output::write_atomic;
-use crate::pdf::{paper_shape, RmsPdf};
-use crate::plot::{Heatmap, Histogram, HistNorm, Image, ImageGrid, Inset, LineChart, Series};
+use crate::pdf::paper_shape;
+use crate::plot::{Heatmap, HistNorm, Histogram, Image, ImageGrid, Inset, LineChart, Series};
 use crate::spot::{Sampling, Spot};
 use crate::Result;
 use std::fmt::Write as _;
@@ -84,7 +84,11 @@ impl Ctx<'_> {
     }
 
     fn pick<T: Copy>(&self, full: &[T], quick: &[T]) -> Vec<T> {
-        if self.opts.quick { quick.to_vec() } else { full.to_vec() }
+        if self.opts.quick {
+            quick.to_vec()
+        } else {
+            full.to_vec()
+        }
     }
 
     fn signals(&self) -> Vec<f64> {
@@ -112,7 +116,13 @@ fn sweep(
     models: impl Fn(&SimConfig, f64) -> Result<Vec<Box<dyn Readout>>>,
     names: &[String],
 ) -> Result<Vec<Curve>> {
-    let mut curves: Vec<Curve> = names.iter().map(|n| Curve { name: n.clone(), points: Vec::new() }).collect();
+    let mut curves: Vec<Curve> = names
+        .iter()
+        .map(|n| Curve {
+            name: n.clone(),
+            points: Vec::new(),
+        })
+        .collect();
     for &x in xs {
         let c = cfg(x);
         let built = models(&c, x)?;
@@ -130,7 +140,10 @@ fn build(specs: &[ModelSpec], params: &ModelParams, n: usize) -> Result<Vec<Box<
 }
 
 fn parse(names: &[&str]) -> Vec<ModelSpec> {
-    names.iter().map(|n| ModelSpec::parse(n).expect("known model")).collect()
+    names
+        .iter()
+        .map(|n| ModelSpec::parse(n).expect("known model"))
+        .collect()
 }
 
 fn strings(names: &[&str]) -> Vec<String> {
@@ -142,14 +155,26 @@ fn airy(d: f64) -> Spot {
 }
 
 /// Regenerate every figure into `dir` (which must exist); returns what was written.
-pub fn generate(opts: &PaperOptions, dir: &Path, on_figure: &dyn Fn(&str)) -> Result<Vec<FigureInfo>> {
-    let ctx = Ctx { opts, dir, params: ModelParams::default() };
+pub fn generate(
+    opts: &PaperOptions,
+    dir: &Path,
+    on_figure: &dyn Fn(&str),
+) -> Result<Vec<FigureInfo>> {
+    let ctx = Ctx {
+        opts,
+        dir,
+        params: ModelParams::default(),
+    };
     type FigFn = fn(&Ctx) -> Result<FigureInfo>;
     let figures: [(&str, FigFn); 14] = [
         ("Fig. 1 rms pdf", fig01_pdf),
         ("Fig. 2 noise patterns", fig02_patterns),
-        ("Fig. 3 EMCCD models, D = 2", |c| fig_emccd_models(c, 3, 2.0)),
-        ("Fig. 4 EMCCD models, D = 10", |c| fig_emccd_models(c, 4, 10.0)),
+        ("Fig. 3 EMCCD models, D = 2", |c| {
+            fig_emccd_models(c, 3, 2.0)
+        }),
+        ("Fig. 4 EMCCD models, D = 10", |c| {
+            fig_emccd_models(c, 4, 10.0)
+        }),
         ("Fig. 5 R vs EM gain", fig05_gain),
         ("Fig. 6 thresholding", fig06_pp),
         ("Fig. 7 all models 16x16", |c| fig_all_models(c, 7, 16)),
@@ -175,9 +200,16 @@ fn save_line(ctx: &Ctx, fig: LineFigure) -> Result<FigureInfo> {
     let mut chart = LineChart::new(fig.title.clone(), fig.x_label.clone(), fig.y_label.clone());
     chart.log_x = fig.log_x;
     chart.log_y = fig.log_y;
-    chart.series = fig.curves.iter().map(|c| Series::with_errors(c.name.clone(), c.points.iter().copied())).collect();
+    chart.series = fig
+        .curves
+        .iter()
+        .map(|c| Series::with_errors(c.name.clone(), c.points.iter().copied()))
+        .collect();
     if let Some((y, label)) = &fig.reference {
-        chart.reference.push(crate::plot::RefLine { y: *y, label: label.clone() });
+        chart.reference.push(crate::plot::RefLine {
+            y: *y,
+            label: label.clone(),
+        });
     }
     let mut csv = String::from("series,x,y,y_se\n");
     for c in &fig.curves {
@@ -192,7 +224,10 @@ fn save_line(ctx: &Ctx, fig: LineFigure) -> Result<FigureInfo> {
         number: fig.number,
         title: fig.title,
         caption: format!("{} {}", fig.caption, ctx.sampling_note()),
-        files: ["png", "svg", "csv"].iter().map(|e| format!("{stem}.{e}")).collect(),
+        files: ["png", "svg", "csv"]
+            .iter()
+            .map(|e| format!("{stem}.{e}"))
+            .collect(),
     })
 }
 
@@ -218,8 +253,15 @@ fn fig01_pdf(ctx: &Ctx) -> Result<FigureInfo> {
     h.norm = HistNorm::Density;
     h.range = Some((0.0, 4.0));
     h.bins = crate::plot::Bins::Count(160);
-    h.curves = vec![Series::new("paper pdf, Eq. 3", curve.iter().copied().filter(|(x, _)| *x <= 4.0)).styled(crate::plot::SeriesStyle::Line)];
-    h.inset = Some(Inset { title: "log scale, 0-10 e-".into(), x_range: Some((0.0, 10.0)) });
+    h.curves = vec![Series::new(
+        "paper pdf, Eq. 3",
+        curve.iter().copied().filter(|(x, _)| *x <= 4.0),
+    )
+    .styled(crate::plot::SeriesStyle::Line)];
+    h.inset = Some(Inset {
+        title: "log scale, 0-10 e-".into(),
+        x_range: Some((0.0, 10.0)),
+    });
     let stem = "fig01-rms-pdf";
     h.save(ctx.dir.join(format!("{stem}.png")))?;
     h.save(ctx.dir.join(format!("{stem}.svg")))?;
@@ -247,16 +289,30 @@ fn fig02_patterns(ctx: &Ctx) -> Result<FigureInfo> {
     let mut csv = String::from("pattern,row,col,rms_e\n");
     let mut images = Vec::new();
     for k in 0..10u32 {
-        let p = crate::detector::PerPixelSigma::fixed_pattern(ctx.params.pdf.as_ref(), 16, ctx.params.pattern_seed, k);
+        let p = crate::detector::PerPixelSigma::fixed_pattern(
+            ctx.params.pdf.as_ref(),
+            16,
+            ctx.params.pattern_seed,
+            k,
+        );
         let s = p.sigma_e();
         for (i, v) in s.iter().enumerate() {
             let _ = writeln!(csv, "{k},{},{},{v}", i / 16, i % 16);
         }
         let max = s.iter().cloned().fold(0.0, f64::max);
         let mean = s.iter().sum::<f64>() / s.len() as f64;
-        images.push(Image { title: format!("scmos-fixed:{k} (max {max:.2}, mean {mean:.2})"), width: 16, height: 16, data: s.to_vec() });
+        images.push(Image {
+            title: format!("scmos-fixed:{k} (max {max:.2}, mean {mean:.2})"),
+            width: 16,
+            height: 16,
+            data: s.to_vec(),
+        });
     }
-    let mut grid = ImageGrid::new("Ten fixed sCMOS noise patterns, 16x16 px, drawn from the rms pdf", images, "rms read noise (e-)");
+    let mut grid = ImageGrid::new(
+        "Ten fixed sCMOS noise patterns, 16x16 px, drawn from the rms pdf",
+        images,
+        "rms read noise (e-)",
+    );
     grid.columns = 5;
     grid.save(ctx.dir.join(format!("{stem}.png")))?;
     grid.save(ctx.dir.join(format!("{stem}.svg")))?;
@@ -275,7 +331,12 @@ fn fig_emccd_models(ctx: &Ctx, number: u32, d: f64) -> Result<FigureInfo> {
     let mut curves = Vec::new();
     for n in ctx.pick(&[4usize, 8, 16], &[4, 16]) {
         let labels: Vec<String> = names.iter().map(|m| format!("{m}, {n}x{n}")).collect();
-        curves.extend(sweep(&ctx.signals(), |s| ctx.cfg(n, airy(d), s), |c, _| build(&specs, &ctx.params, c.subap_px), &labels)?);
+        curves.extend(sweep(
+            &ctx.signals(),
+            |s| ctx.cfg(n, airy(d), s),
+            |c, _| build(&specs, &ctx.params, c.subap_px),
+            &labels,
+        )?);
     }
     save_line(ctx, LineFigure {
         number,
@@ -292,16 +353,29 @@ fn fig_emccd_models(ctx: &Ctx, number: u32, d: f64) -> Result<FigureInfo> {
 }
 
 fn fig05_gain(ctx: &Ctx) -> Result<FigureInfo> {
-    let gains = ctx.pick(&[2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0], &[5.0, 100.0, 1000.0]);
+    let gains = ctx.pick(
+        &[
+            2.0, 5.0, 10.0, 20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0,
+        ],
+        &[5.0, 100.0, 1000.0],
+    );
     let names = ["emccd-stochastic", "emccd-distribution"];
     let specs = parse(&names);
     let mut curves = Vec::new();
     for s in ctx.pick(&[20.0, 50.0, 200.0, 1000.0], &[20.0, 1000.0]) {
         let labels: Vec<String> = names.iter().map(|m| format!("{m}, S = {s}")).collect();
-        curves.extend(sweep(&gains, |_| ctx.cfg(8, airy(4.0), s), |c, g| {
-            let params = ModelParams { gain: g, ..ctx.params.clone() };
-            build(&specs, &params, c.subap_px)
-        }, &labels)?);
+        curves.extend(sweep(
+            &gains,
+            |_| ctx.cfg(8, airy(4.0), s),
+            |c, g| {
+                let params = ModelParams {
+                    gain: g,
+                    ..ctx.params.clone()
+                };
+                build(&specs, &params, c.subap_px)
+            },
+            &labels,
+        )?);
     }
     save_line(ctx, LineFigure {
         number: 5,
@@ -318,21 +392,44 @@ fn fig05_gain(ctx: &Ctx) -> Result<FigureInfo> {
 }
 
 fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
-    let gains = ctx.pick(&[20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0], &[50.0, 1000.0]);
+    let gains = ctx.pick(
+        &[20.0, 50.0, 100.0, 200.0, 500.0, 1000.0, 2000.0],
+        &[50.0, 1000.0],
+    );
     let names = ["emccd-stochastic", "emccd-pp", "emccd-pp-uncorrected"];
     let specs = parse(&names);
     let mut curves = Vec::new();
     for s in ctx.pick(&[20.0, 50.0, 200.0, 1000.0], &[20.0, 1000.0]) {
-        let raw = sweep(&gains, |_| ctx.cfg(8, airy(4.0), s), |c, g| {
-            let params = ModelParams { gain: g, ..ctx.params.clone() };
-            build(&specs, &params, c.subap_px)
-        }, &strings(&names))?;
+        let raw = sweep(
+            &gains,
+            |_| ctx.cfg(8, airy(4.0), s),
+            |c, g| {
+                let params = ModelParams {
+                    gain: g,
+                    ..ctx.params.clone()
+                };
+                build(&specs, &params, c.subap_px)
+            },
+            &strings(&names),
+        )?;
         for (label, k) in [("corrected", 1), ("uncorrected", 2)] {
-            let points = raw[0].points.iter().zip(&raw[k].points).map(|(a, b)| {
-                let ratio = a.1 / b.1;
-                (a.0, ratio, ratio * ((a.2 / a.1).powi(2) + (b.2 / b.1).powi(2)).sqrt())
-            }).collect();
-            curves.push(Curve { name: format!("S = {s}, {label}"), points });
+            let points = raw[0]
+                .points
+                .iter()
+                .zip(&raw[k].points)
+                .map(|(a, b)| {
+                    let ratio = a.1 / b.1;
+                    (
+                        a.0,
+                        ratio,
+                        ratio * ((a.2 / a.1).powi(2) + (b.2 / b.1).powi(2)).sqrt(),
+                    )
+                })
+                .collect();
+            curves.push(Curve {
+                name: format!("S = {s}, {label}"),
+                points,
+            });
         }
     }
     save_line(ctx, LineFigure {
@@ -350,11 +447,25 @@ fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
 }
 
 /// The full set of models compared in Figs. 7-10.
-const ALL_MODELS: [&str; 8] = ["emccd-simple", "emccd-stochastic", "emccd-distribution", "emccd-pp", "scmos-median", "scmos-mean", "scmos-fixed:0", "scmos-random"];
+const ALL_MODELS: [&str; 8] = [
+    "emccd-simple",
+    "emccd-stochastic",
+    "emccd-distribution",
+    "emccd-pp",
+    "scmos-median",
+    "scmos-mean",
+    "scmos-fixed:0",
+    "scmos-random",
+];
 
 fn fig_all_models(ctx: &Ctx, number: u32, n: usize) -> Result<FigureInfo> {
     let specs = parse(&ALL_MODELS);
-    let curves = sweep(&ctx.signals(), |s| ctx.cfg(n, airy(2.0), s), |c, _| build(&specs, &ctx.params, c.subap_px), &strings(&ALL_MODELS))?;
+    let curves = sweep(
+        &ctx.signals(),
+        |s| ctx.cfg(n, airy(2.0), s),
+        |c, _| build(&specs, &ctx.params, c.subap_px),
+        &strings(&ALL_MODELS),
+    )?;
     save_line(ctx, LineFigure {
         number,
         slug: if n == 16 { "all-models-16x16" } else { "all-models-4x4" },
@@ -370,10 +481,21 @@ fn fig_all_models(ctx: &Ctx, number: u32, n: usize) -> Result<FigureInfo> {
 }
 
 fn fig09_subap(ctx: &Ctx) -> Result<FigureInfo> {
-    let names = ["emccd-simple", "emccd-stochastic", "scmos-median", "scmos-mean", "scmos-random"];
+    let names = [
+        "emccd-simple",
+        "emccd-stochastic",
+        "scmos-median",
+        "scmos-mean",
+        "scmos-random",
+    ];
     let specs = parse(&names);
     let sizes = ctx.pick(&[4.0, 6.0, 8.0, 10.0, 12.0, 14.0, 16.0], &[4.0, 16.0]);
-    let curves = sweep(&sizes, |n| ctx.cfg(n as usize, airy(2.0), 50.0), |c, _| build(&specs, &ctx.params, c.subap_px), &strings(&names))?;
+    let curves = sweep(
+        &sizes,
+        |n| ctx.cfg(n as usize, airy(2.0), 50.0),
+        |c, _| build(&specs, &ctx.params, c.subap_px),
+        &strings(&names),
+    )?;
     save_line(ctx, LineFigure {
         number: 9,
         slug: "r-vs-subaperture",
@@ -389,13 +511,23 @@ fn fig09_subap(ctx: &Ctx) -> Result<FigureInfo> {
 }
 
 fn fig10_diameter(ctx: &Ctx) -> Result<FigureInfo> {
-    let names = ["emccd-stochastic", "scmos-median", "scmos-mean", "scmos-random"];
+    let names = [
+        "emccd-stochastic",
+        "scmos-median",
+        "scmos-mean",
+        "scmos-random",
+    ];
     let specs = parse(&names);
     let ds = ctx.pick(&[1.0, 2.0, 4.0, 6.0, 8.0, 10.0], &[2.0, 8.0]);
     let mut curves = Vec::new();
     for n in [4usize, 16] {
         let labels: Vec<String> = names.iter().map(|m| format!("{m}, {n}x{n}")).collect();
-        curves.extend(sweep(&ds, |d| ctx.cfg(n, airy(d), 50.0), |c, _| build(&specs, &ctx.params, c.subap_px), &labels)?);
+        curves.extend(sweep(
+            &ds,
+            |d| ctx.cfg(n, airy(d), 50.0),
+            |c, _| build(&specs, &ctx.params, c.subap_px),
+            &labels,
+        )?);
     }
     save_line(ctx, LineFigure {
         number: 10,
@@ -417,11 +549,19 @@ fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
     let mut names: Vec<String> = vec!["scmos-random".into()];
     names.extend((0..patterns).map(|k| format!("scmos-fixed:{k}")));
     names.extend(sigmas.iter().map(|s| format!("scmos-constant:{s}")));
-    let specs: Vec<ModelSpec> = names.iter().map(|n| ModelSpec::parse(n).expect("known")).collect();
+    let specs: Vec<ModelSpec> = names
+        .iter()
+        .map(|n| ModelSpec::parse(n).expect("known"))
+        .collect();
     let mut curves = Vec::new();
     for n in [4usize, 16] {
         let labels: Vec<String> = names.iter().map(|m| format!("{m}, {n}x{n}")).collect();
-        curves.extend(sweep(&ctx.signals(), |s| ctx.cfg(n, airy(2.0), s), |c, _| build(&specs, &ctx.params, c.subap_px), &labels)?);
+        curves.extend(sweep(
+            &ctx.signals(),
+            |s| ctx.cfg(n, airy(2.0), s),
+            |c, _| build(&specs, &ctx.params, c.subap_px),
+            &labels,
+        )?);
     }
     save_line(ctx, LineFigure {
         number: 11,
@@ -442,7 +582,9 @@ fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     let ds = ctx.pick(&[1.0, 2.0, 4.0, 6.0, 8.0, 10.0], &[2.0, 6.0]);
     let signals = SIGNALS;
     let model = ModelSpec::ScmosRandom;
-    let mut csv = String::from("subap_px,spot_diameter_px,signal_photons,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px\n");
+    let mut csv = String::from(
+        "subap_px,spot_diameter_px,signal_photons,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px\n",
+    );
     let mut files = vec!["fig12-effective-read-noise.csv".to_string()];
     for s in signals {
         let mut values = vec![vec![0.0; sizes.len()]; ds.len()];
@@ -451,7 +593,11 @@ fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
             for (j, &d) in ds.iter().enumerate() {
                 let e = effective_sigma(&ctx.cfg(n, airy(d), s), det.as_ref(), &|_| {})?;
                 values[j][i] = e.sigma_eff_e;
-                let _ = writeln!(csv, "{n},{d},{s},{},{},{},{}", e.sigma_eff_e, e.sigma_eff_se_e, e.r_px, e.r_se_px);
+                let _ = writeln!(
+                    csv,
+                    "{n},{d},{s},{},{},{},{}",
+                    e.sigma_eff_e, e.sigma_eff_se_e, e.r_px, e.r_se_px
+                );
             }
         }
         let stem = format!("fig12-effective-read-noise-S{s}");
@@ -470,7 +616,10 @@ fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
         files.push(format!("{stem}.png"));
         files.push(format!("{stem}.svg"));
     }
-    write_atomic(&ctx.dir.join("fig12-effective-read-noise.csv"), csv.as_bytes())?;
+    write_atomic(
+        &ctx.dir.join("fig12-effective-read-noise.csv"),
+        csv.as_bytes(),
+    )?;
     Ok(FigureInfo {
         number: 12,
         title: "Effective Gaussian read noise of an sCMOS camera".into(),
@@ -480,11 +629,25 @@ fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
 }
 
 fn fig13_lgs(ctx: &Ctx) -> Result<FigureInfo> {
-    let names = ["emccd-stochastic", "scmos-median", "scmos-mean", "scmos-random", "scmos-fixed:0"];
+    let names = [
+        "emccd-stochastic",
+        "scmos-median",
+        "scmos-mean",
+        "scmos-random",
+        "scmos-fixed:0",
+    ];
     let specs = parse(&names);
     let elong = ctx.pick(&[1.0, 1.5, 2.0, 3.0, 4.0, 5.0], &[1.0, 3.0]);
-    let gauss = |sy: f64| Spot::Gauss { sigma_x_px: 1.0, sigma_y_px: sy };
-    let curves = sweep(&elong, |sy| ctx.cfg(16, gauss(sy), 50.0), |c, _| build(&specs, &ctx.params, c.subap_px), &strings(&names))?;
+    let gauss = |sy: f64| Spot::Gauss {
+        sigma_x_px: 1.0,
+        sigma_y_px: sy,
+    };
+    let curves = sweep(
+        &elong,
+        |sy| ctx.cfg(16, gauss(sy), 50.0),
+        |c, _| build(&specs, &ctx.params, c.subap_px),
+        &strings(&names),
+    )?;
     save_line(ctx, LineFigure {
         number: 13,
         slug: "lgs-elongation",
@@ -500,12 +663,26 @@ fn fig13_lgs(ctx: &Ctx) -> Result<FigureInfo> {
 }
 
 fn fig14_qe(ctx: &Ctx) -> Result<FigureInfo> {
-    let groups: [(&[&str], f64); 2] = [(&["emccd-simple", "emccd-stochastic", "emccd-distribution"], 0.95), (&["scmos-median", "scmos-mean", "scmos-random"], 0.70)];
+    let groups: [(&[&str], f64); 2] = [
+        (
+            &["emccd-simple", "emccd-stochastic", "emccd-distribution"],
+            0.95,
+        ),
+        (&["scmos-median", "scmos-mean", "scmos-random"], 0.70),
+    ];
     let mut curves = Vec::new();
     for (names, qe) in groups {
         let specs = parse(names);
         let labels: Vec<String> = names.iter().map(|m| format!("{m}, QE {qe}")).collect();
-        curves.extend(sweep(&ctx.signals(), |s| SimConfig { qe, ..ctx.cfg(4, airy(2.0), s) }, |c, _| build(&specs, &ctx.params, c.subap_px), &labels)?);
+        curves.extend(sweep(
+            &ctx.signals(),
+            |s| SimConfig {
+                qe,
+                ..ctx.cfg(4, airy(2.0), s)
+            },
+            |c, _| build(&specs, &ctx.params, c.subap_px),
+            &labels,
+        )?);
     }
     save_line(ctx, LineFigure {
         number: 14,
@@ -522,18 +699,42 @@ fn fig14_qe(ctx: &Ctx) -> Result<FigureInfo> {
 }
 
 /// Write `index.html` and `README.md` listing every figure with its caption.
-pub fn write_index(dir: &Path, figures: &[FigureInfo], opts: &PaperOptions) -> Result<Vec<PathBuf>> {
-    let esc = |s: &str| s.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;");
+pub fn write_index(
+    dir: &Path,
+    figures: &[FigureInfo],
+    opts: &PaperOptions,
+) -> Result<Vec<PathBuf>> {
+    let esc = |s: &str| {
+        s.replace('&', "&amp;")
+            .replace('<', "&lt;")
+            .replace('>', "&gt;")
+    };
     let mut html = String::from("<!DOCTYPE html><html><head><meta charset=\"utf-8\"><title>detnoise: figures of Basden (2015)</title><style>body{font-family:sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}figure{margin:2em 0;border-top:1px solid #ccc;padding-top:1em}img{max-width:100%}figcaption{margin-top:.5em;line-height:1.4}</style></head><body>");
     let _ = write!(html, "<h1>Figures of Basden (2015), regenerated by detnoise {}</h1><p>{} iterations per point, seed {}, {} sampling{}. Each figure links its SVG and CSV.</p>", env!("CARGO_PKG_VERSION"), opts.iters, opts.seed, if opts.sampling == Sampling::Point { "point" } else { "integrated" }, if opts.quick { " (quick mode: coarse grids)" } else { "" });
     let mut md = format!("# Figures of Basden (2015), regenerated by detnoise\n\n{} iterations per point, seed {}.\n\n", opts.iters, opts.seed);
     for f in figures {
-        let _ = write!(html, "<figure id=\"fig{}\"><h2>Fig. {}: {}</h2>", f.number, f.number, esc(&f.title));
+        let _ = write!(
+            html,
+            "<figure id=\"fig{}\"><h2>Fig. {}: {}</h2>",
+            f.number,
+            f.number,
+            esc(&f.title)
+        );
         for png in f.files.iter().filter(|p| p.ends_with(".png")) {
             let _ = write!(html, "<img src=\"{png}\" alt=\"{}\">", esc(&f.title));
         }
-        let links: Vec<String> = f.files.iter().filter(|p| !p.ends_with(".png")).map(|p| format!("<a href=\"{p}\">{p}</a>")).collect();
-        let _ = write!(html, "<figcaption>{} <br>{}</figcaption></figure>", esc(&f.caption), links.join(" · "));
+        let links: Vec<String> = f
+            .files
+            .iter()
+            .filter(|p| !p.ends_with(".png"))
+            .map(|p| format!("<a href=\"{p}\">{p}</a>"))
+            .collect();
+        let _ = write!(
+            html,
+            "<figcaption>{} <br>{}</figcaption></figure>",
+            esc(&f.caption),
+            links.join(" · ")
+        );
         let _ = writeln!(md, "## Fig. {}: {}\n\n{}\n", f.number, f.title, f.caption);
         for p in &f.files {
             if p.ends_with(".png") {

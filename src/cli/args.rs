@@ -101,6 +101,13 @@ pub struct DetectorArgs {
     /// Seed of the fixed sCMOS noise patterns (`scmos-fixed:K` uses pattern K of it).
     #[arg(long, default_value_t = 2015)]
     pub pattern_seed: u64,
+    /// `emccd-pp` threshold rule (a reconstruction of Basden et al. 2003): poisson-prior
+    /// (boundaries n(n+1)/lambda in units of g) or equal-density (fixed, ~0.203, 0.719, 1.896 g ...).
+    #[arg(long, value_parser = ["poisson-prior", "equal-density"], default_value = "poisson-prior")]
+    pub pp_rule: String,
+    /// `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean.
+    #[arg(long)]
+    pub pp_lambda: Option<f64>,
 }
 
 impl DetectorArgs {
@@ -128,6 +135,20 @@ impl DetectorArgs {
             pdf: Arc::new(crate::pdf::paper()),
             pattern_seed: self.pattern_seed,
             map: None,
+            pp_rule: if self.pp_rule == "equal-density" {
+                crate::pp::PpRule::EqualDensity
+            } else {
+                crate::pp::PpRule::PoissonPrior
+            },
+            pp_lambda: match self.pp_lambda {
+                Some(l) if !(l.is_finite() && l > 0.0) => {
+                    return Err(Error::usage(
+                        "--pp-lambda",
+                        "must be > 0 photo-electrons per pixel",
+                    ))
+                }
+                other => other,
+            },
         })
     }
 }

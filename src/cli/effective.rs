@@ -58,6 +58,8 @@ pub struct EffectiveRecord {
     pub r_se_px: f64,
     /// The detector's best background level (e-).
     pub b_opt_e: f64,
+    /// sigma_eff is 0: the detector's R is at or below that of a noiseless readout.
+    pub at_lower_bound: bool,
 }
 
 /// Solve every configuration of the sweep for `detector_spec`.
@@ -100,6 +102,7 @@ fn solve(cfg: &SimConfig, model: &dyn Readout, progress: &Progress) -> Result<Ef
         r_px: e.r_px,
         r_se_px: e.r_se_px,
         b_opt_e: e.b_opt_e,
+        at_lower_bound: e.at_lower_bound,
     })
 }
 

@@ -3,6 +3,7 @@
 pub mod args;
 mod charts;
 pub mod effective;
+pub mod paper;
 pub mod progress;
 pub mod simulate;
 
@@ -29,6 +30,8 @@ pub enum Command {
     Simulate(simulate::SimulateArgs),
     /// Effective Gaussian read noise of a detector over sub-aperture sizes, spots and signals.
     Effective(effective::EffectiveArgs),
+    /// Regenerate every figure of Basden (2015) with data, captions and an index page.
+    Paper(paper::PaperArgs),
 }
 
 /// Parse the command line, run it, and return the process exit code.
@@ -46,6 +49,7 @@ pub fn main() -> i32 {
     let result = match &cli.command {
         Command::Simulate(a) => simulate::run_cli(a),
         Command::Effective(a) => effective::run_cli(a),
+        Command::Paper(a) => paper::run_cli(a),
     };
     match result {
         Ok(()) => 0,

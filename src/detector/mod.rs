@@ -4,10 +4,12 @@
 //! with [`ModelSpec`], which builds a readout for one sub-aperture size.
 
 mod emccd;
+mod pp;
 pub mod register;
 mod scmos;
 
 pub use emccd::{EmccdDistribution, EmccdSimple, EmccdStochastic};
+pub use pp::EmccdPp;
 pub use register::EmRegister;
 pub use scmos::{NoiseMap, PerPixelSigma, ScmosConstant, ScmosMap, ScmosRandom};
 
@@ -60,6 +62,10 @@ pub struct ModelParams {
     pub pattern_seed: u64,
     /// Measured noise map for `scmos-map`.
     pub map: Option<Arc<NoiseMap>>,
+    /// Threshold rule of `emccd-pp`.
+    pub pp_rule: crate::pp::PpRule,
+    /// Fixed reference light level of `emccd-pp` (photo-electrons per pixel); None = sub-aperture mean.
+    pub pp_lambda: Option<f64>,
 }
 
 impl Default for ModelParams {
@@ -74,6 +80,8 @@ impl Default for ModelParams {
             pdf: Arc::new(crate::pdf::paper()),
             pattern_seed: 2015,
             map: None,
+            pp_rule: crate::pp::PpRule::PoissonPrior,
+            pp_lambda: None,
         }
     }
 }
@@ -85,6 +93,8 @@ pub enum ModelSpec {
     EmccdSimple,
     /// Exact 520-stage register + Normal(0, 50 e-), divided by the gain.
     EmccdStochastic,
+    /// `emccd-stochastic` then Poisson-probability thresholding; `true` = photometrically corrected.
+    EmccdPp(bool),
     /// Gamma(k, g) register + Normal(0, 50 e-), divided by the gain.
     EmccdDistribution,
     /// One sigma for all pixels (e-); None takes the run's `--sigma`.
@@ -102,7 +112,8 @@ pub enum ModelSpec {
 }
 
 /// Every model name accepted by [`ModelSpec::parse`], for help texts.
-pub const MODEL_NAMES: &str = "emccd-simple, emccd-stochastic, emccd-distribution, \
+pub const MODEL_NAMES: &str =
+    "emccd-simple, emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
 scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map";
 
 impl ModelSpec {
@@ -123,6 +134,8 @@ impl ModelSpec {
             "emccd-simple" => no_arg(ModelSpec::EmccdSimple),
             "emccd-stochastic" => no_arg(ModelSpec::EmccdStochastic),
             "emccd-distribution" => no_arg(ModelSpec::EmccdDistribution),
+            "emccd-pp" => no_arg(ModelSpec::EmccdPp(true)),
+            "emccd-pp-uncorrected" => no_arg(ModelSpec::EmccdPp(false)),
             "scmos-median" => no_arg(ModelSpec::ScmosMedian),
             "scmos-mean" => no_arg(ModelSpec::ScmosMean),
             "scmos-random" => no_arg(ModelSpec::ScmosRandom),
@@ -162,6 +175,13 @@ impl ModelSpec {
                 params.emccd_read_noise_e,
                 params.cascade_register,
             )),
+            ModelSpec::EmccdPp(corrected) => Box::new(EmccdPp::new(
+                EmRegister::new(params.gain, params.stages),
+                params.emccd_read_noise_e,
+                crate::pp::PpConfig::new(params.pp_rule, params.gain, params.emccd_read_noise_e)?,
+                params.pp_lambda,
+                *corrected,
+            )?),
             ModelSpec::EmccdDistribution => Box::new(EmccdDistribution::new(
                 params.gain,
                 params.emccd_read_noise_e,
@@ -203,6 +223,8 @@ mod tests {
             "emccd-simple",
             "emccd-stochastic",
             "emccd-distribution",
+            "emccd-pp",
+            "emccd-pp-uncorrected",
             "scmos-constant",
             "scmos-constant:1.5",
             "scmos-median",
