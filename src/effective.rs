@@ -37,8 +37,22 @@ pub struct Effective {
     pub sigma_grid_e: Vec<f64>,
     /// R of the constant-sigma model at each of them (px).
     pub r_const_px: Vec<f64>,
-    /// True when the detector's R is at or below that of a noiseless readout: sigma_eff is 0.
-    pub at_lower_bound: bool,
+    /// Whether sigma_eff was found, is 0, or does not exist.
+    pub status: Status,
+}
+
+/// How the effective read noise was settled.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Status {
+    /// Bracketed and interpolated.
+    Ok,
+    /// The detector's R is at or below that of a noiseless readout: sigma_eff is 0.
+    LowerBound,
+    /// The detector's R exceeds R of every constant sigma (up to 16x its noise scale): a few very
+    /// noisy pixels pull the centroid more than any uniform noise does, so no Gaussian read
+    /// noise reproduces it. sigma_eff is NaN (null in JSON).
+    Unreachable,
 }
 
 /// Solve for the effective read noise of `detector` in configuration `cfg`.
@@ -76,42 +90,30 @@ pub fn effective_sigma(
     let wide = grid_of(&WIDE_FACTORS, scale.max(guess));
     match solve_on_grid(cfg, detector, wide.clone(), on_progress) {
         Ok(e) => Ok(e),
-        Err(Outside::Below) => lower_bound(cfg, detector, &wide, on_progress),
-        Err(Outside::Above) => Err(Error::Numeric(format!(
-            "effective read noise of {} exceeds {:.3} e- (16x its noise scale) for {}x{} px, {}, S = {} photons",
-            detector.name(),
-            wide[wide.len() - 1],
-            cfg.subap_px,
-            cfg.subap_px,
-            cfg.spot.label(),
-            cfg.signal_photons
-        ))),
+        Err(Outside::Below) => bound(cfg, detector, &wide, Status::LowerBound, on_progress),
+        Err(Outside::Above) => bound(cfg, detector, &wide, Status::Unreachable, on_progress),
         Err(Outside::Failed(e)) => Err(e),
     }
 }
 
-/// The result when the detector's R is at or below R at sigma = 0 (`grid[0]` must be 0).
-fn lower_bound(
-    cfg: &SimConfig,
-    detector: &dyn Readout,
-    grid: &[f64],
-    on_progress: &(dyn Fn(u64) + Sync),
-) -> Result<Effective> {
+/// The result when the detector's R lies outside R of the whole wide `grid` (`grid[0]` = 0).
+fn bound(cfg: &SimConfig, detector: &dyn Readout, grid: &[f64], status: Status, on_progress: &(dyn Fn(u64) + Sync)) -> Result<Effective> {
     let (det, consts) = run_grid(cfg, detector, grid, on_progress)?;
     let slope = (consts[1].r_px - consts[0].r_px) / (grid[1] - grid[0]);
+    let (sigma, se) = match status {
+        Status::LowerBound if slope > 0.0 => (0.0, (det.r_se_px.powi(2) + consts[0].r_se_px.powi(2)).sqrt() / slope),
+        Status::LowerBound => (0.0, f64::INFINITY),
+        _ => (f64::NAN, f64::NAN),
+    };
     Ok(Effective {
-        sigma_eff_e: 0.0,
-        sigma_eff_se_e: if slope > 0.0 {
-            (det.r_se_px.powi(2) + consts[0].r_se_px.powi(2)).sqrt() / slope
-        } else {
-            f64::INFINITY
-        },
+        sigma_eff_e: sigma,
+        sigma_eff_se_e: se,
         r_px: det.r_px,
         r_se_px: det.r_se_px,
         b_opt_e: det.b_opt_e,
         sigma_grid_e: grid.to_vec(),
         r_const_px: consts.iter().map(|c| c.r_px).collect(),
-        at_lower_bound: true,
+        status,
     })
 }
 
@@ -200,7 +202,7 @@ fn interpolate(
         b_opt_e: det.b_opt_e,
         sigma_grid_e: grid.to_vec(),
         r_const_px: consts.iter().map(|c| c.r_px).collect(),
-        at_lower_bound: false,
+        status: Status::Ok,
     })
 }
 

@@ -623,7 +623,7 @@ fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     Ok(FigureInfo {
         number: 12,
         title: "Effective Gaussian read noise of an sCMOS camera".into(),
-        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. {}", ctx.params.pdf.median(), ctx.sampling_note()),
+        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. A dash marks a configuration where no constant sigma reaches the detector's R: a few very noisy pixels pull the centroid further than any uniform Gaussian noise does. {}", ctx.params.pdf.median(), ctx.sampling_note()),
         files,
     })
 }

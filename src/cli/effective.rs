@@ -58,8 +58,8 @@ pub struct EffectiveRecord {
     pub r_se_px: f64,
     /// The detector's best background level (e-).
     pub b_opt_e: f64,
-    /// sigma_eff is 0: the detector's R is at or below that of a noiseless readout.
-    pub at_lower_bound: bool,
+    /// ok, lower_bound (sigma_eff = 0) or unreachable (no constant sigma gives this R; sigma_eff null).
+    pub status: crate::effective::Status,
 }
 
 /// Solve every configuration of the sweep for `detector_spec`.
@@ -102,7 +102,7 @@ fn solve(cfg: &SimConfig, model: &dyn Readout, progress: &Progress) -> Result<Ef
         r_px: e.r_px,
         r_se_px: e.r_se_px,
         b_opt_e: e.b_opt_e,
-        at_lower_bound: e.at_lower_bound,
+        status: e.status,
     })
 }
 
