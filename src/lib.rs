@@ -4,7 +4,11 @@
 //! -> Monte-Carlo (`spot`, `detector`, `centroid`, `montecarlo`) -> tables and charts
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
+pub mod calib;
 pub mod error;
+pub mod io;
+pub mod maps;
 pub mod rng;
+pub mod synth;
 
 pub use error::{Error, Result};

@@ -1,0 +1,4 @@
+//! Calibration: per-pixel maps from dark and flat stacks.
+
+pub mod darks;
+pub mod ptc;
