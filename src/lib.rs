@@ -5,10 +5,13 @@
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
 pub mod calib;
+pub mod detector;
 pub mod error;
 pub mod io;
 pub mod maps;
+pub mod pdf;
 pub mod rng;
+pub mod stats;
 pub mod synth;
 
 pub use error::{Error, Result};

@@ -1,0 +1,241 @@
+//! The EMCCD multiplication register: exact sampling of its output.
+
+use crate::rng::SimRng;
+use rand::RngExt;
+use rand_distr::{Binomial, Distribution};
+use rustfft::{num_complex::Complex64, FftPlanner};
+
+/// An EM register of `stages` stages with mean gain `gain` (output e- per input e-).
+///
+/// Each stage, each electron creates one more with probability p = gain^(1/stages) - 1.
+/// Descendants of different input electrons are independent, so the output for k input
+/// electrons is a sum of k draws from the single-electron output distribution, which is
+/// tabulated exactly once (pgf iteration on roots of unity + inverse FFT) and sampled
+/// with an alias table. `sample_cascade` is the per-stage binomial reference.
+#[derive(Debug, Clone)]
+pub struct EmRegister {
+    gain: f64,
+    stages: u32,
+    p: f64,
+    alias: AliasTable,
+}
+
+impl EmRegister {
+    /// Register with mean gain `gain` (>= 1) and `stages` stages (>= 1).
+    pub fn new(gain: f64, stages: u32) -> Self {
+        assert!(
+            gain >= 1.0 && stages >= 1,
+            "gain >= 1 and stages >= 1 required"
+        );
+        let p = gain.powf(1.0 / stages as f64) - 1.0;
+        let pmf = single_electron_pmf(p, stages, gain);
+        EmRegister {
+            gain,
+            stages,
+            p,
+            alias: AliasTable::new(&pmf),
+        }
+    }
+
+    /// Mean gain (output e- per input e-).
+    pub fn gain(&self) -> f64 {
+        self.gain
+    }
+
+    /// Number of multiplication stages.
+    pub fn stages(&self) -> u32 {
+        self.stages
+    }
+
+    /// Per-stage multiplication probability p.
+    pub fn p(&self) -> f64 {
+        self.p
+    }
+
+    /// Exact variance of the output for one input electron (e-^2): (1-p)(1+p)^(N-1)((1+p)^N - 1).
+    pub fn single_electron_variance(&self) -> f64 {
+        let m = 1.0 + self.p;
+        let n = self.stages as i32;
+        (1.0 - self.p) * m.powi(n - 1) * (m.powi(n) - 1.0)
+    }
+
+    /// Excess noise factor squared for Poisson input: 1 + var1 / g^2.
+    pub fn excess_noise_factor_sq(&self) -> f64 {
+        1.0 + self.single_electron_variance() / (self.gain * self.gain)
+    }
+
+    /// Output electrons for `k` input electrons (exact, fast).
+    pub fn sample(&self, k: u64, rng: &mut SimRng) -> f64 {
+        (0..k).map(|_| self.alias.sample(rng) as f64).sum()
+    }
+
+    /// Output electrons for `k` input electrons by the per-stage binomial cascade (reference).
+    pub fn sample_cascade(&self, k: u64, rng: &mut SimRng) -> f64 {
+        let mut m = k;
+        for _ in 0..self.stages {
+            if m > 0 {
+                m += Binomial::new(m, self.p).expect("valid p").sample(rng);
+            }
+        }
+        m as f64
+    }
+}
+
+/// Single-electron output pmf, index = output electrons (index 0 has probability 0).
+fn single_electron_pmf(p: f64, stages: u32, gain: f64) -> Vec<f64> {
+    // The tail falls as exp(-x/g): 40 g leaves < 1e-17 of the mass outside.
+    let size = ((40.0 * gain) as usize + 64).next_power_of_two().max(1024);
+    let mut z: Vec<Complex64> = (0..size)
+        .map(|j| Complex64::from_polar(1.0, 2.0 * std::f64::consts::PI * j as f64 / size as f64))
+        .collect();
+    // pgf after N stages: F_N = f o ... o f (s), with f(s) = (1-p) s + p s^2.
+    for v in z.iter_mut() {
+        for _ in 0..stages {
+            *v = *v * ((1.0 - p) + p * *v);
+        }
+    }
+    FftPlanner::new().plan_fft_forward(size).process(&mut z);
+    // z_j = sum_k p_k e^{2 pi i jk/M}, so the forward FFT gives M p_m at index m.
+    let mut pmf: Vec<f64> = z.iter().map(|v| (v.re / size as f64).max(0.0)).collect();
+    pmf[0] = 0.0;
+    let total: f64 = pmf.iter().sum();
+    pmf.iter_mut().for_each(|v| *v /= total);
+    while pmf.last() == Some(&0.0) {
+        pmf.pop();
+    }
+    pmf
+}
+
+/// Walker/Vose alias table for O(1) sampling of a discrete distribution.
+#[derive(Debug, Clone)]
+struct AliasTable {
+    prob: Vec<f64>,
+    alias: Vec<u32>,
+}
+
+impl AliasTable {
+    fn new(pmf: &[f64]) -> Self {
+        let n = pmf.len();
+        let mut prob: Vec<f64> = pmf.iter().map(|p| p * n as f64).collect();
+        let mut alias = vec![0u32; n];
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| prob[i] < 1.0);
+        while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+            alias[s] = l as u32;
+            prob[l] -= 1.0 - prob[s];
+            if prob[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        for i in small.into_iter().chain(large) {
+            prob[i] = 1.0;
+        }
+        AliasTable { prob, alias }
+    }
+
+    fn sample(&self, rng: &mut SimRng) -> usize {
+        let i = rng.random_range(0..self.prob.len());
+        if rng.random::<f64>() < self.prob[i] {
+            i
+        } else {
+            self.alias[i] as usize
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::stream;
+
+    #[test]
+    fn analytic_moments_for_paper_register() {
+        let r = EmRegister::new(500.0, 520);
+        assert!((r.p() - 0.012_022_9).abs() < 1e-7);
+        let v = r.single_electron_variance() / (500.0 * 500.0);
+        assert!((v - 0.974_287).abs() < 1e-6, "var1/g^2 = {v}");
+        assert!((r.excess_noise_factor_sq() - 1.974_29).abs() < 1e-5);
+    }
+
+    #[test]
+    fn tabulated_pmf_has_exact_moments() {
+        // The table itself (no sampling error): mean g, variance var1, to FFT round-off.
+        let r = EmRegister::new(500.0, 520);
+        let pmf = single_electron_pmf(r.p(), 520, 500.0);
+        let mean: f64 = pmf.iter().enumerate().map(|(k, p)| k as f64 * p).sum();
+        let var: f64 = pmf
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k as f64 - mean).powi(2) * p)
+            .sum();
+        assert!((mean / 500.0 - 1.0).abs() < 1e-9, "mean {mean}");
+        assert!(
+            (var / r.single_electron_variance() - 1.0).abs() < 1e-8,
+            "var {var}"
+        );
+    }
+
+    #[test]
+    fn fast_sampler_matches_moments_within_standard_error() {
+        // k = 3 input electrons: mean 3g, variance 3 var1. SE(mean) = sd/sqrt(N);
+        // SE(var) ~ var * sqrt((kurt - 1)/N), kurtosis of this sum ~ 5, so sqrt(4/N).
+        let r = EmRegister::new(500.0, 520);
+        let n = 200_000;
+        let mut rng = stream(3, 0, 0);
+        let xs: Vec<f64> = (0..n).map(|_| r.sample(3, &mut rng)).collect();
+        let (mean, var) = mean_var(&xs);
+        let true_var = 3.0 * r.single_electron_variance();
+        assert!((mean - 1500.0).abs() < 4.0 * (true_var / n as f64).sqrt());
+        assert!((var - true_var).abs() < 4.0 * true_var * (4.0 / n as f64).sqrt());
+    }
+
+    #[test]
+    fn fast_sampler_matches_per_stage_cascade() {
+        // Two-sample Kolmogorov-Smirnov: critical distance at alpha = 0.001 is
+        // 1.95 * sqrt(2/N). Also means and variances against the analytic values.
+        let r = EmRegister::new(500.0, 520);
+        let n = 20_000;
+        let mut ra = stream(11, 0, 0);
+        let mut rb = stream(11, 0, 1);
+        let mut a: Vec<f64> = (0..n).map(|_| r.sample(1, &mut ra)).collect();
+        let mut b: Vec<f64> = (0..n).map(|_| r.sample_cascade(1, &mut rb)).collect();
+        let v1 = r.single_electron_variance();
+        for xs in [&a, &b] {
+            let (m, v) = mean_var(xs);
+            assert!((m - 500.0).abs() < 4.0 * (v1 / n as f64).sqrt(), "mean {m}");
+            assert!(
+                (v - v1).abs() < 4.0 * v1 * (8.0 / n as f64).sqrt(),
+                "var {v}"
+            );
+            assert!(xs.iter().all(|x| *x >= 1.0));
+        }
+        let d = ks_distance(&mut a, &mut b);
+        assert!(d < 1.95 * (2.0 / n as f64).sqrt(), "KS distance {d}");
+    }
+
+    fn mean_var(xs: &[f64]) -> (f64, f64) {
+        let n = xs.len() as f64;
+        let m = xs.iter().sum::<f64>() / n;
+        (
+            m,
+            xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0),
+        )
+    }
+
+    fn ks_distance(a: &mut [f64], b: &mut [f64]) -> f64 {
+        a.sort_by(f64::total_cmp);
+        b.sort_by(f64::total_cmp);
+        let (mut i, mut j, mut d) = (0, 0, 0.0f64);
+        while i < a.len() && j < b.len() {
+            let x = a[i].min(b[j]);
+            while i < a.len() && a[i] <= x {
+                i += 1;
+            }
+            while j < b.len() && b[j] <= x {
+                j += 1;
+            }
+            d = d.max((i as f64 / a.len() as f64 - j as f64 / b.len() as f64).abs());
+        }
+        d
+    }
+}
