@@ -5,6 +5,7 @@
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
 pub mod calib;
+pub mod cli;
 pub mod detector;
 pub mod error;
 pub mod io;

@@ -79,6 +79,11 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
         .map_err(|e| Error::io(&dir, e))?;
     let tmp_path = tmp.path().to_path_buf();
     write(&tmp_path)?;
+    // tempfile creates 0600 files; outputs are ordinary shared results.
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644)).map_err(|e| Error::io(&tmp_path, e))?;
+    }
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
 }

@@ -102,3 +102,33 @@ impl FileFrames for ExrFrames {
         }
     }
 }
+
+/// Write frames as one EXR file with one layer per frame (`frame0000`, ...), each with one
+/// channel `Y`: U32 for integer data (rounded, clamped to u16), F32 otherwise. Holds the
+/// whole stack in memory: for small stacks.
+pub fn write_layers(
+    path: &Path,
+    shape: (usize, usize),
+    frames: usize,
+    u16_samples: bool,
+    next: &mut dyn FnMut() -> Vec<f64>,
+) -> Result<()> {
+    use crate::error::Error;
+    let size = Vec2(shape.1, shape.0);
+    let layers: Vec<_> = (0..frames)
+        .map(|k| {
+            let frame = next();
+            let samples = if u16_samples {
+                FlatSamples::U32(frame.iter().map(|x| super::fits::to_u16(*x) as u32).collect())
+            } else {
+                FlatSamples::F32(frame.iter().map(|x| *x as f32).collect())
+            };
+            let channels = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Y", samples)]));
+            Layer::new(size, LayerAttributes::named(format!("frame{k:04}").as_str()), Encoding::SMALL_LOSSLESS, channels)
+        })
+        .collect();
+    let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions(size)), layers);
+    crate::maps::write_atomic(path, |tmp| {
+        image.write().to_file(tmp).map_err(|e| Error::io(tmp, std::io::Error::other(e.to_string())))
+    })
+}

@@ -275,3 +275,43 @@ impl FileFrames for FitsFrames {
         Ok(())
     }
 }
+
+/// Write frames as one FITS cube (NAXIS3 = frames), atomically. `u16` stores unsigned
+/// 16-bit integers (int16 + BZERO 32768, values rounded and clamped), otherwise 32-bit floats.
+pub fn write_cube(
+    path: &Path,
+    shape: (usize, usize),
+    frames: usize,
+    u16_samples: bool,
+    next: &mut dyn FnMut() -> Vec<f64>,
+    keys: &[crate::maps::Keyword],
+) -> Result<()> {
+    use fitsio::images::{ImageDescription, ImageType};
+    let fits_err = |p: &Path, e: fitsio::errors::Error| Error::io(p, std::io::Error::other(e.to_string()));
+    crate::maps::write_atomic(path, |tmp| {
+        let data_type = if u16_samples { ImageType::UnsignedShort } else { ImageType::Float };
+        let desc = ImageDescription { data_type, dimensions: &[frames, shape.0, shape.1] };
+        let mut f = FitsFile::create(tmp).with_custom_primary(&desc).overwrite().open().map_err(|e| fits_err(tmp, e))?;
+        let hdu = f.primary_hdu().map_err(|e| fits_err(tmp, e))?;
+        let npix = shape.0 * shape.1;
+        for k in 0..frames {
+            let frame = next();
+            let r = if u16_samples {
+                let v: Vec<u16> = frame.iter().map(|x| to_u16(*x)).collect();
+                hdu.write_section(&mut f, k * npix, (k + 1) * npix, &v)
+            } else {
+                let v: Vec<f32> = frame.iter().map(|x| *x as f32).collect();
+                hdu.write_section(&mut f, k * npix, (k + 1) * npix, &v)
+            };
+            r.map_err(|e| fits_err(tmp, e))?;
+        }
+        let mut all = crate::maps::provenance();
+        all.extend_from_slice(keys);
+        crate::maps::write_keys(&mut f, tmp, &all)
+    })
+}
+
+/// Round and clamp to the u16 range.
+pub(crate) fn to_u16(x: f64) -> u16 {
+    x.round().clamp(0.0, u16::MAX as f64) as u16
+}

@@ -232,3 +232,32 @@ impl FileFrames for TiffFrames {
         }
     }
 }
+
+/// Write frames as a multi-page TIFF (one page per frame), atomically; `u16` stores
+/// unsigned 16-bit integers (rounded, clamped), otherwise 32-bit floats.
+pub fn write_pages(
+    path: &Path,
+    shape: (usize, usize),
+    frames: usize,
+    u16_samples: bool,
+    next: &mut dyn FnMut() -> Vec<f64>,
+) -> Result<()> {
+    use tiff::encoder::{colortype, TiffEncoder};
+    crate::maps::write_atomic(path, |tmp| {
+        let file = File::create(tmp).map_err(|e| Error::io(tmp, e))?;
+        let mut enc = TiffEncoder::new(std::io::BufWriter::new(file)).map_err(|e| Error::io(tmp, std::io::Error::other(e)))?;
+        let (w, h) = (shape.1 as u32, shape.0 as u32);
+        for _ in 0..frames {
+            let frame = next();
+            let r = if u16_samples {
+                let v: Vec<u16> = frame.iter().map(|x| super::fits::to_u16(*x)).collect();
+                enc.write_image::<colortype::Gray16>(w, h, &v)
+            } else {
+                let v: Vec<f32> = frame.iter().map(|x| *x as f32).collect();
+                enc.write_image::<colortype::Gray32Float>(w, h, &v)
+            };
+            r.map_err(|e| Error::io(tmp, std::io::Error::other(e)))?;
+        }
+        Ok(())
+    })
+}
