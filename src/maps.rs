@@ -25,7 +25,11 @@ pub struct Map {
 impl Map {
     /// A map of `rows` x `cols` filled with `value`.
     pub fn filled(rows: usize, cols: usize, value: f64) -> Map {
-        Map { rows, cols, data: vec![value; rows * cols] }
+        Map {
+            rows,
+            cols,
+            data: vec![value; rows * cols],
+        }
     }
 
     /// A map from row-major data; panics if the length is not rows*cols (a programming error).
@@ -71,7 +75,10 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
     };
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
     let tmp = tempfile::Builder::new()
         .prefix(&format!(".{name}."))
         .suffix(".tmp")
@@ -82,7 +89,8 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
     // tempfile creates 0600 files; outputs are ordinary shared results.
     {
         use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644)).map_err(|e| Error::io(&tmp_path, e))?;
+        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644))
+            .map_err(|e| Error::io(&tmp_path, e))?;
     }
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
@@ -90,7 +98,9 @@ pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Res
 
 /// Write bytes atomically.
 pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic(path, |tmp| std::fs::write(tmp, bytes).map_err(|e| Error::io(tmp, e)))
+    write_atomic(path, |tmp| {
+        std::fs::write(tmp, bytes).map_err(|e| Error::io(tmp, e))
+    })
 }
 
 fn fits_err(path: &Path, e: fitsio::errors::Error) -> Error {
@@ -116,16 +126,33 @@ pub(crate) fn write_keys(f: &mut FitsFile, path: &Path, keys: &[Keyword]) -> Res
 
 /// Standard provenance keywords: creating tool and version.
 pub fn provenance() -> Vec<Keyword> {
-    vec![key("CREATOR", KeyValue::Str(format!("detnoise {}", env!("CARGO_PKG_VERSION"))), "software that wrote this file")]
+    vec![key(
+        "CREATOR",
+        KeyValue::Str(format!("detnoise {}", env!("CARGO_PKG_VERSION"))),
+        "software that wrote this file",
+    )]
 }
 
 /// Write `map` as a 64-bit float FITS image with BUNIT `bunit` and extra keywords.
 pub fn write_fits_map(path: &Path, map: &Map, bunit: &str, keys: &[Keyword]) -> Result<()> {
-    write_fits_image(path, map.rows, map.cols, FitsData::F64(&map.data), bunit, keys)
+    write_fits_image(
+        path,
+        map.rows,
+        map.cols,
+        FitsData::F64(&map.data),
+        bunit,
+        keys,
+    )
 }
 
 /// Write integer flags (bit field) as a 32-bit integer FITS image.
-pub fn write_fits_flags(path: &Path, rows: usize, cols: usize, flags: &[i32], keys: &[Keyword]) -> Result<()> {
+pub fn write_fits_flags(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    flags: &[i32],
+    keys: &[Keyword],
+) -> Result<()> {
     write_fits_image(path, rows, cols, FitsData::I32(flags), "", keys)
 }
 
@@ -134,13 +161,23 @@ enum FitsData<'a> {
     I32(&'a [i32]),
 }
 
-fn write_fits_image(path: &Path, rows: usize, cols: usize, data: FitsData, bunit: &str, keys: &[Keyword]) -> Result<()> {
+fn write_fits_image(
+    path: &Path,
+    rows: usize,
+    cols: usize,
+    data: FitsData,
+    bunit: &str,
+    keys: &[Keyword],
+) -> Result<()> {
     write_atomic(path, |tmp| {
         let data_type = match data {
             FitsData::F64(_) => ImageType::Double,
             FitsData::I32(_) => ImageType::Long,
         };
-        let desc = ImageDescription { data_type, dimensions: &[rows, cols] };
+        let desc = ImageDescription {
+            data_type,
+            dimensions: &[rows, cols],
+        };
         let mut f = FitsFile::create(tmp)
             .with_custom_primary(&desc)
             .overwrite()
@@ -154,7 +191,11 @@ fn write_fits_image(path: &Path, rows: usize, cols: usize, data: FitsData, bunit
         .map_err(|e| fits_err(tmp, e))?;
         let mut all = Vec::new();
         if !bunit.is_empty() {
-            all.push(key("BUNIT", KeyValue::Str(bunit.to_string()), "unit of the pixel values"));
+            all.push(key(
+                "BUNIT",
+                KeyValue::Str(bunit.to_string()),
+                "unit of the pixel values",
+            ));
         }
         all.extend(provenance());
         all.extend_from_slice(keys);
@@ -165,6 +206,7 @@ fn write_fits_image(path: &Path, rows: usize, cols: usize, data: FitsData, bunit
 
 /// Write a serialisable value as pretty JSON, atomically.
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
-    let text = serde_json::to_string_pretty(value).map_err(|e| Error::Numeric(format!("JSON encoding: {e}")))?;
+    let text = serde_json::to_string_pretty(value)
+        .map_err(|e| Error::Numeric(format!("JSON encoding: {e}")))?;
     write_bytes_atomic(path, format!("{text}\n").as_bytes())
 }

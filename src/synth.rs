@@ -50,7 +50,12 @@ pub struct ScmosParams {
 
 impl Default for ScmosParams {
     fn default() -> Self {
-        ScmosParams { offset_adu: 100.0, offset_spread_adu: 2.0, gain_e_per_adu: 0.25, gain_spread: 0.02 }
+        ScmosParams {
+            offset_adu: 100.0,
+            offset_spread_adu: 2.0,
+            gain_e_per_adu: 0.25,
+            gain_spread: 0.02,
+        }
     }
 }
 
@@ -73,7 +78,14 @@ pub struct EmccdParams {
 
 impl Default for EmccdParams {
     fn default() -> Self {
-        EmccdParams { em_gain: 300.0, stages: 520, bias_adu: 500.0, read_noise_e: 50.0, cic_e: 0.005, conversion_e_per_adu: 10.0 }
+        EmccdParams {
+            em_gain: 300.0,
+            stages: 520,
+            bias_adu: 500.0,
+            read_noise_e: 50.0,
+            cic_e: 0.005,
+            conversion_e_per_adu: 10.0,
+        }
     }
 }
 
@@ -118,7 +130,13 @@ pub struct Truth {
 impl Truth {
     /// Read noise in adu (rms_e / gain).
     pub fn rms_adu(&self) -> Map {
-        let d = self.rms_e.data.iter().zip(&self.gain_e_per_adu.data).map(|(r, g)| r / g).collect();
+        let d = self
+            .rms_e
+            .data
+            .iter()
+            .zip(&self.gain_e_per_adu.data)
+            .map(|(r, g)| r / g)
+            .collect();
         Map::new(self.rms_e.rows, self.rms_e.cols, d)
     }
 }
@@ -150,7 +168,11 @@ pub fn draw_truth(spec: &SynthSpec, pdf: &dyn RmsPdf) -> Truth {
             }
         }
     }
-    Truth { offset_adu: Map::new(rows, cols, offset), rms_e: Map::new(rows, cols, rms), gain_e_per_adu: Map::new(rows, cols, gain) }
+    Truth {
+        offset_adu: Map::new(rows, cols, offset),
+        rms_e: Map::new(rows, cols, rms),
+        gain_e_per_adu: Map::new(rows, cols, gain),
+    }
 }
 
 /// Frame `k` of the stack in adu (before rounding to the stored type).
@@ -161,7 +183,9 @@ pub fn frame(spec: &SynthSpec, truth: &Truth, register: Option<&EmRegister>, k: 
     let mut out = vec![0.0; n];
     for (i, o) in out.iter_mut().enumerate() {
         let electrons = match &spec.camera {
-            Camera::Scmos(_) => poisson(spec.light_e, &mut rng) as f64 + truth.rms_e.data[i] * normal(&mut rng),
+            Camera::Scmos(_) => {
+                poisson(spec.light_e, &mut rng) as f64 + truth.rms_e.data[i] * normal(&mut rng)
+            }
             Camera::Emccd(p) => {
                 let k_in = poisson(spec.light_e + p.cic_e, &mut rng) as u64;
                 let reg = register.expect("EMCCD needs a register");
@@ -200,15 +224,26 @@ pub struct Manifest {
 
 /// Simulate `spec` and write the stack to `out` in `format`, its truth maps beside it
 /// (`<out stem>.truth-<quantity>.fits`) and `<out stem>.manifest.json`. Returns the manifest.
-pub fn write_synthetic(spec: &SynthSpec, pdf: &dyn RmsPdf, format: StackFormat, out: &Path) -> Result<Manifest> {
+pub fn write_synthetic(
+    spec: &SynthSpec,
+    pdf: &dyn RmsPdf,
+    format: StackFormat,
+    out: &Path,
+) -> Result<Manifest> {
     if spec.frames == 0 || spec.shape.0 == 0 || spec.shape.1 == 0 {
-        return Err(Error::usage("--shape/--frames", "need at least one row, column and frame"));
+        return Err(Error::usage(
+            "--shape/--frames",
+            "need at least one row, column and frame",
+        ));
     }
     let truth = draw_truth(spec, pdf);
     let register = match &spec.camera {
         Camera::Emccd(p) => {
             if p.em_gain < 1.0 || p.stages == 0 {
-                return Err(Error::usage("--em-gain", "EM gain must be >= 1 with >= 1 stage"));
+                return Err(Error::usage(
+                    "--em-gain",
+                    "EM gain must be >= 1 with >= 1 stage",
+                ));
             }
             Some(EmRegister::new(p.em_gain, p.stages))
         }
@@ -221,21 +256,52 @@ pub fn write_synthetic(spec: &SynthSpec, pdf: &dyn RmsPdf, format: StackFormat, 
     let mut next = || {
         if queue.is_empty() {
             let end = (next_k + batch).min(spec.frames);
-            let frames: Vec<Vec<f64>> = (next_k..end).into_par_iter().map(|k| frame(spec, &truth, register.as_ref(), k)).collect();
+            let frames: Vec<Vec<f64>> = (next_k..end)
+                .into_par_iter()
+                .map(|k| frame(spec, &truth, register.as_ref(), k))
+                .collect();
             queue.extend(frames);
             next_k = end;
         }
-        queue.pop_front().expect("frame count checked by the writer")
+        queue
+            .pop_front()
+            .expect("frame count checked by the writer")
     };
     let keys = vec![
-        key("DNSEED", KeyValue::I64(spec.seed as i64), "detnoise synth seed"),
-        key("DNLIGHT", KeyValue::F64(spec.light_e), "mean light per pixel per frame (e-)"),
-        key("DNDET", KeyValue::Str(match spec.camera { Camera::Scmos(_) => "scmos".into(), Camera::Emccd(_) => "emccd".into() }), "simulated detector"),
+        key(
+            "DNSEED",
+            KeyValue::I64(spec.seed as i64),
+            "detnoise synth seed",
+        ),
+        key(
+            "DNLIGHT",
+            KeyValue::F64(spec.light_e),
+            "mean light per pixel per frame (e-)",
+        ),
+        key(
+            "DNDET",
+            KeyValue::Str(match spec.camera {
+                Camera::Scmos(_) => "scmos".into(),
+                Camera::Emccd(_) => "emccd".into(),
+            }),
+            "simulated detector",
+        ),
     ];
     match format {
-        StackFormat::Fits => crate::io::fits::write_cube(out, spec.shape, spec.frames, spec.u16_samples, &mut next, &keys)?,
-        StackFormat::Tiff => crate::io::tiff::write_pages(out, spec.shape, spec.frames, spec.u16_samples, &mut next)?,
-        StackFormat::Exr => crate::io::exr::write_layers(out, spec.shape, spec.frames, spec.u16_samples, &mut next)?,
+        StackFormat::Fits => crate::io::fits::write_cube(
+            out,
+            spec.shape,
+            spec.frames,
+            spec.u16_samples,
+            &mut next,
+            &keys,
+        )?,
+        StackFormat::Tiff => {
+            crate::io::tiff::write_pages(out, spec.shape, spec.frames, spec.u16_samples, &mut next)?
+        }
+        StackFormat::Exr => {
+            crate::io::exr::write_layers(out, spec.shape, spec.frames, spec.u16_samples, &mut next)?
+        }
     }
     let stem = stack_stem(out);
     let mut truth_maps = std::collections::BTreeMap::new();
@@ -262,12 +328,17 @@ pub fn write_synthetic(spec: &SynthSpec, pdf: &dyn RmsPdf, format: StackFormat, 
         excess_noise_factor_sq: register.as_ref().map(|r| r.excess_noise_factor_sq()),
         note: "Integer storage rounds each sample: the measured variance in adu is about rms_adu^2 + 1/12 (quantisation) for rms_adu above ~0.5 adu.".into(),
     };
-    write_json(&stem.with_file_name(format!("{}.manifest.json", file_name(&stem))), &manifest)?;
+    write_json(
+        &stem.with_file_name(format!("{}.manifest.json", file_name(&stem))),
+        &manifest,
+    )?;
     Ok(manifest)
 }
 
 fn file_name(p: &Path) -> String {
-    p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default()
+    p.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
 }
 
 /// `out` without its stack extension (`.fits`, `.tif`, `.tiff`, `.exr`).

@@ -58,12 +58,24 @@ pub fn histogram_png(values: &[f64], xlabel: &str, title: &str) -> Result<Vec<u8
             .y_label_area_size(70)
             .build_cartesian_2d(lo..hi, (0.5f64..top * 2.0).log_scale())
             .map_err(draw_err)?;
-        chart.configure_mesh().x_desc(xlabel).y_desc("pixels").label_style(("sans-serif", 15)).draw().map_err(draw_err)?;
         chart
-            .draw_series(counts.iter().enumerate().filter(|(_, c)| **c > 0).map(|(i, c)| {
-                let x0 = lo + i as f64 * width;
-                Rectangle::new([(x0, 0.5), (x0 + width, *c as f64)], BLUE.mix(0.6).filled())
-            }))
+            .configure_mesh()
+            .x_desc(xlabel)
+            .y_desc("pixels")
+            .label_style(("sans-serif", 15))
+            .draw()
+            .map_err(draw_err)?;
+        chart
+            .draw_series(
+                counts
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, c)| **c > 0)
+                    .map(|(i, c)| {
+                        let x0 = lo + i as f64 * width;
+                        Rectangle::new([(x0, 0.5), (x0 + width, *c as f64)], BLUE.mix(0.6).filled())
+                    }),
+            )
             .map_err(draw_err)?;
         root.present().map_err(draw_err)?;
     }
@@ -72,14 +84,32 @@ pub fn histogram_png(values: &[f64], xlabel: &str, title: &str) -> Result<Vec<u8
 
 /// PNG log-log photon-transfer chart: points (mean, variance) in adu and the fitted line
 /// variance = read_var + mean / gain.
-pub fn ptc_png(points: &[(f64, f64)], gain_e_per_adu: f64, read_var_adu2: f64, title: &str) -> Result<Vec<u8>> {
+pub fn ptc_png(
+    points: &[(f64, f64)],
+    gain_e_per_adu: f64,
+    read_var_adu2: f64,
+    title: &str,
+) -> Result<Vec<u8>> {
     register_font();
     let (w, h) = (900u32, 600u32);
     let mut buf = vec![255u8; (w * h * 3) as usize];
-    let pos: Vec<(f64, f64)> = points.iter().copied().filter(|(m, v)| *m > 0.0 && *v > 0.0).collect();
-    let xmin = pos.iter().map(|p| p.0).fold(f64::INFINITY, f64::min).min(1.0);
+    let pos: Vec<(f64, f64)> = points
+        .iter()
+        .copied()
+        .filter(|(m, v)| *m > 0.0 && *v > 0.0)
+        .collect();
+    let xmin = pos
+        .iter()
+        .map(|p| p.0)
+        .fold(f64::INFINITY, f64::min)
+        .min(1.0);
     let xmax = pos.iter().map(|p| p.0).fold(1.0, f64::max) * 2.0;
-    let ymin = pos.iter().map(|p| p.1).fold(f64::INFINITY, f64::min).min(read_var_adu2.max(1e-3)) / 2.0;
+    let ymin = pos
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min)
+        .min(read_var_adu2.max(1e-3))
+        / 2.0;
     let ymax = pos.iter().map(|p| p.1).fold(1.0, f64::max) * 2.0;
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
@@ -98,7 +128,9 @@ pub fn ptc_png(points: &[(f64, f64)], gain_e_per_adu: f64, read_var_adu2: f64, t
             .label_style(("sans-serif", 15))
             .draw()
             .map_err(draw_err)?;
-        chart.draw_series(pos.iter().map(|p| Circle::new(*p, 5, RED.filled()))).map_err(draw_err)?;
+        chart
+            .draw_series(pos.iter().map(|p| Circle::new(*p, 5, RED.filled())))
+            .map_err(draw_err)?;
         let line: Vec<(f64, f64)> = (0..=200)
             .map(|i| xmin * (xmax / xmin).powf(i as f64 / 200.0))
             .map(|m| (m, read_var_adu2.max(0.0) + m / gain_e_per_adu))
@@ -109,7 +141,13 @@ pub fn ptc_png(points: &[(f64, f64)], gain_e_per_adu: f64, read_var_adu2: f64, t
             .map_err(draw_err)?
             .label(format!("fit: {gain_e_per_adu:.4} e/adu"))
             .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLUE.stroke_width(2)));
-        chart.configure_series_labels().background_style(WHITE).border_style(BLACK).label_font(("sans-serif", 15)).draw().map_err(draw_err)?;
+        chart
+            .configure_series_labels()
+            .background_style(WHITE)
+            .border_style(BLACK)
+            .label_font(("sans-serif", 15))
+            .draw()
+            .map_err(draw_err)?;
         root.present().map_err(draw_err)?;
     }
     encode_png(&buf, w, h)

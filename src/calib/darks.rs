@@ -67,7 +67,13 @@ pub struct DarkOptions {
 
 impl Default for DarkOptions {
     fn default() -> Self {
-        DarkOptions { clip: Clip::None, common_mode: false, hot_sigma: 5.0, dead_fraction: 0.1, rts_sigma: 5.0 }
+        DarkOptions {
+            clip: Clip::None,
+            common_mode: false,
+            hot_sigma: 5.0,
+            dead_fraction: 0.1,
+            rts_sigma: 5.0,
+        }
     }
 }
 
@@ -151,7 +157,11 @@ impl Tile {
             self.shift.copy_from_slice(x);
             self.prev.copy_from_slice(x);
         }
-        let (s1, s2, cnt) = (&mut self.s1[parity], &mut self.s2[parity], &mut self.cnt[parity]);
+        let (s1, s2, cnt) = (
+            &mut self.s1[parity],
+            &mut self.s2[parity],
+            &mut self.cnt[parity],
+        );
         match &self.window {
             None => {
                 for i in 0..self.len {
@@ -177,8 +187,18 @@ impl Tile {
         }
         if extremes > 0 {
             for (i, &v) in x.iter().enumerate() {
-                insert_extreme(&mut self.hi[i * extremes..(i + 1) * extremes], v, parity as u8, |a, b| a > b);
-                insert_extreme(&mut self.lo[i * extremes..(i + 1) * extremes], v, parity as u8, |a, b| a < b);
+                insert_extreme(
+                    &mut self.hi[i * extremes..(i + 1) * extremes],
+                    v,
+                    parity as u8,
+                    |a, b| a > b,
+                );
+                insert_extreme(
+                    &mut self.lo[i * extremes..(i + 1) * extremes],
+                    v,
+                    parity as u8,
+                    |a, b| a < b,
+                );
             }
         }
     }
@@ -243,7 +263,13 @@ fn merge(a: (f64, f64, f64), b: (f64, f64, f64)) -> (f64, f64, f64) {
         return (0.0, f64::NAN, f64::NAN);
     }
     let delta = b.1 - a.1;
-    let mean = if a.0 == 0.0 { b.1 } else if b.0 == 0.0 { a.1 } else { a.1 + delta * b.0 / n };
+    let mean = if a.0 == 0.0 {
+        b.1
+    } else if b.0 == 0.0 {
+        a.1
+    } else {
+        a.1 + delta * b.0 / n
+    };
     (n, mean, a.2 + b.2 + delta * delta * a.0 * b.0 / n)
 }
 
@@ -256,7 +282,10 @@ fn sample_std(n: f64, m2: f64) -> f64 {
 }
 
 /// Run `consume` on batches of frames read on a separate thread (at most 2 batches in flight).
-fn stream_batches(stack: &FrameStack, mut consume: impl FnMut(&mut [Vec<f64>], usize) -> Result<()>) -> Result<()> {
+fn stream_batches(
+    stack: &FrameStack,
+    mut consume: impl FnMut(&mut [Vec<f64>], usize) -> Result<()>,
+) -> Result<()> {
     let npix = stack.pixels();
     let (tx, rx) = mpsc::sync_channel::<Result<(Vec<Vec<f64>>, usize)>>(1);
     let (back_tx, back_rx) = mpsc::channel::<Vec<Vec<f64>>>();
@@ -316,19 +345,40 @@ fn pass(
     shift: Option<&[f64]>,
 ) -> Result<(Vec<Tile>, Vec<f64>, usize)> {
     let npix = stack.pixels();
-    let mut tiles: Vec<Tile> =
-        (0..npix.div_ceil(TILE)).map(|t| Tile::new(t * TILE, TILE.min(npix - t * TILE), extremes)).collect();
+    let mut tiles: Vec<Tile> = (0..npix.div_ceil(TILE))
+        .map(|t| Tile::new(t * TILE, TILE.min(npix - t * TILE), extremes))
+        .collect();
     if let Some((lo, hi)) = window {
         for t in &mut tiles {
-            t.window = Some((lo[t.start..t.start + t.len].to_vec(), hi[t.start..t.start + t.len].to_vec()));
+            t.window = Some((
+                lo[t.start..t.start + t.len].to_vec(),
+                hi[t.start..t.start + t.len].to_vec(),
+            ));
         }
     }
     let mut per_frame = Vec::with_capacity(stack.frames);
     let mut frames = 0usize;
     let mut pending = [0usize; 2];
+    // With a hook the tiles see transformed frames, so the raw maximum is kept here.
+    let mut raw_max = if hook.is_some() {
+        vec![f64::NEG_INFINITY; npix]
+    } else {
+        Vec::new()
+    };
     stream_batches(stack, |batch, first| {
         if let Some(h) = hook {
-            let values: Vec<f64> = batch.par_iter_mut().enumerate().map(|(j, f)| h(first + j, f)).collect();
+            raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
+                for f in batch.iter() {
+                    for (mi, x) in m.iter_mut().zip(&f[t * TILE..]) {
+                        *mi = mi.max(*x);
+                    }
+                }
+            });
+            let values: Vec<f64> = batch
+                .par_iter_mut()
+                .enumerate()
+                .map(|(j, f)| h(first + j, f))
+                .collect();
             per_frame.extend(values);
         }
         tiles.par_iter_mut().for_each(|t| {
@@ -360,11 +410,17 @@ fn pass(
     tiles.par_iter_mut().for_each(|t| {
         t.flush(0);
         t.flush(1);
+        if !raw_max.is_empty() {
+            t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);
+        }
     });
     if frames != stack.frames {
         return Err(Error::input(
             &stack.sources[0].path,
-            format!("frame {frames}: stack ended after {frames} of {} frames", stack.frames),
+            format!(
+                "frame {frames}: stack ended after {frames} of {} frames",
+                stack.frames
+            ),
         ));
     }
     Ok((tiles, per_frame, frames))
@@ -375,7 +431,13 @@ pub fn pixel_stats(stack: &FrameStack, clip: Clip, hook: Option<FrameHook>) -> R
     stack.require_frames(2, "a variance")?;
     if let Clip::Extremes(n) = clip {
         if 2 * n + 2 > stack.frames {
-            return Err(Error::usage("--clip", format!("rejecting {n} high and {n} low samples leaves fewer than 2 of {} frames", stack.frames)));
+            return Err(Error::usage(
+                "--clip",
+                format!(
+                    "rejecting {n} high and {n} low samples leaves fewer than 2 of {} frames",
+                    stack.frames
+                ),
+            ));
         }
     }
     let extremes = match clip {
@@ -389,9 +451,16 @@ pub fn pixel_stats(stack: &FrameStack, clip: Clip, hook: Option<FrameHook>) -> R
     let mut max = vec![f64::NAN; npix];
     for t in &tiles {
         for i in 0..t.len {
-            let tot = merge((t.n[0][i], t.mean[0][i], t.m2[0][i]), (t.n[1][i], t.mean[1][i], t.m2[1][i]));
+            let tot = merge(
+                (t.n[0][i], t.mean[0][i], t.m2[0][i]),
+                (t.n[1][i], t.mean[1][i], t.m2[1][i]),
+            );
             let var = tot.2 / (tot.0 - 1.0);
-            vn_ratio[t.start + i] = if var > 0.0 { t.vn[i] / (frames as f64 - 1.0) / (2.0 * var) } else { f64::NAN };
+            vn_ratio[t.start + i] = if var > 0.0 {
+                t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
+            } else {
+                f64::NAN
+            };
             max[t.start + i] = t.max[i];
         }
     }
@@ -411,7 +480,10 @@ pub fn pixel_stats(stack: &FrameStack, clip: Clip, hook: Option<FrameHook>) -> R
         let (mut lo, mut hi, mut centre) = (vec![0.0; npix], vec![0.0; npix], vec![0.0; npix]);
         for t in &tiles {
             for i in 0..t.len {
-                let (n, m, m2) = merge((t.n[0][i], t.mean[0][i], t.m2[0][i]), (t.n[1][i], t.mean[1][i], t.m2[1][i]));
+                let (n, m, m2) = merge(
+                    (t.n[0][i], t.mean[0][i], t.m2[0][i]),
+                    (t.n[1][i], t.mean[1][i], t.m2[1][i]),
+                );
                 let s = sample_std(n, m2);
                 lo[t.start + i] = m - k * s;
                 hi[t.start + i] = m + k * s;
@@ -483,12 +555,20 @@ pub fn frame_median(frame: &[f64]) -> f64 {
 
 /// Pearson correlation of two maps over pixels where both are finite.
 pub fn correlation(a: &[f64], b: &[f64]) -> f64 {
-    let pairs: Vec<(f64, f64)> = a.iter().zip(b).filter(|(x, y)| x.is_finite() && y.is_finite()).map(|(x, y)| (*x, *y)).collect();
+    let pairs: Vec<(f64, f64)> = a
+        .iter()
+        .zip(b)
+        .filter(|(x, y)| x.is_finite() && y.is_finite())
+        .map(|(x, y)| (*x, *y))
+        .collect();
     let n = pairs.len() as f64;
     if n < 2.0 {
         return f64::NAN;
     }
-    let (ma, mb) = (pairs.iter().map(|p| p.0).sum::<f64>() / n, pairs.iter().map(|p| p.1).sum::<f64>() / n);
+    let (ma, mb) = (
+        pairs.iter().map(|p| p.0).sum::<f64>() / n,
+        pairs.iter().map(|p| p.1).sum::<f64>() / n,
+    );
     let (mut sab, mut saa, mut sbb) = (0.0, 0.0, 0.0);
     for (x, y) in &pairs {
         sab += (x - ma) * (y - mb);
@@ -525,13 +605,29 @@ pub fn dark_maps(stack: &FrameStack, opts: &DarkOptions) -> Result<DarkMaps> {
     let hook: Option<FrameHook> = if opts.common_mode { Some(&cm) } else { None };
     let stats = pixel_stats(stack, opts.clip, hook)?;
     let common_mode_adu = stats.per_frame.clone();
-    let cm_mean = if common_mode_adu.is_empty() { 0.0 } else { common_mode_adu.iter().sum::<f64>() / common_mode_adu.len() as f64 };
+    let cm_mean = if common_mode_adu.is_empty() {
+        0.0
+    } else {
+        common_mode_adu.iter().sum::<f64>() / common_mode_adu.len() as f64
+    };
     let offset: Vec<f64> = stats.mean.data.iter().map(|m| m + cm_mean).collect();
     let offset_adu = Map::new(stats.mean.rows, stats.mean.cols, offset);
     let rms_adu = stats.rms.clone();
-    let flags = flag_pixels(&stats, &offset_adu.data, stack.saturation_value().map(|s| s - cm_mean.max(0.0)), opts);
+    let flags = flag_pixels(
+        &stats,
+        &offset_adu.data,
+        stack.saturation_value().map(|s| s - cm_mean.max(0.0)),
+        opts,
+    );
     let split_half_correlation = correlation(&stats.rms_even.data, &stats.rms_odd.data);
-    Ok(DarkMaps { stats, offset_adu, rms_adu, flags, split_half_correlation, common_mode_adu })
+    Ok(DarkMaps {
+        stats,
+        offset_adu,
+        rms_adu,
+        flags,
+        split_half_correlation,
+        common_mode_adu,
+    })
 }
 
 /// Robust sigma (1.4826 x median absolute deviation) of the finite values.
@@ -541,7 +637,12 @@ pub fn robust_sigma(values: &[f64]) -> f64 {
     1.4826 * median(&dev)
 }
 
-fn flag_pixels(stats: &PixelStats, offset: &[f64], saturation: Option<f64>, opts: &DarkOptions) -> Vec<i32> {
+fn flag_pixels(
+    stats: &PixelStats,
+    offset: &[f64],
+    saturation: Option<f64>,
+    opts: &DarkOptions,
+) -> Vec<i32> {
     let off_med = median(offset);
     let off_sigma = robust_sigma(offset);
     let rms_med = median(&stats.rms.data);

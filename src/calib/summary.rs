@@ -98,17 +98,28 @@ pub fn inputs(stack: &FrameStack) -> Result<Vec<InputFile>> {
         .sources
         .iter()
         .map(|s| {
-            Ok(InputFile { path: s.path.clone(), sha256: sha256_file(&s.path)?, frames: s.frames, format: s.format, sample_type: s.sample_type })
+            Ok(InputFile {
+                path: s.path.clone(),
+                sha256: sha256_file(&s.path)?,
+                frames: s.frames,
+                format: s.format,
+                sample_type: s.sample_type,
+            })
         })
         .collect()
 }
 
 /// Run `work` while the stack's files are hashed on another thread; returns both results.
-pub fn with_inputs_hashed<T>(stack: &FrameStack, work: impl FnOnce() -> Result<T>) -> Result<(T, Vec<InputFile>)> {
+pub fn with_inputs_hashed<T>(
+    stack: &FrameStack,
+    work: impl FnOnce() -> Result<T>,
+) -> Result<(T, Vec<InputFile>)> {
     std::thread::scope(|s| {
         let h = s.spawn(|| inputs(stack));
         let r = work();
-        let hashes = h.join().map_err(|_| Error::Numeric("hashing thread panicked".into()))?;
+        let hashes = h
+            .join()
+            .map_err(|_| Error::Numeric("hashing thread panicked".into()))?;
         Ok((r?, hashes?))
     })
 }

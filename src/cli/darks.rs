@@ -5,11 +5,16 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::calib::chart::histogram_png;
-use crate::calib::darks::{dark_maps, Clip, DarkMaps, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS, FLAG_SATURATED};
+use crate::calib::darks::{
+    dark_maps, Clip, DarkMaps, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS,
+    FLAG_SATURATED,
+};
 use crate::calib::summary::{with_inputs_hashed, Distribution, InputFile};
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
-use crate::maps::{key, write_bytes_atomic, write_fits_flags, write_fits_map, write_json, KeyValue, Keyword, Map};
+use crate::maps::{
+    key, write_bytes_atomic, write_fits_flags, write_fits_map, write_json, KeyValue, Keyword, Map,
+};
 
 /// Options of `detnoise darks`.
 #[derive(clap::Args, Debug)]
@@ -113,34 +118,88 @@ fn options(args: &DarksArgs) -> Result<DarkOptions> {
             return Err(Error::usage("--gain-e-per-adu", "must be finite and > 0"));
         }
     }
-    Ok(DarkOptions { clip, common_mode: args.common_mode, hot_sigma: args.hot_sigma, dead_fraction: args.dead_fraction, rts_sigma: args.rts_sigma })
+    Ok(DarkOptions {
+        clip,
+        common_mode: args.common_mode,
+        hot_sigma: args.hot_sigma,
+        dead_fraction: args.dead_fraction,
+        rts_sigma: args.rts_sigma,
+    })
 }
 
 /// Provenance keywords of the dark maps.
 fn keywords(maps: &DarkMaps, stack: &FrameStack, opts: &DarkOptions) -> Vec<Keyword> {
     let mut k = vec![
-        key("NFRAMES", KeyValue::I64(maps.stats.frames as i64), "frames in the dark stack"),
-        key("DNCLIP", KeyValue::Str(format!("{:?}", opts.clip)), "per-pixel sample rejection"),
-        key("DNCMODE", KeyValue::Str(opts.common_mode.to_string()), "per-frame common-mode offset removed"),
-        key("NINPUTS", KeyValue::I64(stack.sources.len() as i64), "input files (see summary.json)"),
+        key(
+            "NFRAMES",
+            KeyValue::I64(maps.stats.frames as i64),
+            "frames in the dark stack",
+        ),
+        key(
+            "DNCLIP",
+            KeyValue::Str(format!("{:?}", opts.clip)),
+            "per-pixel sample rejection",
+        ),
+        key(
+            "DNCMODE",
+            KeyValue::Str(opts.common_mode.to_string()),
+            "per-frame common-mode offset removed",
+        ),
+        key(
+            "NINPUTS",
+            KeyValue::I64(stack.sources.len() as i64),
+            "input files (see summary.json)",
+        ),
     ];
     for (i, s) in stack.sources.iter().take(99).enumerate() {
-        let name = s.path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-        k.push(key(&format!("INPUT{}", i + 1), KeyValue::Str(name), "input file"));
+        let name = s
+            .path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        k.push(key(
+            &format!("INPUT{}", i + 1),
+            KeyValue::Str(name),
+            "input file",
+        ));
     }
     k
 }
 
 /// Write the outputs of a dark calibration to `out` (all computed before the first write).
-pub fn write_outputs(out: &Path, stack: &FrameStack, maps: &DarkMaps, opts: &DarkOptions, gain: Option<f64>, inputs: Vec<InputFile>) -> Result<DarkSummary> {
+pub fn write_outputs(
+    out: &Path,
+    stack: &FrameStack,
+    maps: &DarkMaps,
+    opts: &DarkOptions,
+    gain: Option<f64>,
+    inputs: Vec<InputFile>,
+) -> Result<DarkSummary> {
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
-    let rms_e = gain.map(|g| Map::new(maps.rms_adu.rows, maps.rms_adu.cols, maps.rms_adu.data.iter().map(|r| r * g).collect()));
+    let rms_e = gain.map(|g| {
+        Map::new(
+            maps.rms_adu.rows,
+            maps.rms_adu.cols,
+            maps.rms_adu.data.iter().map(|r| r * g).collect(),
+        )
+    });
     let (hist_values, hist_unit) = match &rms_e {
         Some(m) => (&m.data, "read noise (e-)"),
         None => (&maps.rms_adu.data, "read noise (adu)"),
     };
-    let png = histogram_png(hist_values, hist_unit, &format!("per-pixel read noise, {} frames", maps.stats.frames))?;
-    let unflagged: Vec<f64> = maps.rms_adu.data.iter().zip(&maps.flags).filter(|(_, f)| **f == 0).map(|(r, _)| *r).collect();
+    let png = histogram_png(
+        hist_values,
+        hist_unit,
+        &format!("per-pixel read noise, {} frames", maps.stats.frames),
+    )?;
+    let unflagged: Vec<f64> = maps
+        .rms_adu
+        .data
+        .iter()
+        .zip(&maps.flags)
+        .filter(|(_, f)| **f == 0)
+        .map(|(r, _)| *r)
+        .collect();
     let flags = FlagCounts {
         hot: count(&maps.flags, FLAG_HOT),
         dead: count(&maps.flags, FLAG_DEAD),
@@ -148,14 +207,28 @@ pub fn write_outputs(out: &Path, stack: &FrameStack, maps: &DarkMaps, opts: &Dar
         saturated: count(&maps.flags, FLAG_SATURATED),
         no_data: count(&maps.flags, FLAG_NO_DATA),
         any: maps.flags.iter().filter(|f| **f != 0).count(),
-        bits: [("hot", FLAG_HOT), ("dead", FLAG_DEAD), ("rts", FLAG_RTS), ("saturated", FLAG_SATURATED), ("no_data", FLAG_NO_DATA)].into_iter().collect(),
+        bits: [
+            ("hot", FLAG_HOT),
+            ("dead", FLAG_DEAD),
+            ("rts", FLAG_RTS),
+            ("saturated", FLAG_SATURATED),
+            ("no_data", FLAG_NO_DATA),
+        ]
+        .into_iter()
+        .collect(),
     };
     let cm = &maps.common_mode_adu;
     let common_mode_std_adu = (!cm.is_empty()).then(|| {
         let m = cm.iter().sum::<f64>() / cm.len() as f64;
         (cm.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (cm.len().max(2) - 1) as f64).sqrt()
     });
-    let mut outputs = vec!["offset_adu.fits", "rms_adu.fits", "flags.fits", "rms_hist.png", "summary.json"];
+    let mut outputs = vec![
+        "offset_adu.fits",
+        "rms_adu.fits",
+        "flags.fits",
+        "rms_hist.png",
+        "summary.json",
+    ];
     if rms_e.is_some() {
         outputs.insert(2, "rms_e.fits");
     }
@@ -181,16 +254,46 @@ pub fn write_outputs(out: &Path, stack: &FrameStack, maps: &DarkMaps, opts: &Dar
     write_fits_map(&out.join("rms_adu.fits"), &maps.rms_adu, "adu", &keys)?;
     if let (Some(m), Some(g)) = (&rms_e, gain) {
         let mut k = keys.clone();
-        k.push(key("GAIN", KeyValue::F64(g), "conversion gain used (e/adu)"));
+        k.push(key(
+            "GAIN",
+            KeyValue::F64(g),
+            "conversion gain used (e/adu)",
+        ));
         write_fits_map(&out.join("rms_e.fits"), m, "electron", &k)?;
     }
     let mut fk = keys.clone();
-    fk.push(key("FLAGHOT", KeyValue::I64(FLAG_HOT as i64), "bit: hot pixel"));
-    fk.push(key("FLAGDEAD", KeyValue::I64(FLAG_DEAD as i64), "bit: dead pixel"));
-    fk.push(key("FLAGRTS", KeyValue::I64(FLAG_RTS as i64), "bit: random-telegraph pixel"));
-    fk.push(key("FLAGSAT", KeyValue::I64(FLAG_SATURATED as i64), "bit: saturated pixel"));
-    fk.push(key("FLAGNONE", KeyValue::I64(FLAG_NO_DATA as i64), "bit: too few samples"));
-    write_fits_flags(&out.join("flags.fits"), stack.shape.0, stack.shape.1, &maps.flags, &fk)?;
+    fk.push(key(
+        "FLAGHOT",
+        KeyValue::I64(FLAG_HOT as i64),
+        "bit: hot pixel",
+    ));
+    fk.push(key(
+        "FLAGDEAD",
+        KeyValue::I64(FLAG_DEAD as i64),
+        "bit: dead pixel",
+    ));
+    fk.push(key(
+        "FLAGRTS",
+        KeyValue::I64(FLAG_RTS as i64),
+        "bit: random-telegraph pixel",
+    ));
+    fk.push(key(
+        "FLAGSAT",
+        KeyValue::I64(FLAG_SATURATED as i64),
+        "bit: saturated pixel",
+    ));
+    fk.push(key(
+        "FLAGNONE",
+        KeyValue::I64(FLAG_NO_DATA as i64),
+        "bit: too few samples",
+    ));
+    write_fits_flags(
+        &out.join("flags.fits"),
+        stack.shape.0,
+        stack.shape.1,
+        &maps.flags,
+        &fk,
+    )?;
     write_bytes_atomic(&out.join("rms_hist.png"), &png)?;
     write_json(&out.join("summary.json"), &summary)?;
     Ok(summary)

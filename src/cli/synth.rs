@@ -77,9 +77,17 @@ pub struct SynthArgs {
 
 /// Parse `ROWSxCOLS`.
 pub fn parse_shape(s: &str) -> std::result::Result<(usize, usize), String> {
-    let (r, c) = s.split_once(['x', 'X']).ok_or_else(|| format!("expected ROWSxCOLS, got {s}"))?;
-    let r: usize = r.trim().parse().map_err(|_| format!("bad row count in {s}"))?;
-    let c: usize = c.trim().parse().map_err(|_| format!("bad column count in {s}"))?;
+    let (r, c) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected ROWSxCOLS, got {s}"))?;
+    let r: usize = r
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad row count in {s}"))?;
+    let c: usize = c
+        .trim()
+        .parse()
+        .map_err(|_| format!("bad column count in {s}"))?;
     if r == 0 || c == 0 {
         return Err(format!("empty shape {s}"));
     }
@@ -93,9 +101,15 @@ pub fn rms_pdf(spec: &str) -> Result<Box<dyn RmsPdf>> {
     }
     if let Ok(v) = spec.parse::<f64>() {
         if !(v >= 0.0 && v.is_finite()) {
-            return Err(Error::usage("--rms-pdf", "constant read noise must be finite and >= 0"));
+            return Err(Error::usage(
+                "--rms-pdf",
+                "constant read noise must be finite and >= 0",
+            ));
         }
-        return Ok(Box::new(crate::pdf::EmpiricalPdf::new(&[v], &format!("constant {v} e-")).ok_or_else(|| Error::usage("--rms-pdf", "bad constant"))?));
+        return Ok(Box::new(
+            crate::pdf::EmpiricalPdf::new(&[v], &format!("constant {v} e-"))
+                .ok_or_else(|| Error::usage("--rms-pdf", "bad constant"))?,
+        ));
     }
     let map = crate::maps::read_map(spec)?;
     let values: Vec<f64> = map.data.into_iter().filter(|v| v.is_finite()).collect();
@@ -109,7 +123,10 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
     if !(args.light_e >= 0.0 && args.light_e.is_finite()) {
         return Err(Error::usage("--light-e", "must be finite and >= 0"));
     }
-    if args.gain_e_per_adu.is_some_and(|g| !(g > 0.0 && g.is_finite())) {
+    if args
+        .gain_e_per_adu
+        .is_some_and(|g| !(g > 0.0 && g.is_finite()))
+    {
         return Err(Error::usage("--gain-e-per-adu", "must be finite and > 0"));
     }
     let camera = match args.detector {
@@ -128,7 +145,14 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
             conversion_e_per_adu: args.gain_e_per_adu.unwrap_or(10.0),
         }),
     };
-    Ok(SynthSpec { camera, shape: args.shape, frames: args.frames, light_e: args.light_e, seed: args.seed, u16_samples: !args.float })
+    Ok(SynthSpec {
+        camera,
+        shape: args.shape,
+        frames: args.frames,
+        light_e: args.light_e,
+        seed: args.seed,
+        u16_samples: !args.float,
+    })
 }
 
 /// Run `detnoise synth`.

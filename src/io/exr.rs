@@ -25,13 +25,18 @@ fn map_type(t: ExrType) -> SampleType {
 
 /// Frame count, shape and sample type of an EXR file (headers only).
 pub fn scan(path: &Path) -> Result<(usize, (usize, usize), SampleType)> {
-    let meta = MetaData::read_from_file(path, false).map_err(|e| frame_error(path, 0, format!("cannot read EXR header: {e}")))?;
+    let meta = MetaData::read_from_file(path, false)
+        .map_err(|e| frame_error(path, 0, format!("cannot read EXR header: {e}")))?;
     let mut frames = 0;
     let mut shape = None;
     let mut sample_type = SampleType::F32;
     for (i, h) in meta.headers.iter().enumerate() {
         if h.deep {
-            return Err(frame_error(path, frames, format!("layer {i} holds deep data, which is not supported")));
+            return Err(frame_error(
+                path,
+                frames,
+                format!("layer {i} holds deep data, which is not supported"),
+            ));
         }
         let s = (h.layer_size.height(), h.layer_size.width());
         match shape {
@@ -45,7 +50,10 @@ pub fn scan(path: &Path) -> Result<(usize, (usize, usize), SampleType)> {
                 return Err(frame_error(
                     path,
                     frames,
-                    format!("layer {i} has shape {}x{}, earlier layers {}x{}", s.0, s.1, s0.0, s0.1),
+                    format!(
+                        "layer {i} has shape {}x{}, earlier layers {}x{}",
+                        s.0, s.1, s0.0, s0.1
+                    ),
                 ));
             }
             _ => {}
@@ -64,7 +72,10 @@ pub struct ExrFrames {
 impl ExrFrames {
     /// Open `path` (decoding is deferred to the first frame request).
     pub fn open(path: &Path, _shape: (usize, usize)) -> Result<ExrFrames> {
-        Ok(ExrFrames { path: path.to_path_buf(), channels: None })
+        Ok(ExrFrames {
+            path: path.to_path_buf(),
+            channels: None,
+        })
     }
 
     fn load(&mut self) -> Result<&[FlatSamples]> {
@@ -119,16 +130,33 @@ pub fn write_layers(
         .map(|k| {
             let frame = next();
             let samples = if u16_samples {
-                FlatSamples::U32(frame.iter().map(|x| super::fits::to_u16(*x) as u32).collect())
+                FlatSamples::U32(
+                    frame
+                        .iter()
+                        .map(|x| super::fits::to_u16(*x) as u32)
+                        .collect(),
+                )
             } else {
                 FlatSamples::F32(frame.iter().map(|x| *x as f32).collect())
             };
-            let channels = AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Y", samples)]));
-            Layer::new(size, LayerAttributes::named(format!("frame{k:04}").as_str()), Encoding::SMALL_LOSSLESS, channels)
+            let channels =
+                AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Y", samples)]));
+            Layer::new(
+                size,
+                LayerAttributes::named(format!("frame{k:04}").as_str()),
+                Encoding::SMALL_LOSSLESS,
+                channels,
+            )
         })
         .collect();
-    let image = Image::from_layers(ImageAttributes::new(IntegerBounds::from_dimensions(size)), layers);
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+        layers,
+    );
     crate::maps::write_atomic(path, |tmp| {
-        image.write().to_file(tmp).map_err(|e| Error::io(tmp, std::io::Error::other(e.to_string())))
+        image
+            .write()
+            .to_file(tmp)
+            .map_err(|e| Error::io(tmp, std::io::Error::other(e.to_string())))
     })
 }

@@ -23,15 +23,25 @@ fn status_text(status: c_int) -> String {
     let mut buf = [0 as c_char; 32];
     // SAFETY: ffgerr writes at most 31 characters and a NUL into the 32-byte buffer.
     unsafe { sys::ffgerr(status, buf.as_mut_ptr()) };
-    let bytes: Vec<u8> = buf.iter().take_while(|c| **c != 0).map(|c| *c as u8).collect();
-    format!("CFITSIO error {status}: {}", String::from_utf8_lossy(&bytes))
+    let bytes: Vec<u8> = buf
+        .iter()
+        .take_while(|c| **c != 0)
+        .map(|c| *c as u8)
+        .collect();
+    format!(
+        "CFITSIO error {status}: {}",
+        String::from_utf8_lossy(&bytes)
+    )
 }
 
 fn check(path: &Path, status: c_int, what: &str) -> Result<()> {
     if status == 0 {
         Ok(())
     } else {
-        Err(Error::input(path, format!("{what}: {}", status_text(status))))
+        Err(Error::input(
+            path,
+            format!("{what}: {}", status_text(status)),
+        ))
     }
 }
 
@@ -78,17 +88,34 @@ fn sample_type_of(path: &Path, hdu: c_int, stored: c_int, equiv: c_int) -> Resul
         (_, -32) => SampleType::F32,
         (_, -64) => SampleType::F64,
         (_, 80) => SampleType::Scaled,
-        (s, e) => return Err(Error::input(path, format!("HDU {hdu}: unsupported BITPIX {s} (equivalent type {e})"))),
+        (s, e) => {
+            return Err(Error::input(
+                path,
+                format!("HDU {hdu}: unsupported BITPIX {s} (equivalent type {e})"),
+            ))
+        }
     };
     Ok(t)
 }
 
-fn read_key_f64(fptr: *mut sys::fitsfile, key: &str, default: f64) -> std::result::Result<f64, c_int> {
+fn read_key_f64(
+    fptr: *mut sys::fitsfile,
+    key: &str,
+    default: f64,
+) -> std::result::Result<f64, c_int> {
     let name = CString::new(key).expect("key has no NUL");
     let mut value = 0.0;
     let mut status = 0;
     // SAFETY: fptr is a valid open fitsfile; a NULL comment pointer is allowed by CFITSIO.
-    unsafe { sys::ffgkyd(fptr, name.as_ptr(), &mut value, std::ptr::null_mut(), &mut status) };
+    unsafe {
+        sys::ffgkyd(
+            fptr,
+            name.as_ptr(),
+            &mut value,
+            std::ptr::null_mut(),
+            &mut status,
+        )
+    };
     match status {
         0 => Ok(value),
         KEY_NO_EXIST => Ok(default),
@@ -97,23 +124,31 @@ fn read_key_f64(fptr: *mut sys::fitsfile, key: &str, default: f64) -> std::resul
 }
 
 fn has_key(fptr: *mut sys::fitsfile, key: &str) -> bool {
-    read_key_f64(fptr, key, f64::NAN).map(|v| !v.is_nan()).unwrap_or(true)
+    read_key_f64(fptr, key, f64::NAN)
+        .map(|v| !v.is_nan())
+        .unwrap_or(true)
 }
 
 fn is_plain_fits(path: &Path) -> bool {
     use std::io::Read;
     let mut head = [0u8; 6];
-    std::fs::File::open(path).and_then(|mut f| f.read_exact(&mut head)).map(|_| &head == b"SIMPLE").unwrap_or(false)
+    std::fs::File::open(path)
+        .and_then(|mut f| f.read_exact(&mut head))
+        .map(|_| &head == b"SIMPLE")
+        .unwrap_or(false)
 }
 
 impl FitsFrames {
     /// Open `path` and list its image HDUs; all must have one frame shape.
     pub fn open(path: &Path) -> Result<FitsFrames> {
-        let mut file = FitsFile::open(path).map_err(|e| Error::input(path, format!("cannot open as FITS: {e}")))?;
+        let mut file = FitsFile::open(path)
+            .map_err(|e| Error::input(path, format!("cannot open as FITS: {e}")))?;
         // SAFETY: the pointer stays owned by `file`, which outlives every use below.
         let fptr = unsafe { file.as_raw() };
         let plain = is_plain_fits(path);
-        let file_len = std::fs::metadata(path).map_err(|e| Error::io(path, e))?.len();
+        let file_len = std::fs::metadata(path)
+            .map_err(|e| Error::io(path, e))?
+            .len();
         let mut nhdu: c_int = 0;
         let mut status = 0;
         unsafe { sys::ffthdu(fptr, &mut nhdu, &mut status) };
@@ -137,7 +172,10 @@ impl FitsFrames {
                 continue;
             }
             if naxis == 1 {
-                return Err(Error::input(path, format!("frame {first}: HDU {hdu} is a 1-D image, not a frame")));
+                return Err(Error::input(
+                    path,
+                    format!("frame {first}: HDU {hdu} is a 1-D image, not a frame"),
+                ));
             }
             let mut dims = vec![0i64; naxis as usize];
             unsafe { sys::ffgiszll(fptr, naxis, dims.as_mut_ptr(), &mut status) };
@@ -171,7 +209,8 @@ impl FitsFrames {
                 let bytes_per_frame = (rows * cols * (stored.unsigned_abs() as usize / 8)) as u64;
                 let needed = layout.datastart + bytes_per_frame * frames as u64;
                 if needed > file_len {
-                    let complete = (file_len.saturating_sub(layout.datastart) / bytes_per_frame) as usize;
+                    let complete =
+                        (file_len.saturating_sub(layout.datastart) / bytes_per_frame) as usize;
                     return Err(Error::input(
                         path,
                         format!(
@@ -185,7 +224,12 @@ impl FitsFrames {
             } else {
                 None
             };
-            hdus.push(HduFrames { hdu, first, frames, raw });
+            hdus.push(HduFrames {
+                hdu,
+                first,
+                frames,
+                raw,
+            });
             first += frames;
         }
         let Some(shape) = shape else {
@@ -196,7 +240,15 @@ impl FitsFrames {
         } else {
             None
         };
-        Ok(FitsFrames { path: path.to_path_buf(), file, raw_file, hdus, shape, sample_type, bytes: Vec::new() })
+        Ok(FitsFrames {
+            path: path.to_path_buf(),
+            file,
+            raw_file,
+            hdus,
+            shape,
+            sample_type,
+            bytes: Vec::new(),
+        })
     }
 
     /// Total frames in the file.
@@ -205,7 +257,12 @@ impl FitsFrames {
     }
 }
 
-fn raw_layout(path: &Path, fptr: *mut sys::fitsfile, hdu: c_int, bitpix: c_int) -> Result<RawLayout> {
+fn raw_layout(
+    path: &Path,
+    fptr: *mut sys::fitsfile,
+    hdu: c_int,
+    bitpix: c_int,
+) -> Result<RawLayout> {
     let (mut head, mut data, mut end) = (0i64, 0i64, 0i64);
     let mut status = 0;
     unsafe { sys::ffghadll(fptr, &mut head, &mut data, &mut end, &mut status) };
@@ -213,7 +270,12 @@ fn raw_layout(path: &Path, fptr: *mut sys::fitsfile, hdu: c_int, bitpix: c_int) 
     let bad = |s| Error::input(path, format!("HDU {hdu}: {}", status_text(s)));
     let bscale = read_key_f64(fptr, "BSCALE", 1.0).map_err(bad)?;
     let bzero = read_key_f64(fptr, "BZERO", 0.0).map_err(bad)?;
-    Ok(RawLayout { datastart: data as u64, bitpix, bscale, bzero })
+    Ok(RawLayout {
+        datastart: data as u64,
+        bitpix,
+        bscale,
+        bzero,
+    })
 }
 
 /// Frame count, shape and sample type of a FITS file (headers only).
@@ -267,10 +329,23 @@ impl FileFrames for FitsFrames {
         let mut anynul = 0;
         unsafe {
             sys::ffmahd(fptr, h.hdu, &mut exttype, &mut status);
-            sys::ffgpvd(fptr, 1, 1 + (local * npix as u64) as i64, npix as i64, f64::NAN, out.as_mut_ptr(), &mut anynul, &mut status);
+            sys::ffgpvd(
+                fptr,
+                1,
+                1 + (local * npix as u64) as i64,
+                npix as i64,
+                f64::NAN,
+                out.as_mut_ptr(),
+                &mut anynul,
+                &mut status,
+            );
         }
         if status != 0 {
-            return Err(frame_error(&self.path, k, format!("HDU {}: {}", h.hdu, status_text(status))));
+            return Err(frame_error(
+                &self.path,
+                k,
+                format!("HDU {}: {}", h.hdu, status_text(status)),
+            ));
         }
         Ok(())
     }
@@ -287,11 +362,23 @@ pub fn write_cube(
     keys: &[crate::maps::Keyword],
 ) -> Result<()> {
     use fitsio::images::{ImageDescription, ImageType};
-    let fits_err = |p: &Path, e: fitsio::errors::Error| Error::io(p, std::io::Error::other(e.to_string()));
+    let fits_err =
+        |p: &Path, e: fitsio::errors::Error| Error::io(p, std::io::Error::other(e.to_string()));
     crate::maps::write_atomic(path, |tmp| {
-        let data_type = if u16_samples { ImageType::UnsignedShort } else { ImageType::Float };
-        let desc = ImageDescription { data_type, dimensions: &[frames, shape.0, shape.1] };
-        let mut f = FitsFile::create(tmp).with_custom_primary(&desc).overwrite().open().map_err(|e| fits_err(tmp, e))?;
+        let data_type = if u16_samples {
+            ImageType::UnsignedShort
+        } else {
+            ImageType::Float
+        };
+        let desc = ImageDescription {
+            data_type,
+            dimensions: &[frames, shape.0, shape.1],
+        };
+        let mut f = FitsFile::create(tmp)
+            .with_custom_primary(&desc)
+            .overwrite()
+            .open()
+            .map_err(|e| fits_err(tmp, e))?;
         let hdu = f.primary_hdu().map_err(|e| fits_err(tmp, e))?;
         let npix = shape.0 * shape.1;
         for k in 0..frames {

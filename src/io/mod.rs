@@ -96,12 +96,19 @@ impl Format {
         let h = &head[..n];
         if h.starts_with(b"SIMPLE  =") || h.starts_with(&[0x1f, 0x8b]) {
             Ok(Format::Fits)
-        } else if h.starts_with(b"II*\0") || h.starts_with(b"MM\0*") || h.starts_with(b"II+\0") || h.starts_with(b"MM\0+") {
+        } else if h.starts_with(b"II*\0")
+            || h.starts_with(b"MM\0*")
+            || h.starts_with(b"II+\0")
+            || h.starts_with(b"MM\0+")
+        {
             Ok(Format::Tiff)
         } else if h.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
             Ok(Format::Exr)
         } else {
-            Err(Error::input(path, "not a FITS, TIFF or OpenEXR file (unrecognised header)"))
+            Err(Error::input(
+                path,
+                "not a FITS, TIFF or OpenEXR file (unrecognised header)",
+            ))
         }
     }
 }
@@ -139,15 +146,26 @@ fn scan_file(path: &Path) -> Result<SourceFile> {
         return Err(Error::input(path, "file holds no image frame"));
     }
     if shape.0 == 0 || shape.1 == 0 {
-        return Err(Error::input(path, format!("frame 0: empty frame shape {}x{}", shape.0, shape.1)));
+        return Err(Error::input(
+            path,
+            format!("frame 0: empty frame shape {}x{}", shape.0, shape.1),
+        ));
     }
-    Ok(SourceFile { path: path.to_path_buf(), format, frames, shape, sample_type })
+    Ok(SourceFile {
+        path: path.to_path_buf(),
+        format,
+        frames,
+        shape,
+        sample_type,
+    })
 }
 
 fn open_file(src: &SourceFile) -> Result<Box<dyn FileFrames>> {
     match src.format {
         Format::Fits => Ok(Box::new(fits::FitsFrames::open(&src.path)?)),
-        Format::Tiff => Ok(Box::new(tiff::TiffFrames::open(&src.path, src.shape, src.frames)?)),
+        Format::Tiff => Ok(Box::new(tiff::TiffFrames::open(
+            &src.path, src.shape, src.frames,
+        )?)),
         Format::Exr => Ok(Box::new(exr::ExrFrames::open(&src.path, src.shape)?)),
     }
 }
@@ -177,21 +195,31 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
                 .collect();
             files.sort();
             if files.is_empty() {
-                return Err(Error::input(input, "directory holds no FITS, TIFF or EXR file"));
+                return Err(Error::input(
+                    input,
+                    "directory holds no FITS, TIFF or EXR file",
+                ));
             }
             out.extend(files);
         } else if input.exists() {
             out.push(input.clone());
         } else if s.contains(['*', '?', '[']) {
-            let paths = glob::glob(&s).map_err(|e| Error::usage("STACK", format!("bad glob pattern {s}: {e}")))?;
-            let mut files: Vec<PathBuf> = paths.filter_map(|p| p.ok()).filter(|p| p.is_file()).collect();
+            let paths = glob::glob(&s)
+                .map_err(|e| Error::usage("STACK", format!("bad glob pattern {s}: {e}")))?;
+            let mut files: Vec<PathBuf> = paths
+                .filter_map(|p| p.ok())
+                .filter(|p| p.is_file())
+                .collect();
             files.sort();
             if files.is_empty() {
                 return Err(Error::input(input, "glob pattern matches no file"));
             }
             out.extend(files);
         } else {
-            return Err(Error::io(input, std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or directory")));
+            return Err(Error::io(
+                input,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or directory"),
+            ));
         }
     }
     if out.is_empty() {
@@ -243,7 +271,12 @@ impl FrameStack {
         }
         let shape = sources[0].shape;
         let sample_type = sources[0].sample_type;
-        Ok(FrameStack { sources, shape, frames: start, sample_type })
+        Ok(FrameStack {
+            sources,
+            shape,
+            frames: start,
+            sample_type,
+        })
     }
 
     /// Pixels per frame.
@@ -274,7 +307,10 @@ impl FrameStack {
 
     /// Largest integer sample value of the stored type (None for floats), for saturation checks.
     pub fn saturation_value(&self) -> Option<f64> {
-        self.sources.iter().map(|s| s.sample_type.max_value()).try_fold(f64::INFINITY, |m, v| v.map(|v| m.min(v)))
+        self.sources
+            .iter()
+            .map(|s| s.sample_type.max_value())
+            .try_fold(f64::INFINITY, |m, v| v.map(|v| m.min(v)))
     }
 
     /// Fail unless the stack has at least `n` frames (variances need 2).
@@ -282,7 +318,10 @@ impl FrameStack {
         if self.frames < n {
             return Err(Error::input(
                 &self.sources[0].path,
-                format!("frame {}: stack has {} frame(s), {what} needs at least {n}", self.frames, self.frames),
+                format!(
+                    "frame {}: stack has {} frame(s), {what} needs at least {n}",
+                    self.frames, self.frames
+                ),
             ));
         }
         Ok(())
@@ -290,7 +329,13 @@ impl FrameStack {
 
     /// A sequential reader over all frames.
     pub fn reader(&self) -> StackReader<'_> {
-        StackReader { stack: self, file_index: 0, local: 0, global: 0, open: None }
+        StackReader {
+            stack: self,
+            file_index: 0,
+            local: 0,
+            global: 0,
+            open: None,
+        }
     }
 }
 
@@ -307,7 +352,9 @@ impl StackReader<'_> {
     /// Read the next frame into `out` (rows*cols f64, row-major). Returns the stack frame
     /// index, or None at the end. Non-finite samples are an error naming file and frame.
     pub fn next_frame(&mut self, out: &mut [f64]) -> Result<Option<usize>> {
-        while self.file_index < self.stack.sources.len() && self.local >= self.stack.sources[self.file_index].frames {
+        while self.file_index < self.stack.sources.len()
+            && self.local >= self.stack.sources[self.file_index].frames
+        {
             self.file_index += 1;
             self.local = 0;
             self.open = None;
@@ -315,12 +362,18 @@ impl StackReader<'_> {
         let Some(src) = self.stack.sources.get(self.file_index) else {
             return Ok(None);
         };
-        assert_eq!(out.len(), self.stack.pixels(), "frame buffer has the wrong length");
+        assert_eq!(
+            out.len(),
+            self.stack.pixels(),
+            "frame buffer has the wrong length"
+        );
         if self.open.is_none() {
             self.open = Some(open_file(src)?);
         }
         let reader = self.open.as_mut().expect("opened above");
-        reader.read_frame(self.local, out).map_err(|e| add_stack_frame(e, self.global))?;
+        reader
+            .read_frame(self.local, out)
+            .map_err(|e| add_stack_frame(e, self.global))?;
         if let Some(i) = out.iter().position(|v| !v.is_finite()) {
             return Err(Error::input(
                 &src.path,
@@ -343,7 +396,10 @@ impl StackReader<'_> {
 
 fn add_stack_frame(e: Error, global: usize) -> Error {
     match e {
-        Error::Input { path, message } => Error::Input { path, message: format!("{message} (stack frame {global})") },
+        Error::Input { path, message } => Error::Input {
+            path,
+            message: format!("{message} (stack frame {global})"),
+        },
         other => other,
     }
 }
@@ -354,9 +410,18 @@ pub(crate) fn frame_error(path: &Path, k: usize, what: impl std::fmt::Display) -
 }
 
 /// Copy any numeric slice into an f64 buffer, checking the length.
-pub(crate) fn widen<T: Copy + Into<f64>>(path: &Path, k: usize, src: &[T], out: &mut [f64]) -> Result<()> {
+pub(crate) fn widen<T: Copy + Into<f64>>(
+    path: &Path,
+    k: usize,
+    src: &[T],
+    out: &mut [f64],
+) -> Result<()> {
     if src.len() != out.len() {
-        return Err(frame_error(path, k, format!("{} samples decoded, {} expected", src.len(), out.len())));
+        return Err(frame_error(
+            path,
+            k,
+            format!("{} samples decoded, {} expected", src.len(), out.len()),
+        ));
     }
     for (o, s) in out.iter_mut().zip(src) {
         *o = (*s).into();
@@ -370,5 +435,9 @@ pub fn read_first_frame(path: &Path) -> Result<Map> {
     let src = scan_file(path)?;
     let mut data = vec![0.0; src.shape.0 * src.shape.1];
     open_file(&src)?.read_frame(0, &mut data)?;
-    Ok(Map { rows: src.shape.0, cols: src.shape.1, data })
+    Ok(Map {
+        rows: src.shape.0,
+        cols: src.shape.1,
+        data,
+    })
 }

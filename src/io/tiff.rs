@@ -33,9 +33,16 @@ fn page_info(path: &Path, k: usize, dec: &mut Dec) -> Result<((usize, usize), Sa
     let (w, h) = dec.dimensions().map_err(|e| frame_error(path, k, e))?;
     let ct = dec.colortype().map_err(|e| frame_error(path, k, e))?;
     let ColorType::Gray(bits) = ct else {
-        return Err(frame_error(path, k, format!("colour type {ct:?}: only single-channel frames are supported")));
+        return Err(frame_error(
+            path,
+            k,
+            format!("colour type {ct:?}: only single-channel frames are supported"),
+        ));
     };
-    let format = dec.find_tag_unsigned::<u16>(Tag::SampleFormat).map_err(|e| frame_error(path, k, e))?.unwrap_or(1);
+    let format = dec
+        .find_tag_unsigned::<u16>(Tag::SampleFormat)
+        .map_err(|e| frame_error(path, k, e))?
+        .unwrap_or(1);
     let t = match (format, bits) {
         (1, 8) => SampleType::U8,
         (2, 8) => SampleType::I8,
@@ -47,7 +54,13 @@ fn page_info(path: &Path, k: usize, dec: &mut Dec) -> Result<((usize, usize), Sa
         (3, 16) => SampleType::F16,
         (3, 32) => SampleType::F32,
         (3, 64) => SampleType::F64,
-        (f, b) => return Err(frame_error(path, k, format!("unsupported sample type ({b} bits, SampleFormat {f})"))),
+        (f, b) => {
+            return Err(frame_error(
+                path,
+                k,
+                format!("unsupported sample type ({b} bits, SampleFormat {f})"),
+            ))
+        }
     };
     Ok(((h as usize, w as usize), t))
 }
@@ -58,7 +71,9 @@ fn imagej_images(dec: &mut Dec) -> Option<usize> {
     if !desc.starts_with("ImageJ=") {
         return None;
     }
-    desc.lines().find_map(|l| l.strip_prefix("images=")).and_then(|v| v.trim().parse().ok())
+    desc.lines()
+        .find_map(|l| l.strip_prefix("images="))
+        .and_then(|v| v.trim().parse().ok())
 }
 
 /// Contiguous frames after the first page of an ImageJ stack with a single IFD.
@@ -90,17 +105,25 @@ fn scan_pages(path: &Path) -> Result<Scan> {
     let imagej = imagej_images(&mut dec);
     let mut pages = 1;
     while dec.more_images() {
-        dec.next_image().map_err(|e| frame_error(path, pages, format!("cannot read page header: {e}")))?;
+        dec.next_image()
+            .map_err(|e| frame_error(path, pages, format!("cannot read page header: {e}")))?;
         let (s, t) = page_info(path, pages, &mut dec)?;
         if s != shape {
             return Err(frame_error(
                 path,
                 pages,
-                format!("page shape {}x{} differs from {}x{} of page 0", s.0, s.1, shape.0, shape.1),
+                format!(
+                    "page shape {}x{} differs from {}x{} of page 0",
+                    s.0, s.1, shape.0, shape.1
+                ),
             ));
         }
         if t != sample_type {
-            return Err(frame_error(path, pages, format!("sample type {t:?} differs from {sample_type:?} of page 0")));
+            return Err(frame_error(
+                path,
+                pages,
+                format!("sample type {t:?} differs from {sample_type:?} of page 0"),
+            ));
         }
         pages += 1;
     }
@@ -108,12 +131,24 @@ fn scan_pages(path: &Path) -> Result<Scan> {
     let mut frames = pages;
     if let Some(n) = imagej.filter(|&n| n > pages) {
         if pages != 1 {
-            return Err(frame_error(path, pages, format!("ImageJ description says {n} images but file has {pages} pages")));
+            return Err(frame_error(
+                path,
+                pages,
+                format!("ImageJ description says {n} images but file has {pages} pages"),
+            ));
         }
         let mut dec = open_decoder(path)?;
-        let compression = dec.find_tag_unsigned::<u16>(Tag::Compression).ok().flatten().unwrap_or(1);
+        let compression = dec
+            .find_tag_unsigned::<u16>(Tag::Compression)
+            .ok()
+            .flatten()
+            .unwrap_or(1);
         if compression != CompressionMethod::None.to_u16() {
-            return Err(frame_error(path, 1, "compressed ImageJ stack with one IFD is not supported"));
+            return Err(frame_error(
+                path,
+                1,
+                "compressed ImageJ stack with one IFD is not supported",
+            ));
         }
         let offsets = dec
             .find_tag_unsigned_vec::<u64>(Tag::StripOffsets)
@@ -121,15 +156,32 @@ fn scan_pages(path: &Path) -> Result<Scan> {
             .ok_or_else(|| frame_error(path, 0, "no StripOffsets"))?;
         let offset = offsets[0];
         let frame_bytes = (shape.0 * shape.1 * bytes_of(sample_type)) as u64;
-        let len = std::fs::metadata(path).map_err(|e| Error::io(path, e))?.len();
+        let len = std::fs::metadata(path)
+            .map_err(|e| Error::io(path, e))?
+            .len();
         if offset + frame_bytes * n as u64 > len {
             let complete = len.saturating_sub(offset) / frame_bytes;
-            return Err(frame_error(path, complete as usize, format!("file truncated: ImageJ stack of {n} frames needs {} bytes, file has {len}", offset + frame_bytes * n as u64)));
+            return Err(frame_error(
+                path,
+                complete as usize,
+                format!(
+                    "file truncated: ImageJ stack of {n} frames needs {} bytes, file has {len}",
+                    offset + frame_bytes * n as u64
+                ),
+            ));
         }
-        contiguous = Some(Contiguous { offset, big_endian: dec.byte_order() == ByteOrder::BigEndian });
+        contiguous = Some(Contiguous {
+            offset,
+            big_endian: dec.byte_order() == ByteOrder::BigEndian,
+        });
         frames = n;
     }
-    Ok(Scan { frames, shape, sample_type, contiguous })
+    Ok(Scan {
+        frames,
+        shape,
+        sample_type,
+        contiguous,
+    })
 }
 
 /// Frame count, shape and sample type of a TIFF file (walks every page header).
@@ -178,7 +230,11 @@ impl TiffFrames {
             ($t:ty, $n:expr) => {
                 for (o, b) in out.iter_mut().zip(self.bytes.chunks_exact($n)) {
                     let a: [u8; $n] = b.try_into().expect("chunk size");
-                    *o = if c.big_endian { <$t>::from_be_bytes(a) } else { <$t>::from_le_bytes(a) } as f64;
+                    *o = if c.big_endian {
+                        <$t>::from_be_bytes(a)
+                    } else {
+                        <$t>::from_le_bytes(a)
+                    } as f64;
                 }
             };
         }
@@ -192,7 +248,13 @@ impl TiffFrames {
             SampleType::I64 => dec!(i64, 8),
             SampleType::F32 => dec!(f32, 4),
             SampleType::F64 => dec!(f64, 8),
-            t => return Err(frame_error(&self.path, k, format!("sample type {t:?} in a contiguous ImageJ stack"))),
+            t => {
+                return Err(frame_error(
+                    &self.path,
+                    k,
+                    format!("sample type {t:?} in a contiguous ImageJ stack"),
+                ))
+            }
         }
         Ok(())
     }
@@ -204,7 +266,9 @@ impl FileFrames for TiffFrames {
             return self.read_contiguous(k, out);
         }
         while self.page < k {
-            self.dec.next_image().map_err(|e| frame_error(&self.path, self.page + 1, e))?;
+            self.dec
+                .next_image()
+                .map_err(|e| frame_error(&self.path, self.page + 1, e))?;
             self.page += 1;
         }
         let path = self.path.clone();
@@ -245,7 +309,8 @@ pub fn write_pages(
     use tiff::encoder::{colortype, TiffEncoder};
     crate::maps::write_atomic(path, |tmp| {
         let file = File::create(tmp).map_err(|e| Error::io(tmp, e))?;
-        let mut enc = TiffEncoder::new(std::io::BufWriter::new(file)).map_err(|e| Error::io(tmp, std::io::Error::other(e)))?;
+        let mut enc = TiffEncoder::new(std::io::BufWriter::new(file))
+            .map_err(|e| Error::io(tmp, std::io::Error::other(e)))?;
         let (w, h) = (shape.1 as u32, shape.0 as u32);
         for _ in 0..frames {
             let frame = next();
