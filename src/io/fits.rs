@@ -142,7 +142,7 @@ impl FitsFrames {
     /// Open `path` and list its image HDUs; all must have one frame shape.
     pub fn open(path: &Path) -> Result<FitsFrames> {
         let mut file = FitsFile::open(path)
-            .map_err(|e| Error::input(path, format!("cannot open as FITS: {e}")))?;
+            .map_err(|e| Error::input(path, format!("frame 0: cannot open as FITS: {e}")))?;
         // SAFETY: the pointer stays owned by `file`, which outlives every use below.
         let fptr = unsafe { file.as_raw() };
         let plain = is_plain_fits(path);

@@ -91,7 +91,7 @@ impl Format {
             }
         }
         if n == 0 {
-            return Err(Error::input(path, "empty file"));
+            return Err(Error::input(path, "frame 0: empty file"));
         }
         let h = &head[..n];
         if h.starts_with(b"SIMPLE  =") || h.starts_with(&[0x1f, 0x8b]) {
