@@ -6,12 +6,21 @@ use std::path::{Path, PathBuf};
 use detnoise::calib::darks::{pixel_stats, Clip};
 use detnoise::calib::ptc::{photon_transfer, DarkReference, PtcOptions};
 use detnoise::io::FrameStack;
-use detnoise::synth::{draw_truth, frame, write_synthetic, Camera, ScmosParams, StackFormat, SynthSpec};
+use detnoise::synth::{
+    draw_truth, frame, write_synthetic, Camera, ScmosParams, StackFormat, SynthSpec,
+};
 
 const LEVELS: [f64; 4] = [100.0, 400.0, 1600.0, 6400.0];
 
 fn spec(frames: usize, light_e: f64) -> SynthSpec {
-    SynthSpec { camera: Camera::Scmos(ScmosParams::default()), shape: (40, 56), frames, light_e, seed: 5, u16_samples: true }
+    SynthSpec {
+        camera: Camera::Scmos(ScmosParams::default()),
+        shape: (40, 56),
+        frames,
+        light_e,
+        seed: 5,
+        u16_samples: true,
+    }
 }
 
 fn open(p: &Path) -> FrameStack {
@@ -52,7 +61,10 @@ fn global_and_per_pixel_gain_match_truth() {
     let truth = draw_truth(&spec(1, 0.0), &detnoise::pdf::paper());
     let g_true = ptc_equivalent_gain(&truth.gain_e_per_adu.data);
     let pull = (r.gain_e_per_adu - g_true) / r.gain_err_e_per_adu;
-    eprintln!("global gain {:.5} +/- {:.5} e/adu, truth {g_true:.5}, pull {pull:.2}", r.gain_e_per_adu, r.gain_err_e_per_adu);
+    eprintln!(
+        "global gain {:.5} +/- {:.5} e/adu, truth {g_true:.5}, pull {pull:.2}",
+        r.gain_e_per_adu, r.gain_err_e_per_adu
+    );
     // Within 3 stated standard errors (a 0.3 % chance of failing were the error exact).
     assert!(pull.abs() < 3.0);
     // Per-pixel pulls: mean 0 and std 1 over P = 2240 pixels, standard errors
@@ -86,24 +98,53 @@ fn lamp_flicker_is_removed() {
             let fr: Vec<Vec<f64>> = (0..frames)
                 .map(|k| {
                     let s = 1.0 + 0.02 * (((k * 7919) % 101) as f64 / 50.0 - 1.0);
-                    frame(&sp, &truth, None, k).iter().zip(&truth.offset_adu.data).map(|(x, o)| o + (x - o) * s).collect()
+                    frame(&sp, &truth, None, k)
+                        .iter()
+                        .zip(&truth.offset_adu.data)
+                        .map(|(x, o)| o + (x - o) * s)
+                        .collect()
                 })
                 .collect();
             let p = d.path().join(format!("flicker-{l}.fits"));
             let mut it = fr.into_iter();
-            detnoise::io::fits::write_cube(&p, sp.shape, frames, true, &mut || it.next().unwrap(), &[]).unwrap();
+            detnoise::io::fits::write_cube(
+                &p,
+                sp.shape,
+                frames,
+                true,
+                &mut || it.next().unwrap(),
+                &[],
+            )
+            .unwrap();
             open(&p)
         })
         .collect();
     let dref = DarkReference::from_stats(&pixel_stats(&open(&dark), Clip::None, None).unwrap());
     let g_true = ptc_equivalent_gain(&truth.gain_e_per_adu.data);
     let with = photon_transfer(&flats, &dref, &PtcOptions::default()).unwrap();
-    let without = photon_transfer(&flats, &dref, &PtcOptions { flicker: false, ..Default::default() }).unwrap();
+    let without = photon_transfer(
+        &flats,
+        &dref,
+        &PtcOptions {
+            flicker: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
     let pull = (with.gain_e_per_adu - g_true) / with.gain_err_e_per_adu;
-    eprintln!("flicker: removed {:.5} +/- {:.5}, kept {:.5}, truth {g_true:.5}", with.gain_e_per_adu, with.gain_err_e_per_adu, without.gain_e_per_adu);
+    eprintln!(
+        "flicker: removed {:.5} +/- {:.5}, kept {:.5}, truth {g_true:.5}",
+        with.gain_e_per_adu, with.gain_err_e_per_adu, without.gain_e_per_adu
+    );
     assert!(pull.abs() < 3.0, "pull {pull}");
-    assert!(without.gain_e_per_adu < 0.8 * g_true, "flicker inflates variance, so the kept-flicker gain is low");
-    assert!(with.levels.iter().all(|l| l.flicker_fraction > 0.005), "flicker is reported");
+    assert!(
+        without.gain_e_per_adu < 0.8 * g_true,
+        "flicker inflates variance, so the kept-flicker gain is low"
+    );
+    assert!(
+        with.levels.iter().all(|l| l.flicker_fraction > 0.005),
+        "flicker is reported"
+    );
 }
 
 #[test]
@@ -115,6 +156,8 @@ fn saturated_pixels_are_masked() {
     let p = d.path().join("bright.fits");
     write_synthetic(&sp, &detnoise::pdf::paper(), StackFormat::Fits, &p).unwrap();
     let dref = DarkReference::from_stats(&pixel_stats(&open(&dark), Clip::None, None).unwrap());
-    let e = photon_transfer(&[open(&p)], &dref, &PtcOptions::default()).unwrap_err().to_string();
+    let e = photon_transfer(&[open(&p)], &dref, &PtcOptions::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("saturated"), "{e}");
 }

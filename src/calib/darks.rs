@@ -22,7 +22,7 @@ use crate::maps::Map;
 /// Frames per parity accumulated as shifted sums before a Chan merge.
 const BLOCK: usize = 64;
 /// Frames read ahead and swept together.
-const BATCH: usize = 8;
+const BATCH: usize = 4;
 /// Pixels per tile.
 const TILE: usize = 2048;
 
@@ -111,7 +111,8 @@ struct Tile {
     shift: Vec<f64>,
     s1: [Vec<f64>; 2],
     s2: [Vec<f64>; 2],
-    cnt: [Vec<f64>; 2],
+    /// Per-pixel block counts; only with a window (otherwise every pixel has the block count).
+    cnt: Option<[Vec<f64>; 2]>,
     n: [Vec<f64>; 2],
     mean: [Vec<f64>; 2],
     m2: [Vec<f64>; 2],
@@ -138,7 +139,7 @@ impl Tile {
             shift: zeros(len),
             s1: pair(),
             s2: pair(),
-            cnt: pair(),
+            cnt: None,
             n: pair(),
             mean: pair(),
             m2: pair(),
@@ -157,25 +158,38 @@ impl Tile {
             self.shift.copy_from_slice(x);
             self.prev.copy_from_slice(x);
         }
-        let (s1, s2, cnt) = (
-            &mut self.s1[parity],
-            &mut self.s2[parity],
-            &mut self.cnt[parity],
-        );
+        let (s1, s2) = (&mut self.s1[parity], &mut self.s2[parity]);
         match &self.window {
             None => {
-                for i in 0..self.len {
-                    let d = x[i] - self.shift[i];
+                // Index loops over equal-length slices: the bounds checks hoist and the body
+                // vectorises.
+                let (shift, prev, vn, max) = (
+                    &self.shift[..],
+                    &mut self.prev[..],
+                    &mut self.vn[..],
+                    &mut self.max[..],
+                );
+                let n = x.len();
+                let (s1, s2, shift, prev, vn, max) = (
+                    &mut s1[..n],
+                    &mut s2[..n],
+                    &shift[..n],
+                    &mut prev[..n],
+                    &mut vn[..n],
+                    &mut max[..n],
+                );
+                for i in 0..n {
+                    let d = x[i] - shift[i];
                     s1[i] += d;
                     s2[i] += d * d;
-                    cnt[i] += 1.0;
-                    let v = x[i] - self.prev[i];
-                    self.vn[i] += v * v;
-                    self.prev[i] = x[i];
-                    self.max[i] = self.max[i].max(x[i]);
+                    let v = x[i] - prev[i];
+                    vn[i] += v * v;
+                    prev[i] = x[i];
+                    max[i] = max[i].max(x[i]);
                 }
             }
             Some((lo, hi)) => {
+                let cnt = &mut self.cnt.as_mut().expect("counts exist with a window")[parity];
                 for i in 0..self.len {
                     let keep = (x[i] >= lo[i] && x[i] <= hi[i]) as u8 as f64;
                     let d = (x[i] - self.shift[i]) * keep;
@@ -204,9 +218,9 @@ impl Tile {
     }
 
     /// Chan merge of the shifted block sums of `parity` into its running Welford state.
-    fn flush(&mut self, parity: usize) {
+    fn flush(&mut self, parity: usize, block: f64) {
         for i in 0..self.len {
-            let nb = self.cnt[parity][i];
+            let nb = self.cnt.as_ref().map_or(block, |c| c[parity][i]);
             if nb == 0.0 {
                 continue;
             }
@@ -222,7 +236,9 @@ impl Tile {
         }
         self.s1[parity].fill(0.0);
         self.s2[parity].fill(0.0);
-        self.cnt[parity].fill(0.0);
+        if let Some(c) = self.cnt.as_mut() {
+            c[parity].fill(0.0);
+        }
     }
 
     /// Undo the Welford update of sample `v` in `parity` (extremes clipping).
@@ -281,13 +297,13 @@ fn sample_std(n: f64, m2: f64) -> f64 {
     }
 }
 
-/// Run `consume` on batches of frames read on a separate thread (at most 2 batches in flight).
+/// Run `consume` on batches of frames read on a separate thread (one being read while one is used).
 fn stream_batches(
     stack: &FrameStack,
     mut consume: impl FnMut(&mut [Vec<f64>], usize) -> Result<()>,
 ) -> Result<()> {
     let npix = stack.pixels();
-    let (tx, rx) = mpsc::sync_channel::<Result<(Vec<Vec<f64>>, usize)>>(1);
+    let (tx, rx) = mpsc::sync_channel::<Result<(Vec<Vec<f64>>, usize)>>(0);
     let (back_tx, back_rx) = mpsc::channel::<Vec<Vec<f64>>>();
     std::thread::scope(|s| {
         let reader_stack = stack.clone();
@@ -354,6 +370,7 @@ fn pass(
                 lo[t.start..t.start + t.len].to_vec(),
                 hi[t.start..t.start + t.len].to_vec(),
             ));
+            t.cnt = Some([zeros(t.len), zeros(t.len)]);
         }
     }
     let mut per_frame = Vec::with_capacity(stack.frames);
@@ -400,7 +417,8 @@ fn pass(
         }
         for p in 0..2 {
             if pending[p] >= BLOCK {
-                tiles.par_iter_mut().for_each(|t| t.flush(p));
+                let block = pending[p] as f64;
+                tiles.par_iter_mut().for_each(|t| t.flush(p, block));
                 pending[p] = 0;
             }
         }
@@ -408,8 +426,8 @@ fn pass(
         Ok(())
     })?;
     tiles.par_iter_mut().for_each(|t| {
-        t.flush(0);
-        t.flush(1);
+        t.flush(0, pending[0] as f64);
+        t.flush(1, pending[1] as f64);
         if !raw_max.is_empty() {
             t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);
         }
