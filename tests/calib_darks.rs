@@ -154,10 +154,10 @@ fn cosmic_ray_frames(n: usize, shape: (usize, usize)) -> Vec<Vec<f64>> {
     let truth = draw_truth(&sp, &pdf);
     let mut frames: Vec<Vec<f64>> = (0..n).map(|k| frame(&sp, &truth, None, k)).collect();
     // Cosmic rays: large positive hits on a deterministic scatter of (frame, pixel) pairs.
-    for k in 0..n {
-        for i in 0..shape.0 * shape.1 {
+    for (k, f) in frames.iter_mut().enumerate() {
+        for (i, x) in f.iter_mut().enumerate() {
             if (k * 31 + i * 17) % 97 == 0 {
-                frames[k][i] += 5000.0 + i as f64;
+                *x += 5000.0 + i as f64;
             }
         }
     }

@@ -415,11 +415,11 @@ fn pass(
             let k = first + j;
             pending[k % 2] += 1;
         }
-        for p in 0..2 {
-            if pending[p] >= BLOCK {
-                let block = pending[p] as f64;
+        for (p, count) in pending.iter_mut().enumerate() {
+            if *count >= BLOCK {
+                let block = *count as f64;
                 tiles.par_iter_mut().for_each(|t| t.flush(p, block));
-                pending[p] = 0;
+                *count = 0;
             }
         }
         frames = first + batch.len();
