@@ -2,10 +2,13 @@
 
 pub mod args;
 mod charts;
+pub mod darks;
 pub mod effective;
 pub mod paper;
 pub mod progress;
+pub mod ptc;
 pub mod simulate;
+pub mod synth;
 
 use clap::{Parser, Subcommand};
 
@@ -32,6 +35,12 @@ pub enum Command {
     Effective(effective::EffectiveArgs),
     /// Regenerate every figure of Basden (2015) with data, captions and an index page.
     Paper(paper::PaperArgs),
+    /// Per-pixel offset and read-noise maps from a dark stack.
+    Darks(darks::DarksArgs),
+    /// Photon transfer: conversion gain (global and per pixel) from darks and flats.
+    Ptc(ptc::PtcArgs),
+    /// Write a synthetic sCMOS or EMCCD stack with a manifest of its truth.
+    Synth(synth::SynthArgs),
 }
 
 /// Parse the command line, run it, and return the process exit code.
@@ -50,6 +59,9 @@ pub fn main() -> i32 {
         Command::Simulate(a) => simulate::run_cli(a),
         Command::Effective(a) => effective::run_cli(a),
         Command::Paper(a) => paper::run_cli(a),
+        Command::Darks(a) => darks::run(a),
+        Command::Ptc(a) => ptc::run(a),
+        Command::Synth(a) => synth::run(a),
     };
     match result {
         Ok(()) => 0,
