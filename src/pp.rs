@@ -21,10 +21,12 @@
 //! the mean transfer curve `E[K | lambda] = sum_k P(X > t_k | lambda)` by interpolation on a
 //! tabulated `lambda` grid; the per-count inverse is precomputed, so correcting a pixel is a lookup.
 //!
-//! Cost: building a [`PpCounter`] for Rule A is O(thresholds x n_max + grid x Poisson window),
-//! about 0.1-0.5 ms for the default `lambda_max`; a readout whose reference `lambda` changes per
-//! frame should use [`PpCache`] (the sub-aperture mean photo-electrons per pixel takes few distinct
-//! values, total electrons / pixels, so the cache hits almost always).
+//! Cost (release build, `cargo run --release --example pp_cost`): a Rule A [`PpCounter`] takes
+//! 0.4 ms (lambda_ref 0.05) to 1 ms (lambda_ref 20) to build with the default `lambda_max`, mostly
+//! the exact per-electron transfer table; Rule B takes about 0.36 s, once per run. A readout whose
+//! reference light level changes per frame should use [`PpCache`]: the sub-aperture mean
+//! photo-electrons per pixel (total / pixels) takes few distinct values, so almost every frame
+//! is a cache hit (about 1 us).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -72,6 +74,8 @@ pub struct PpConfig {
 impl PpConfig {
     /// Default largest light level covered by the thresholds and the correction, photo-electrons per pixel.
     pub const DEFAULT_LAMBDA_MAX: f64 = 256.0;
+    /// Reference light levels below this (photo-electrons per pixel) are raised to it (Rule A).
+    pub const LAMBDA_MIN: f64 = 1e-6;
 
     /// A configuration with the rule's own 0|1 boundary and the default `lambda_max`; checks the values.
     pub fn new(rule: PpRule, gain: f64, read_noise_e: f64) -> Result<Self> {
@@ -120,22 +124,19 @@ impl PpConfig {
         Ok(())
     }
 
-    /// The thresholds for reference light level `lambda_ref` (photo-electrons per pixel; ignored by Rule B).
+    /// The thresholds for reference light level `lambda_ref` (photo-electrons per pixel, >= 0;
+    /// ignored by Rule B).
     pub fn thresholds(&self, lambda_ref: f64) -> Result<PpThresholds> {
         self.validate()?;
         let u_max = output_span_over_g(self.lambda_max);
         let mut t = match self.rule {
             PpRule::PoissonPrior => {
                 check_lambda(lambda_ref, "--pp-lambda")?;
-                if lambda_ref == 0.0 {
-                    return Err(Error::usage(
-                        "--pp-lambda",
-                        "Rule A needs a reference light level > 0",
-                    ));
-                }
-                let t0 =
-                    zero_one_threshold_e(lambda_ref, self.gain, self.read_noise_e)? / self.gain;
-                rule_a_thresholds(t0, lambda_ref, u_max)
+                // A dark frame (lambda 0) gets the thresholds of a very faint one: practically
+                // everything counts 0, which is the MAP answer.
+                let lambda = lambda_ref.max(Self::LAMBDA_MIN);
+                let t0 = zero_one_threshold_e(lambda, self.gain, self.read_noise_e)? / self.gain;
+                rule_a_thresholds(t0, lambda, u_max)
             }
             PpRule::EqualDensity => rule_b_thresholds(self.gain, self.read_noise_e, u_max)?,
         };
@@ -439,6 +440,18 @@ fn rule_b_thresholds(gain: f64, sigma: f64, u_max: f64) -> Result<Vec<f64>> {
 /// plus N(0, sigma^2) read noise, t in output electrons. Exact: the Gaussian integral of the
 /// regularised upper incomplete gamma reduces to partial Gaussian moments with a 3-term recurrence.
 pub fn survival_by_n(t_e: f64, gain: f64, read_noise_e: f64, n_max: usize) -> Vec<f64> {
+    survival_with(t_e, gain, read_noise_e, &reciprocals(n_max + 1))
+}
+
+/// 1 / n for n = 0..=n_max (entry 0 is unused): the recurrences multiply instead of dividing,
+/// which keeps divisions out of their dependency chains.
+fn reciprocals(n_max: usize) -> Vec<f64> {
+    (0..=n_max).map(|n| 1.0 / n.max(1) as f64).collect()
+}
+
+/// [`survival_by_n`] for n = 0..inv.len() - 1, with the reciprocal table `inv`.
+fn survival_with(t_e: f64, gain: f64, read_noise_e: f64, inv: &[f64]) -> Vec<f64> {
+    let n_max = inv.len() - 1;
     let mut out = Vec::with_capacity(n_max + 1);
     let sigma = read_noise_e;
     let (base, mut ln_scale, mut m_prev2, mut m_prev, b) = if sigma > 0.0 {
@@ -477,9 +490,8 @@ pub fn survival_by_n(t_e: f64, gain: f64, read_noise_e: f64, n_max: usize) -> Ve
     };
     out.push(value(cum, ln_scale, factor));
     for n in 2..=n_max {
-        let j = (n - 1) as f64;
         if n > 2 {
-            let m = (a * m_prev + b * m_prev2) / j;
+            let m = (a * m_prev + b * m_prev2) * inv[n - 1];
             m_prev2 = m_prev;
             m_prev = m;
         }
@@ -585,14 +597,11 @@ impl PhotometricCorrection {
             ));
         }
         let n_max = n_max_for(lambda_max);
+        let inv = reciprocals(n_max + 1);
         let mut count_given_n = vec![0.0; n_max + 1];
+        let (g, sigma) = (thresholds.gain, thresholds.read_noise_e);
         for &t in &thresholds.t_over_g {
-            let s = survival_by_n(
-                t * thresholds.gain,
-                thresholds.gain,
-                thresholds.read_noise_e,
-                n_max,
-            );
+            let s = survival_with(t * g, g, sigma, &inv[..=n_max]);
             for (c, s) in count_given_n.iter_mut().zip(s) {
                 *c += s;
             }
@@ -601,7 +610,10 @@ impl PhotometricCorrection {
         let lambda: Vec<f64> = (0..=j_max)
             .map(|j| lambda_max * (j as f64 / j_max as f64).powi(2))
             .collect();
-        let mut mean_count: Vec<f64> = lambda.iter().map(|&l| mean_of(&count_given_n, l)).collect();
+        let mut mean_count: Vec<f64> = lambda
+            .iter()
+            .map(|&l| mean_of(&count_given_n, l, &inv))
+            .collect();
         // Rounding can break monotonicity by ~1e-16 where the curve is flat; the inverse needs order.
         for j in 1..mean_count.len() {
             if mean_count[j] < mean_count[j - 1] {
@@ -622,7 +634,8 @@ impl PhotometricCorrection {
 
     /// E[K | lambda] computed exactly from the per-electron table (lambda in photo-electrons, <= lambda_max).
     pub fn expected_count(&self, lambda: f64) -> f64 {
-        mean_of(&self.count_given_n, lambda)
+        let inv = reciprocals(self.count_given_n.len());
+        mean_of(&self.count_given_n, lambda, &inv)
     }
 
     /// E[K | n] for n photo-electrons (n up to the table's end).
@@ -664,10 +677,23 @@ impl PhotometricCorrection {
 }
 
 /// Poisson(lambda) average of a per-electron quantity tabulated for n = 0..=n_max (the table reaches
-/// 12 sigma beyond lambda_max, so the truncated mass is negligible).
-fn mean_of(per_n: &[f64], lambda: f64) -> f64 {
-    let (lo, pmf) = poisson_window(lambda, per_n.len() - 1);
-    pmf.iter().zip(&per_n[lo..]).map(|(p, c)| p * c).sum()
+/// 12 sigma beyond lambda_max, so the truncated mass is negligible); `inv` holds 1 / n up to n_max + 1.
+fn mean_of(per_n: &[f64], lambda: f64, inv: &[f64]) -> f64 {
+    if lambda == 0.0 {
+        return per_n[0];
+    }
+    let n_max = per_n.len() - 1;
+    // 8 sigma plus 20 terms either side leaves out less than 1e-15 of the mass.
+    let spread = 8.0 * lambda.sqrt() + 20.0;
+    let lo = ((lambda - spread).floor().max(0.0) as usize).min(n_max);
+    let hi = ((lambda + spread).ceil() as usize).min(n_max);
+    let mut p = (-lambda + lo as f64 * lambda.ln() - ln_gamma(lo as f64 + 1.0)).exp();
+    let mut sum = 0.0;
+    for n in lo..=hi {
+        sum += p * per_n[n];
+        p *= lambda * inv[n + 1];
+    }
+    sum
 }
 
 /// A ready PP readout for one reference light level: thresholds and photometric correction.
@@ -957,8 +983,14 @@ mod tests {
         cfg.zero_one = ZeroOneRule::KSigma(5.0);
         let t = cfg.thresholds(1.0).unwrap();
         assert_eq!(t.t_over_g[0], 0.5);
-        assert!(cfg.thresholds(0.0).is_err());
+        assert!(cfg.thresholds(-1.0).is_err());
         assert!(cfg.thresholds(f64::NAN).is_err());
+        // A dark reference gives a counter that counts read noise as 0.
+        cfg.zero_one = ZeroOneRule::Equal;
+        let dark = cfg.counter(0.0).unwrap();
+        assert_eq!(dark.count(0.5), 0);
+        assert!(dark.thresholds.t_over_g[0] > 0.5);
+        cfg.zero_one = ZeroOneRule::KSigma(5.0);
         cfg.zero_one = ZeroOneRule::KSigma(50.0);
         assert!(cfg.thresholds(1.0).is_err());
         assert!(PpConfig::new(PpRule::PoissonPrior, -1.0, SIGMA).is_err());
