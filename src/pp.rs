@@ -199,7 +199,8 @@ fn rule_a_thresholds(t0_over_g: f64, lambda: f64, u_max: f64) -> Vec<f64> {
     let mut t = vec![t0_over_g];
     let mut n = 1;
     loop {
-        // The 0|1 root lies far below 2 / lambda for any lambda, but keep the set strictly increasing.
+        // With read noise comparable to the gain the 0|1 boundary can lie above some n(n+1)/lambda;
+        // those boundaries are moved just above it (their bins stay empty), keeping the order.
         let tn = rule_a_threshold_over_g(n, lambda).max(t[t.len() - 1] * (1.0 + 1e-12) + 1e-12);
         t.push(tn);
         if tn >= u_max {
@@ -216,12 +217,14 @@ fn norm_cdf(z: f64) -> f64 {
 
 /// ln of the standard normal cdf, accurate far into the lower tail.
 fn ln_norm_cdf(z: f64) -> f64 {
-    if z > -30.0 {
+    if z > -37.0 {
         norm_cdf(z).ln()
     } else {
-        // Asymptotic series of the Mills ratio.
-        let z2 = z * z;
-        -0.5 * z2 - (-z).ln() - 0.5 * LN_2PI + (1.0 - 1.0 / z2 + 3.0 / (z2 * z2)).ln()
+        // Asymptotic series of the Mills ratio; at |z| >= 37 the next term is below 1e-15.
+        let q = 1.0 / (z * z);
+        let series =
+            1.0 - q * (1.0 - 3.0 * q * (1.0 - 5.0 * q * (1.0 - 7.0 * q * (1.0 - 9.0 * q))));
+        -0.5 * z * z - (-z).ln() - 0.5 * LN_2PI + series.ln()
     }
 }
 
@@ -452,8 +455,11 @@ fn reciprocals(n_max: usize) -> Vec<f64> {
 /// [`survival_by_n`] for n = 0..inv.len() - 1, with the reciprocal table `inv`.
 fn survival_with(t_e: f64, gain: f64, read_noise_e: f64, inv: &[f64]) -> Vec<f64> {
     let n_max = inv.len() - 1;
-    let mut out = Vec::with_capacity(n_max + 1);
     let sigma = read_noise_e;
+    if sigma > 0.0 && (t_e - sigma * sigma / gain) < -0.5 * sigma {
+        return survival_low_threshold(t_e, gain, sigma, inv);
+    }
+    let mut out = Vec::with_capacity(n_max + 1);
     let (base, mut ln_scale, mut m_prev2, mut m_prev, b) = if sigma > 0.0 {
         let mu = t_e - sigma * sigma / gain;
         let m0 = norm_cdf(mu / sigma);
@@ -504,6 +510,51 @@ fn survival_with(t_e: f64, gain: f64, read_noise_e: f64, inv: &[f64]) -> Vec<f64
             factor = ln_scale.exp();
         }
         let v = value(cum, ln_scale, factor);
+        out.push(v);
+        if v >= 1.0 - 1e-16 {
+            out.resize(n_max + 1, 1.0);
+            break;
+        }
+    }
+    out
+}
+
+/// [`survival_with`] where mu = t - sigma^2 / g < -sigma / 2 (thresholds below about 0, or read
+/// noise much larger than the gain). There the forward recurrence of the partial moments M_j
+/// cancels catastrophically (M_j is its minimal solution; at mu = -5 sigma it is wrong by 1e5
+/// within 40 terms), so the ratios r_j = M_j / M_(j-1) come from the backward recurrence
+/// r_j = j sigma^2 / (r_(j+1) - mu), started at the mode of s^J N(s; mu, sigma) far enough out
+/// that the start error has decayed (it shrinks like exp(-2 |mu| / sigma (sqrt J - sqrt j))),
+/// and the (all positive) terms are summed in log space. Between -sigma / 2 and 0 the forward
+/// recurrence loses at most ~1e-7 relative over 500 terms and is used instead.
+fn survival_low_threshold(t_e: f64, gain: f64, sigma: f64, inv: &[f64]) -> Vec<f64> {
+    let n_max = inv.len() - 1;
+    let s2 = sigma * sigma;
+    let mu = t_e - s2 / gain;
+    let base = norm_cdf(-t_e / sigma);
+    let mut out = Vec::with_capacity(n_max + 1);
+    out.push(base);
+    let m = (-mu / sigma).max(0.5);
+    let j_start = ((n_max as f64).sqrt() + 12.0 / m).powi(2).ceil() as usize + 10;
+    let mut r = 0.5 * (mu + (mu * mu + 4.0 * j_start as f64 * s2).sqrt());
+    let mut ratios = vec![0.0; n_max.max(1)];
+    for j in (1..j_start).rev() {
+        r = j as f64 * s2 / (r - mu);
+        if j < ratios.len() {
+            ratios[j] = r;
+        }
+    }
+    // ln of the j-th term e^(-t/g + s^2 / 2g^2) M_j / (g^j j!), starting at j = 0.
+    let mut ln_term = -t_e / gain + s2 / (2.0 * gain * gain) + ln_norm_cdf(mu / sigma);
+    let ln_g = gain.ln();
+    let mut cum = 0.0;
+    for n in 1..=n_max {
+        let j = n - 1;
+        if j >= 1 {
+            ln_term += (ratios[j] * inv[j]).ln() - ln_g;
+        }
+        cum += ln_term.exp();
+        let v = (base + cum).clamp(0.0, 1.0);
         out.push(v);
         if v >= 1.0 - 1e-16 {
             out.resize(n_max + 1, 1.0);
@@ -844,6 +895,45 @@ mod tests {
     }
 
     #[test]
+    fn ln_norm_cdf_is_accurate_in_the_far_tail() {
+        // Both branches agree where both are representable (the switch is at -37).
+        for z in [-36.0, -37.5, -38.0] {
+            let direct = norm_cdf(z).ln();
+            assert!(
+                (ln_norm_cdf(z) - direct).abs() < 1e-9 * direct.abs(),
+                "z = {z}"
+            );
+        }
+        assert!(ln_norm_cdf(-100.0).is_finite());
+    }
+
+    #[test]
+    fn low_gain_thresholds_stay_ordered_and_invertible() {
+        // Read noise 50 e- at gain 10: at lambda 0.3 the 0|1 boundary (about 20.2 g) lies above
+        // the 1|2 and 2|3 boundaries (6.7 g, 20 g). The set must stay increasing, and the
+        // correction must still invert the transfer curve (and the survival stays accurate
+        // where mu = t - sigma^2 / g is far below 0 for every threshold).
+        let cfg = PpConfig::new(PpRule::PoissonPrior, 10.0, SIGMA).unwrap();
+        for lambda in [0.3, 3.0, 30.0] {
+            let c = cfg.counter(lambda).unwrap();
+            let t = &c.thresholds.t_over_g;
+            assert!(t.windows(2).all(|w| w[0] < w[1]));
+            if lambda == 0.3 {
+                assert!(
+                    t[0] > 20.0 && t[1] > t[0] && t[2] > t[1] && t[3] == 40.0,
+                    "{:?}",
+                    &t[..4]
+                );
+            }
+            let back = c.correction.invert(c.correction.expected_count(lambda));
+            assert!(
+                (back - lambda).abs() < 5e-3 * lambda,
+                "lambda {lambda} -> {back}"
+            );
+        }
+    }
+
+    #[test]
     fn survival_without_read_noise_is_gamma_ur() {
         use statrs::function::gamma::gamma_ur;
         for t in [0.05, 0.7, 3.0, 40.0] {
@@ -867,12 +957,28 @@ mod tests {
     fn survival_with_read_noise_matches_numerical_integral() {
         // P(Y_n + e > t) = Phi(-t/s) + int_{-12 s}^{t} Q(n, (t-e)/g) phi_s(e) de, the integral by
         // Simpson's rule on 20,000 intervals (the integrand is smooth there; error < 1e-10).
+        // Cases cover both evaluation paths (mu = t - s^2/g below and above 0) and read noise far
+        // above the gain (g = 10 and 1.5 e-), where the Gamma scale is resolved by 400,000 steps.
         use statrs::function::gamma::gamma_ur;
-        for t in [-40.0, 30.0, 89.6, 500.0, 3000.0] {
-            let s = survival_by_n(t, G, SIGMA, 8);
+        let cases = [
+            (G, -300.0),
+            (G, -40.0),
+            (G, 3.0),
+            (G, 30.0),
+            (G, 89.6),
+            (G, 500.0),
+            (G, 3000.0),
+            (10.0, -100.0),
+            (10.0, 60.0),
+            (10.0, 400.0),
+            (1.5, 20.0),
+            (1.5, 2500.0),
+        ];
+        for (g, t) in cases {
+            let s = survival_by_n(t, g, SIGMA, 8);
             assert!((s[0] - norm_cdf(-t / SIGMA)).abs() < 1e-15);
             for (n, &got) in s.iter().enumerate().skip(1) {
-                let steps = 20_000;
+                let steps = if g < 100.0 { 400_000 } else { 20_000 };
                 let (lo, hi) = (-12.0 * SIGMA, t.min(12.0 * SIGMA));
                 let h = (hi - lo) / steps as f64;
                 let mut sum = 0.0;
@@ -885,12 +991,15 @@ mod tests {
                     } else {
                         2.0
                     };
-                    let u = ((t - e) / G).max(0.0);
+                    let u = ((t - e) / g).max(0.0);
                     let q = if u == 0.0 { 1.0 } else { gamma_ur(n as f64, u) };
                     sum += w * q * ln_gauss(e, SIGMA).exp();
                 }
                 let want = norm_cdf(-t / SIGMA) + sum * h / 3.0;
-                assert!((got - want).abs() < 1e-9, "t {t} n {n}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-9,
+                    "g {g} t {t} n {n}: {got} vs {want}"
+                );
             }
         }
     }
