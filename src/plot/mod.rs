@@ -98,6 +98,12 @@ fn save_chart<C: Chart>(chart: &C, path: &Path) -> Result<()> {
     let format = Format::from_path(path)?;
     ensure_fonts()?;
     let (w, h) = chart.size();
+    if !(64..=20_000).contains(&w) || !(64..=20_000).contains(&h) {
+        return Err(Error::usage(
+            "chart size",
+            format!("{w}x{h} px is outside 64..20000 px per side"),
+        ));
+    }
     let bytes = match format {
         Format::Svg => {
             let mut s = String::new();

@@ -116,6 +116,18 @@ fn unknown_extension_is_usage_error_and_leaves_no_file() {
 }
 
 #[test]
+fn absurd_canvas_size_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = r_vs_signal();
+    c.size = (0, 600);
+    assert!(matches!(
+        c.save(dir.path().join("a.png")),
+        Err(Error::Usage { .. })
+    ));
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
 fn no_data_is_an_error_and_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("empty.png");
