@@ -408,3 +408,44 @@ fn text_width_measures_the_embedded_font() {
     assert!(regular > 150 && regular < 300, "{regular}");
     assert!(bold > regular);
 }
+
+#[test]
+fn pdf_only_with_log_inset() {
+    // The paper's Fig. 1: a model pdf (no samples) with a log-scale inset of its tail.
+    let pdf = |x: f64| {
+        ((10.0 * x - 6.5).tanh() + 1.0)
+            * (1.0 / (x.powi(10) + 0.1)
+                + 1.0 / (2.0 * (x.powi(4) + 0.1))
+                + 1.0 / (2.0 * (x * x + 0.1)))
+    };
+    let xs: Vec<f64> = (0..=1000).map(|i| i as f64 * 0.01).collect();
+    let norm: f64 = xs
+        .windows(2)
+        .map(|w| 0.5 * (pdf(w[0]) + pdf(w[1])) * (w[1] - w[0]))
+        .sum();
+    let mut h = Histogram::new(
+        "sCMOS read-noise pdf (Basden 2015, Eq. 3)",
+        "rms (e⁻)",
+        "pdf (1/e⁻)",
+        vec![],
+    );
+    h.range = Some((0.0, 3.0));
+    h.curves.push(Series::new(
+        "paper pdf",
+        xs.iter().map(|&x| (x, pdf(x) / norm)),
+    ));
+    h.inset = Some(Inset {
+        title: "log scale, 0-10 e⁻".into(),
+        x_range: Some((0.0, 10.0)),
+    });
+    both(
+        "pdf_inset",
+        h.size,
+        &["paper pdf", "log scale, 0-10 e⁻"],
+        |p| h.save(p),
+    );
+    // Neither samples nor curves: nothing to draw.
+    let empty = Histogram::new("t", "x", "y", vec![f64::NAN]);
+    let dir = tempfile::tempdir().unwrap();
+    assert!(empty.save(dir.path().join("e.png")).is_err());
+}
