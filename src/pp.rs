@@ -21,6 +21,21 @@
 //! the mean transfer curve `E[K | lambda] = sum_k P(X > t_k | lambda)` by interpolation on a
 //! tabulated `lambda` grid; the per-count inverse is precomputed, so correcting a pixel is a lookup.
 //!
+//! Use in a readout (the register output plus read noise, divided by g, is `x_over_g`):
+//!
+//! ```
+//! use detnoise::pp::{PpCache, PpConfig, PpRule};
+//! let cache = PpCache::new(PpConfig::new(PpRule::PoissonPrior, 500.0, 50.0)?, 1024)?;
+//! // Once per frame: the sub-aperture's photo-electrons per pixel.
+//! let counter = cache.get(50.0 / 64.0)?;
+//! let x_over_g = 1.3;
+//! let photons = counter.count(x_over_g); // `emccd-pp-uncorrected`
+//! let lambda_hat = counter.corrected(x_over_g); // `emccd-pp`
+//! assert_eq!(photons, 1);
+//! assert!(lambda_hat > 0.0);
+//! # Ok::<(), detnoise::Error>(())
+//! ```
+//!
 //! Cost (release build, `cargo run --release --example pp_cost`): a Rule A [`PpCounter`] takes
 //! 0.4 ms (lambda_ref 0.05) to 1 ms (lambda_ref 20) to build with the default `lambda_max`, mostly
 //! the exact per-electron transfer table; Rule B takes about 0.36 s, once per run. A readout whose
