@@ -6,6 +6,7 @@
 
 pub mod detector;
 pub mod error;
+pub mod fit;
 pub mod pdf;
 pub mod rng;
 pub mod stats;
