@@ -4,11 +4,16 @@
 //! -> Monte-Carlo (`spot`, `detector`, `centroid`, `montecarlo`) -> tables and charts
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
+pub mod calib;
+pub mod cli;
 pub mod detector;
 pub mod error;
 pub mod fit;
+pub mod io;
+pub mod maps;
 pub mod pdf;
 pub mod rng;
 pub mod stats;
+pub mod synth;
 
 pub use error::{Error, Result};

@@ -1,0 +1,125 @@
+//! Shared pieces of calibration summaries: distribution figures and input provenance.
+
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+use sha2::{Digest, Sha256};
+
+use super::darks::percentile;
+use crate::error::{Error, Result};
+use crate::io::FrameStack;
+
+/// Distribution figures of a map's finite values (in the map's unit).
+#[derive(Clone, Debug, Serialize)]
+pub struct Distribution {
+    /// Number of finite values.
+    pub count: usize,
+    /// Mean.
+    pub mean: f64,
+    /// Median.
+    pub median: f64,
+    /// Root mean square sqrt(mean(x^2)).
+    pub rms: f64,
+    /// Percentiles 1, 5, 25, 75, 95, 99, 99.9.
+    pub p01: f64,
+    #[allow(missing_docs)]
+    pub p05: f64,
+    #[allow(missing_docs)]
+    pub p25: f64,
+    #[allow(missing_docs)]
+    pub p75: f64,
+    #[allow(missing_docs)]
+    pub p95: f64,
+    #[allow(missing_docs)]
+    pub p99: f64,
+    #[allow(missing_docs)]
+    pub p999: f64,
+    /// Fraction of values above 3 x the median.
+    pub frac_above_3x_median: f64,
+}
+
+impl Distribution {
+    /// Figures of `values` (non-finite values are skipped).
+    pub fn of(values: &[f64]) -> Distribution {
+        let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        let n = v.len().max(1) as f64;
+        let median = percentile(&v, 50.0);
+        Distribution {
+            count: v.len(),
+            mean: v.iter().sum::<f64>() / n,
+            median,
+            rms: (v.iter().map(|x| x * x).sum::<f64>() / n).sqrt(),
+            p01: percentile(&v, 1.0),
+            p05: percentile(&v, 5.0),
+            p25: percentile(&v, 25.0),
+            p75: percentile(&v, 75.0),
+            p95: percentile(&v, 95.0),
+            p99: percentile(&v, 99.0),
+            p999: percentile(&v, 99.9),
+            frac_above_3x_median: v.iter().filter(|x| **x > 3.0 * median).count() as f64 / n,
+        }
+    }
+}
+
+/// One input file with its checksum.
+#[derive(Clone, Debug, Serialize)]
+pub struct InputFile {
+    /// Path as given.
+    pub path: PathBuf,
+    /// SHA-256 of the file's bytes (hex).
+    pub sha256: String,
+    /// Frames read from it.
+    pub frames: usize,
+    /// Format.
+    pub format: crate::io::Format,
+    /// Stored sample type.
+    pub sample_type: crate::io::SampleType,
+}
+
+/// SHA-256 of a file (hex).
+pub fn sha256_file(path: &Path) -> Result<String> {
+    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut h = Sha256::new();
+    let mut buf = vec![0u8; 1 << 20];
+    loop {
+        let n = f.read(&mut buf).map_err(|e| Error::io(path, e))?;
+        if n == 0 {
+            break;
+        }
+        h.update(&buf[..n]);
+    }
+    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
+}
+
+/// Checksums of every file of a stack.
+pub fn inputs(stack: &FrameStack) -> Result<Vec<InputFile>> {
+    stack
+        .sources
+        .iter()
+        .map(|s| {
+            Ok(InputFile {
+                path: s.path.clone(),
+                sha256: sha256_file(&s.path)?,
+                frames: s.frames,
+                format: s.format,
+                sample_type: s.sample_type,
+            })
+        })
+        .collect()
+}
+
+/// Run `work` while the stack's files are hashed on another thread; returns both results.
+pub fn with_inputs_hashed<T>(
+    stack: &FrameStack,
+    work: impl FnOnce() -> Result<T>,
+) -> Result<(T, Vec<InputFile>)> {
+    std::thread::scope(|s| {
+        let h = s.spawn(|| inputs(stack));
+        let r = work();
+        let hashes = h
+            .join()
+            .map_err(|_| Error::Numeric("hashing thread panicked".into()))?;
+        Ok((r?, hashes?))
+    })
+}

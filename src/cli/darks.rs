@@ -1,0 +1,320 @@
+//! `detnoise darks`: per-pixel offset and read-noise maps from a dark stack.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::calib::chart::histogram_png;
+use crate::calib::darks::{
+    dark_maps, Clip, DarkMaps, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS,
+    FLAG_SATURATED,
+};
+use crate::calib::summary::{with_inputs_hashed, Distribution, InputFile};
+use crate::error::{Error, Result};
+use crate::io::FrameStack;
+use crate::maps::{
+    key, write_bytes_atomic, write_fits_flags, write_fits_map, write_json, KeyValue, Keyword, Map,
+};
+
+/// Options of `detnoise darks`.
+#[derive(clap::Args, Debug)]
+pub struct DarksArgs {
+    /// Dark frames: FITS/TIFF/EXR files, directories or glob patterns (in stack order).
+    #[arg(required = true)]
+    pub stack: Vec<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Conversion gain (e per adu); when given, rms_e.fits is written too. Default: none.
+    #[arg(long)]
+    pub gain_e_per_adu: Option<f64>,
+    /// Reject the N highest and N lowest samples of each pixel (cosmic rays). Default: 0.
+    #[arg(long, conflicts_with = "sigma_clip")]
+    pub clip: Option<usize>,
+    /// Reject samples more than K standard deviations from the pixel mean (two passes). Default: off.
+    #[arg(long)]
+    pub sigma_clip: Option<f64>,
+    /// Subtract each frame's median (common-mode offset, adu) before accumulating. Default: off.
+    #[arg(long)]
+    pub common_mode: bool,
+    /// Hot-pixel threshold: offset above median + K robust sigmas of the offset map. Default: 5.
+    #[arg(long, default_value_t = 5.0)]
+    pub hot_sigma: f64,
+    /// Dead-pixel threshold: read noise below this fraction of the median read noise. Default: 0.1.
+    #[arg(long, default_value_t = 0.1)]
+    pub dead_fraction: f64,
+    /// RTS threshold: von Neumann ratio below 1 - K/sqrt(frames) (K standard errors). Default: 5.
+    #[arg(long, default_value_t = 5.0)]
+    pub rts_sigma: f64,
+}
+
+/// Flag counts per kind.
+#[derive(Debug, Serialize)]
+pub struct FlagCounts {
+    /// Hot pixels (high offset).
+    pub hot: usize,
+    /// Dead pixels (read noise near 0).
+    pub dead: usize,
+    /// Random-telegraph / multi-level pixels (correlated successive samples).
+    pub rts: usize,
+    /// Pixels that reached the stored type's largest value.
+    pub saturated: usize,
+    /// Pixels with fewer than 2 samples after clipping.
+    pub no_data: usize,
+    /// Pixels with any flag.
+    pub any: usize,
+    /// Bit values in flags.fits.
+    pub bits: std::collections::BTreeMap<&'static str, i32>,
+}
+
+/// Contents of summary.json.
+#[derive(Debug, Serialize)]
+pub struct DarkSummary {
+    /// Tool and version.
+    pub tool: String,
+    /// Subcommand.
+    pub command: &'static str,
+    /// Options used.
+    pub options: DarkOptions,
+    /// Conversion gain used (e per adu), if any.
+    pub gain_e_per_adu: Option<f64>,
+    /// Input files with SHA-256.
+    pub inputs: Vec<InputFile>,
+    /// Frames read.
+    pub frames: usize,
+    /// Frame shape [rows, cols].
+    pub shape: [usize; 2],
+    /// Read noise distribution over pixels (adu).
+    pub rms_adu: Distribution,
+    /// Read noise distribution over pixels (e-), if a gain is known.
+    pub rms_e: Option<Distribution>,
+    /// Read noise distribution over unflagged pixels (adu).
+    pub rms_adu_unflagged: Distribution,
+    /// Offset distribution over pixels (adu).
+    pub offset_adu: Distribution,
+    /// Flag counts.
+    pub flags: FlagCounts,
+    /// Correlation of the even-frame and odd-frame noise maps (repeatability).
+    pub split_half_correlation: f64,
+    /// Standard deviation of the removed per-frame common-mode offsets (adu), if removed.
+    pub common_mode_std_adu: Option<f64>,
+    /// Files written.
+    pub outputs: Vec<String>,
+}
+
+fn count(flags: &[i32], bit: i32) -> usize {
+    flags.iter().filter(|f| **f & bit != 0).count()
+}
+
+fn options(args: &DarksArgs) -> Result<DarkOptions> {
+    let clip = match (args.clip, args.sigma_clip) {
+        (Some(n), None) if n > 0 => Clip::Extremes(n),
+        (_, Some(k)) if k > 0.0 && k.is_finite() => Clip::Sigma(k),
+        (_, Some(_)) => return Err(Error::usage("--sigma-clip", "must be finite and > 0")),
+        _ => Clip::None,
+    };
+    if let Some(g) = args.gain_e_per_adu {
+        if !(g > 0.0 && g.is_finite()) {
+            return Err(Error::usage("--gain-e-per-adu", "must be finite and > 0"));
+        }
+    }
+    Ok(DarkOptions {
+        clip,
+        common_mode: args.common_mode,
+        hot_sigma: args.hot_sigma,
+        dead_fraction: args.dead_fraction,
+        rts_sigma: args.rts_sigma,
+    })
+}
+
+/// Provenance keywords of the dark maps.
+fn keywords(maps: &DarkMaps, stack: &FrameStack, opts: &DarkOptions) -> Vec<Keyword> {
+    let mut k = vec![
+        key(
+            "NFRAMES",
+            KeyValue::I64(maps.stats.frames as i64),
+            "frames in the dark stack",
+        ),
+        key(
+            "DNCLIP",
+            KeyValue::Str(format!("{:?}", opts.clip)),
+            "per-pixel sample rejection",
+        ),
+        key(
+            "DNCMODE",
+            KeyValue::Str(opts.common_mode.to_string()),
+            "per-frame common-mode offset removed",
+        ),
+        key(
+            "NINPUTS",
+            KeyValue::I64(stack.sources.len() as i64),
+            "input files (see summary.json)",
+        ),
+    ];
+    for (i, s) in stack.sources.iter().take(99).enumerate() {
+        let name = s
+            .path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        k.push(key(
+            &format!("INPUT{}", i + 1),
+            KeyValue::Str(name),
+            "input file",
+        ));
+    }
+    k
+}
+
+/// Write the outputs of a dark calibration to `out` (all computed before the first write).
+pub fn write_outputs(
+    out: &Path,
+    stack: &FrameStack,
+    maps: &DarkMaps,
+    opts: &DarkOptions,
+    gain: Option<f64>,
+    inputs: Vec<InputFile>,
+) -> Result<DarkSummary> {
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let rms_e = gain.map(|g| {
+        Map::new(
+            maps.rms_adu.rows,
+            maps.rms_adu.cols,
+            maps.rms_adu.data.iter().map(|r| r * g).collect(),
+        )
+    });
+    let (hist_values, hist_unit) = match &rms_e {
+        Some(m) => (&m.data, "read noise (e-)"),
+        None => (&maps.rms_adu.data, "read noise (adu)"),
+    };
+    let png = histogram_png(
+        hist_values,
+        hist_unit,
+        &format!("per-pixel read noise, {} frames", maps.stats.frames),
+    )?;
+    let unflagged: Vec<f64> = maps
+        .rms_adu
+        .data
+        .iter()
+        .zip(&maps.flags)
+        .filter(|(_, f)| **f == 0)
+        .map(|(r, _)| *r)
+        .collect();
+    let flags = FlagCounts {
+        hot: count(&maps.flags, FLAG_HOT),
+        dead: count(&maps.flags, FLAG_DEAD),
+        rts: count(&maps.flags, FLAG_RTS),
+        saturated: count(&maps.flags, FLAG_SATURATED),
+        no_data: count(&maps.flags, FLAG_NO_DATA),
+        any: maps.flags.iter().filter(|f| **f != 0).count(),
+        bits: [
+            ("hot", FLAG_HOT),
+            ("dead", FLAG_DEAD),
+            ("rts", FLAG_RTS),
+            ("saturated", FLAG_SATURATED),
+            ("no_data", FLAG_NO_DATA),
+        ]
+        .into_iter()
+        .collect(),
+    };
+    let cm = &maps.common_mode_adu;
+    let common_mode_std_adu = (!cm.is_empty()).then(|| {
+        let m = cm.iter().sum::<f64>() / cm.len() as f64;
+        (cm.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (cm.len().max(2) - 1) as f64).sqrt()
+    });
+    let mut outputs = vec![
+        "offset_adu.fits",
+        "rms_adu.fits",
+        "flags.fits",
+        "rms_hist.png",
+        "summary.json",
+    ];
+    if rms_e.is_some() {
+        outputs.insert(2, "rms_e.fits");
+    }
+    let summary = DarkSummary {
+        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
+        command: "darks",
+        options: opts.clone(),
+        gain_e_per_adu: gain,
+        inputs,
+        frames: maps.stats.frames,
+        shape: [stack.shape.0, stack.shape.1],
+        rms_adu: Distribution::of(&maps.rms_adu.data),
+        rms_e: rms_e.as_ref().map(|m| Distribution::of(&m.data)),
+        rms_adu_unflagged: Distribution::of(&unflagged),
+        offset_adu: Distribution::of(&maps.offset_adu.data),
+        flags,
+        split_half_correlation: maps.split_half_correlation,
+        common_mode_std_adu,
+        outputs: outputs.iter().map(|s| s.to_string()).collect(),
+    };
+    let keys = keywords(maps, stack, opts);
+    write_fits_map(&out.join("offset_adu.fits"), &maps.offset_adu, "adu", &keys)?;
+    write_fits_map(&out.join("rms_adu.fits"), &maps.rms_adu, "adu", &keys)?;
+    if let (Some(m), Some(g)) = (&rms_e, gain) {
+        let mut k = keys.clone();
+        k.push(key(
+            "GAIN",
+            KeyValue::F64(g),
+            "conversion gain used (e/adu)",
+        ));
+        write_fits_map(&out.join("rms_e.fits"), m, "electron", &k)?;
+    }
+    let mut fk = keys.clone();
+    fk.push(key(
+        "FLAGHOT",
+        KeyValue::I64(FLAG_HOT as i64),
+        "bit: hot pixel",
+    ));
+    fk.push(key(
+        "FLAGDEAD",
+        KeyValue::I64(FLAG_DEAD as i64),
+        "bit: dead pixel",
+    ));
+    fk.push(key(
+        "FLAGRTS",
+        KeyValue::I64(FLAG_RTS as i64),
+        "bit: random-telegraph pixel",
+    ));
+    fk.push(key(
+        "FLAGSAT",
+        KeyValue::I64(FLAG_SATURATED as i64),
+        "bit: saturated pixel",
+    ));
+    fk.push(key(
+        "FLAGNONE",
+        KeyValue::I64(FLAG_NO_DATA as i64),
+        "bit: too few samples",
+    ));
+    write_fits_flags(
+        &out.join("flags.fits"),
+        stack.shape.0,
+        stack.shape.1,
+        &maps.flags,
+        &fk,
+    )?;
+    write_bytes_atomic(&out.join("rms_hist.png"), &png)?;
+    write_json(&out.join("summary.json"), &summary)?;
+    Ok(summary)
+}
+
+/// Run `detnoise darks`.
+pub fn run(args: &DarksArgs) -> Result<()> {
+    let opts = options(args)?;
+    let stack = FrameStack::open(&args.stack)?;
+    let (maps, inputs) = with_inputs_hashed(&stack, || dark_maps(&stack, &opts))?;
+    let s = write_outputs(&args.out, &stack, &maps, &opts, args.gain_e_per_adu, inputs)?;
+    eprintln!(
+        "{} frames of {}x{}: median read noise {:.4} adu{}, split-half correlation {:.4}, {} flagged pixels; wrote {}",
+        s.frames,
+        s.shape[0],
+        s.shape[1],
+        s.rms_adu.median,
+        s.rms_e.as_ref().map(|d| format!(" ({:.4} e-)", d.median)).unwrap_or_default(),
+        s.split_half_correlation,
+        s.flags.any,
+        args.out.display()
+    );
+    Ok(())
+}

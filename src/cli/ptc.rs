@@ -1,0 +1,223 @@
+//! `detnoise ptc`: photon transfer (conversion gain, global and per pixel) from darks and flats.
+
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+use crate::calib::chart::ptc_png;
+use crate::calib::darks::{pixel_stats, Clip};
+use crate::calib::ptc::{photon_transfer, DarkReference, Level, PtcOptions};
+use crate::calib::summary::{inputs, Distribution, InputFile};
+use crate::error::{Error, Result};
+use crate::io::FrameStack;
+use crate::maps::{key, read_map, write_bytes_atomic, write_fits_map, write_json, KeyValue};
+
+/// Options of `detnoise ptc`.
+#[derive(clap::Args, Debug)]
+pub struct PtcArgs {
+    /// Dark stack (file, directory or glob). Alternative: --dark-offset with --dark-rms.
+    #[arg(long, required_unless_present = "dark_offset")]
+    pub darks: Option<PathBuf>,
+    /// Dark offset map (adu; FITS/TIFF/EXR), used instead of --darks.
+    #[arg(long, requires = "dark_rms", conflicts_with = "darks")]
+    pub dark_offset: Option<PathBuf>,
+    /// Dark read-noise map (adu; FITS/TIFF/EXR), used with --dark-offset.
+    #[arg(long, requires = "dark_offset")]
+    pub dark_rms: Option<PathBuf>,
+    /// Flat stacks, one per light level (each a file, directory or glob).
+    #[arg(long, required = true, num_args = 1..)]
+    pub flats: Vec<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Keep lamp flicker in the variances (default: remove it by normalising each frame's mean).
+    #[arg(long)]
+    pub no_flicker_removal: bool,
+    /// Saturation level (adu). Default: largest value of the stored integer type.
+    #[arg(long)]
+    pub saturation_adu: Option<f64>,
+    /// EM gain of the frames (EMCCD; output e- per input e-). Default: 1.
+    #[arg(long, default_value_t = 1.0)]
+    pub em_gain: f64,
+    /// Excess noise factor F^2 (EMCCD; near 2 at high EM gain). Default: 1.
+    #[arg(long, default_value_t = 1.0)]
+    pub excess_noise_factor_sq: f64,
+}
+
+/// Contents of ptc.json.
+#[derive(Debug, Serialize)]
+pub struct PtcSummary {
+    /// Tool and version.
+    pub tool: String,
+    /// Subcommand.
+    pub command: &'static str,
+    /// Options used.
+    pub options: PtcOptions,
+    /// Global conversion gain (e per adu).
+    pub gain_e_per_adu: f64,
+    /// Its standard error (e per adu).
+    pub gain_err_e_per_adu: f64,
+    /// Fitted intercept of dark-subtracted variance vs mean (adu^2).
+    pub intercept_adu2: f64,
+    /// Reduced chi-square of the global fit.
+    pub reduced_chi2: f64,
+    /// Median read noise (e-) = median dark rms (adu) x global gain.
+    pub read_noise_e_median: f64,
+    /// Per-pixel gain distribution (e per adu).
+    pub gain_map: Distribution,
+    /// Per-pixel read noise distribution (e-).
+    pub read_noise_e_map: Distribution,
+    /// Light levels.
+    pub levels: Vec<Level>,
+    /// Dark inputs with SHA-256.
+    pub dark_inputs: Vec<InputFile>,
+    /// Flat inputs with SHA-256, per level.
+    pub flat_inputs: Vec<Vec<InputFile>>,
+    /// Files written.
+    pub outputs: Vec<String>,
+}
+
+fn map_input(path: &PathBuf) -> Result<InputFile> {
+    let stack = FrameStack::open(std::slice::from_ref(path))?;
+    Ok(inputs(&stack)?.remove(0))
+}
+
+/// Run `detnoise ptc`.
+pub fn run(args: &PtcArgs) -> Result<()> {
+    for (name, v) in [
+        ("--em-gain", args.em_gain),
+        ("--excess-noise-factor-sq", args.excess_noise_factor_sq),
+    ] {
+        if !(v > 0.0 && v.is_finite()) {
+            return Err(Error::usage(name, "must be finite and > 0"));
+        }
+    }
+    let opts = PtcOptions {
+        flicker: !args.no_flicker_removal,
+        saturation_adu: args.saturation_adu,
+        em_gain: args.em_gain,
+        excess_noise_factor_sq: args.excess_noise_factor_sq,
+    };
+    let (dark, dark_inputs) = match (&args.darks, &args.dark_offset, &args.dark_rms) {
+        (Some(d), _, _) => {
+            let stack = FrameStack::open(std::slice::from_ref(d))?;
+            let stats = pixel_stats(&stack, Clip::None, None)?;
+            (DarkReference::from_stats(&stats), inputs(&stack)?)
+        }
+        (None, Some(o), Some(r)) => {
+            let (off, rms) = (read_map(o)?, read_map(r)?);
+            if (off.rows, off.cols) != (rms.rows, rms.cols) {
+                return Err(Error::input(
+                    r,
+                    format!(
+                        "frame 0: shape {}x{} differs from the offset map's {}x{}",
+                        rms.rows, rms.cols, off.rows, off.cols
+                    ),
+                ));
+            }
+            (
+                DarkReference::from_maps(off, &rms),
+                vec![map_input(o)?, map_input(r)?],
+            )
+        }
+        _ => {
+            return Err(Error::usage(
+                "--darks",
+                "give --darks or both --dark-offset and --dark-rms",
+            ))
+        }
+    };
+    let flats: Vec<FrameStack> = args
+        .flats
+        .iter()
+        .map(|f| FrameStack::open(std::slice::from_ref(f)))
+        .collect::<Result<_>>()?;
+    let r = photon_transfer(&flats, &dark, &opts)?;
+    let points: Vec<(f64, f64)> = r.levels.iter().map(|l| (l.mean_adu, l.var_adu2)).collect();
+    let png = ptc_png(
+        &points,
+        r.gain_e_per_adu / opts.em_gain / opts.excess_noise_factor_sq,
+        r.intercept_adu2,
+        &format!(
+            "photon transfer: {:.4} +/- {:.4} e/adu",
+            r.gain_e_per_adu, r.gain_err_e_per_adu
+        ),
+    )?;
+    let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
+    let outputs = [
+        "gain_e_per_adu.fits",
+        "gain_err_e_per_adu.fits",
+        "read_noise_e.fits",
+        "ptc.png",
+        "ptc.json",
+    ];
+    let summary = PtcSummary {
+        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
+        command: "ptc",
+        options: opts.clone(),
+        gain_e_per_adu: r.gain_e_per_adu,
+        gain_err_e_per_adu: r.gain_err_e_per_adu,
+        intercept_adu2: r.intercept_adu2,
+        reduced_chi2: r.reduced_chi2,
+        read_noise_e_median: r.read_noise_e_median,
+        gain_map: Distribution::of(&r.gain_map.data),
+        read_noise_e_map: Distribution::of(&r.read_noise_e_map.data),
+        levels: r.levels.clone(),
+        dark_inputs,
+        flat_inputs,
+        outputs: outputs.iter().map(|s| s.to_string()).collect(),
+    };
+    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
+    let keys = vec![
+        key(
+            "NLEVELS",
+            KeyValue::I64(r.levels.len() as i64),
+            "flat light levels",
+        ),
+        key(
+            "GAIN",
+            KeyValue::F64(r.gain_e_per_adu),
+            "global conversion gain (e/adu)",
+        ),
+        key(
+            "GAINERR",
+            KeyValue::F64(r.gain_err_e_per_adu),
+            "standard error of GAIN (e/adu)",
+        ),
+        key(
+            "DNFLICK",
+            KeyValue::Str(opts.flicker.to_string()),
+            "lamp flicker removed",
+        ),
+    ];
+    write_fits_map(
+        &args.out.join("gain_e_per_adu.fits"),
+        &r.gain_map,
+        "electron/adu",
+        &keys,
+    )?;
+    write_fits_map(
+        &args.out.join("gain_err_e_per_adu.fits"),
+        &r.gain_err_map,
+        "electron/adu",
+        &keys,
+    )?;
+    write_fits_map(
+        &args.out.join("read_noise_e.fits"),
+        &r.read_noise_e_map,
+        "electron",
+        &keys,
+    )?;
+    write_bytes_atomic(&args.out.join("ptc.png"), &png)?;
+    write_json(&args.out.join("ptc.json"), &summary)?;
+    eprintln!(
+        "conversion gain {:.5} +/- {:.5} e/adu over {} levels (reduced chi2 {:.2}); median read noise {:.3} e-; wrote {}",
+        r.gain_e_per_adu,
+        r.gain_err_e_per_adu,
+        r.levels.len(),
+        r.reduced_chi2,
+        r.read_noise_e_median,
+        args.out.display()
+    );
+    Ok(())
+}

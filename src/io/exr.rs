@@ -1,0 +1,162 @@
+//! OpenEXR frames through the `exr` crate: one frame per channel of each layer, in file
+//! order (layers in order, channels sorted by name as EXR stores them).
+//!
+//! `exr` hands back each channel in its stored type (F16, F32, U32); reading a U32 channel
+//! as f32 would reinterpret bits, so every channel is converted according to its own type.
+//! A multi-layer file is decoded whole on the first frame request (memory O(file)); use
+//! one file per frame for long stacks.
+
+use std::path::{Path, PathBuf};
+
+use exr::meta::attribute::SampleType as ExrType;
+use exr::meta::MetaData;
+use exr::prelude::*;
+
+use super::{frame_error, widen, FileFrames, SampleType};
+use crate::error::Result;
+
+fn map_type(t: ExrType) -> SampleType {
+    match t {
+        ExrType::F16 => SampleType::F16,
+        ExrType::F32 => SampleType::F32,
+        ExrType::U32 => SampleType::U32,
+    }
+}
+
+/// Frame count, shape and sample type of an EXR file (headers only).
+pub fn scan(path: &Path) -> Result<(usize, (usize, usize), SampleType)> {
+    let meta = MetaData::read_from_file(path, false)
+        .map_err(|e| frame_error(path, 0, format!("cannot read EXR header: {e}")))?;
+    let mut frames = 0;
+    let mut shape = None;
+    let mut sample_type = SampleType::F32;
+    for (i, h) in meta.headers.iter().enumerate() {
+        if h.deep {
+            return Err(frame_error(
+                path,
+                frames,
+                format!("layer {i} holds deep data, which is not supported"),
+            ));
+        }
+        let s = (h.layer_size.height(), h.layer_size.width());
+        match shape {
+            None => {
+                shape = Some(s);
+                if let Some(c) = h.channels.list.first() {
+                    sample_type = map_type(c.sample_type);
+                }
+            }
+            Some(s0) if s0 != s => {
+                return Err(frame_error(
+                    path,
+                    frames,
+                    format!(
+                        "layer {i} has shape {}x{}, earlier layers {}x{}",
+                        s.0, s.1, s0.0, s0.1
+                    ),
+                ));
+            }
+            _ => {}
+        }
+        frames += h.channels.list.len();
+    }
+    Ok((frames, shape.unwrap_or((0, 0)), sample_type))
+}
+
+/// The frames of one EXR file.
+pub struct ExrFrames {
+    path: PathBuf,
+    channels: Option<Vec<FlatSamples>>,
+}
+
+impl ExrFrames {
+    /// Open `path` (decoding is deferred to the first frame request).
+    pub fn open(path: &Path, _shape: (usize, usize)) -> Result<ExrFrames> {
+        Ok(ExrFrames {
+            path: path.to_path_buf(),
+            channels: None,
+        })
+    }
+
+    fn load(&mut self) -> Result<&[FlatSamples]> {
+        if self.channels.is_none() {
+            let image = read()
+                .no_deep_data()
+                .largest_resolution_level()
+                .all_channels()
+                .all_layers()
+                .all_attributes()
+                .from_file(&self.path)
+                .map_err(|e| frame_error(&self.path, 0, format!("cannot decode EXR: {e}")))?;
+            let channels = image
+                .layer_data
+                .into_iter()
+                .flat_map(|l| l.channel_data.list.into_iter().map(|c| c.sample_data))
+                .collect();
+            self.channels = Some(channels);
+        }
+        Ok(self.channels.as_deref().expect("loaded above"))
+    }
+}
+
+impl FileFrames for ExrFrames {
+    fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()> {
+        let path = self.path.clone();
+        let channels = self.load()?;
+        let Some(samples) = channels.get(k) else {
+            return Err(frame_error(&path, k, "no such channel"));
+        };
+        match samples {
+            FlatSamples::F16(v) => widen(&path, k, v, out),
+            FlatSamples::F32(v) => widen(&path, k, v, out),
+            FlatSamples::U32(v) => widen(&path, k, v, out),
+        }
+    }
+}
+
+/// Write frames as one EXR file with one layer per frame (`frame0000`, ...), each with one
+/// channel `Y`: U32 for integer data (rounded, clamped to u16), F32 otherwise. Holds the
+/// whole stack in memory: for small stacks.
+pub fn write_layers(
+    path: &Path,
+    shape: (usize, usize),
+    frames: usize,
+    u16_samples: bool,
+    next: &mut dyn FnMut() -> Vec<f64>,
+) -> Result<()> {
+    use crate::error::Error;
+    let size = Vec2(shape.1, shape.0);
+    let layers: Vec<_> = (0..frames)
+        .map(|k| {
+            let frame = next();
+            let samples = if u16_samples {
+                FlatSamples::U32(
+                    frame
+                        .iter()
+                        .map(|x| super::fits::to_u16(*x) as u32)
+                        .collect(),
+                )
+            } else {
+                FlatSamples::F32(frame.iter().map(|x| *x as f32).collect())
+            };
+            let channels =
+                AnyChannels::sort(SmallVec::from_vec(vec![AnyChannel::new("Y", samples)]));
+            Layer::new(
+                size,
+                LayerAttributes::named(format!("frame{k:04}").as_str()),
+                Encoding::SMALL_LOSSLESS,
+                channels,
+            )
+        })
+        .collect();
+    let image = Image::from_layers(
+        ImageAttributes::new(IntegerBounds::from_dimensions(size)),
+        layers,
+    );
+    crate::maps::write_atomic(path, |tmp| {
+        image
+            .write()
+            .to_file(tmp)
+            .map_err(|e| Error::io(tmp, std::io::Error::other(e.to_string())))
+    })
+}

@@ -1,0 +1,443 @@
+//! Frame stacks: sequences of 2-D frames of one shape read one frame at a time from FITS,
+//! TIFF or OpenEXR files, given as files, directories or glob patterns.
+//!
+//! Memory is O(frame): a [`StackReader`] holds one open file and the caller's frame buffer.
+//! Orientation is rows x columns as the file stores them (FITS NAXIS1 is the column count).
+
+pub mod exr;
+pub mod fits;
+pub mod tiff;
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::maps::Map;
+
+/// Storage type of the samples in a file (values are always delivered as f64).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SampleType {
+    /// Unsigned 8-bit integer.
+    U8,
+    /// Signed 8-bit integer.
+    I8,
+    /// Unsigned 16-bit integer (FITS: int16 with BZERO 32768).
+    U16,
+    /// Signed 16-bit integer.
+    I16,
+    /// Unsigned 32-bit integer.
+    U32,
+    /// Signed 32-bit integer.
+    I32,
+    /// Signed 64-bit integer.
+    I64,
+    /// IEEE half-precision float.
+    F16,
+    /// IEEE single-precision float.
+    F32,
+    /// IEEE double-precision float.
+    F64,
+    /// Integers with a non-trivial FITS BSCALE/BZERO (values are scaled, so not integers).
+    Scaled,
+}
+
+impl SampleType {
+    /// True when the samples can hold NaN or Inf (floats and scaled integers are checked).
+    pub fn is_float(self) -> bool {
+        matches!(self, SampleType::F16 | SampleType::F32 | SampleType::F64)
+    }
+
+    /// Largest representable integer value, or None for floats; used to detect saturation.
+    pub fn max_value(self) -> Option<f64> {
+        match self {
+            SampleType::U8 => Some(u8::MAX as f64),
+            SampleType::I8 => Some(i8::MAX as f64),
+            SampleType::U16 => Some(u16::MAX as f64),
+            SampleType::I16 => Some(i16::MAX as f64),
+            SampleType::U32 => Some(u32::MAX as f64),
+            SampleType::I32 => Some(i32::MAX as f64),
+            SampleType::I64 => Some(i64::MAX as f64),
+            _ => None,
+        }
+    }
+}
+
+/// File formats recognised by their magic bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Format {
+    /// FITS (plain, gzip-compressed or tile-compressed), read with CFITSIO.
+    Fits,
+    /// TIFF or BigTIFF, read with the `tiff` crate.
+    Tiff,
+    /// OpenEXR, read with the `exr` crate.
+    Exr,
+}
+
+impl Format {
+    /// Detect the format of `path` from its first bytes.
+    pub fn detect(path: &Path) -> Result<Format> {
+        use std::io::Read;
+        let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+        let mut head = [0u8; 9];
+        let mut n = 0;
+        while n < head.len() {
+            match f.read(&mut head[n..]) {
+                Ok(0) => break,
+                Ok(k) => n += k,
+                Err(e) => return Err(Error::io(path, e)),
+            }
+        }
+        if n == 0 {
+            return Err(Error::input(path, "frame 0: empty file"));
+        }
+        let h = &head[..n];
+        if h.starts_with(b"SIMPLE  =") || h.starts_with(&[0x1f, 0x8b]) {
+            Ok(Format::Fits)
+        } else if h.starts_with(b"II*\0")
+            || h.starts_with(b"MM\0*")
+            || h.starts_with(b"II+\0")
+            || h.starts_with(b"MM\0+")
+        {
+            Ok(Format::Tiff)
+        } else if h.starts_with(&[0x76, 0x2f, 0x31, 0x01]) {
+            Ok(Format::Exr)
+        } else {
+            Err(Error::input(
+                path,
+                "not a FITS, TIFF or OpenEXR file (unrecognised header)",
+            ))
+        }
+    }
+}
+
+/// Header facts about one file of a stack.
+#[derive(Clone, Debug, Serialize)]
+pub struct SourceFile {
+    /// Path of the file.
+    pub path: PathBuf,
+    /// Its format.
+    pub format: Format,
+    /// Number of frames it holds.
+    pub frames: usize,
+    /// Frame shape (rows, cols).
+    pub shape: (usize, usize),
+    /// Sample type as stored.
+    pub sample_type: SampleType,
+}
+
+/// Reads the frames of one file in order; implemented per format.
+pub(crate) trait FileFrames {
+    /// Read frame `k` (0-based within the file) into `out` (row-major, rows*cols values).
+    /// Frames are requested in increasing order.
+    fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()>;
+}
+
+fn scan_file(path: &Path) -> Result<SourceFile> {
+    let format = Format::detect(path)?;
+    let (frames, shape, sample_type) = match format {
+        Format::Fits => fits::scan(path)?,
+        Format::Tiff => tiff::scan(path)?,
+        Format::Exr => exr::scan(path)?,
+    };
+    if frames == 0 {
+        return Err(Error::input(path, "file holds no image frame"));
+    }
+    if shape.0 == 0 || shape.1 == 0 {
+        return Err(Error::input(
+            path,
+            format!("frame 0: empty frame shape {}x{}", shape.0, shape.1),
+        ));
+    }
+    Ok(SourceFile {
+        path: path.to_path_buf(),
+        format,
+        frames,
+        shape,
+        sample_type,
+    })
+}
+
+fn open_file(src: &SourceFile) -> Result<Box<dyn FileFrames>> {
+    match src.format {
+        Format::Fits => Ok(Box::new(fits::FitsFrames::open(&src.path)?)),
+        Format::Tiff => Ok(Box::new(tiff::TiffFrames::open(
+            &src.path, src.shape, src.frames,
+        )?)),
+        Format::Exr => Ok(Box::new(exr::ExrFrames::open(&src.path, src.shape)?)),
+    }
+}
+
+const KNOWN_EXTENSIONS: [&str; 8] = ["fits", "fit", "fts", "fz", "gz", "tif", "tiff", "exr"];
+
+fn has_known_extension(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .map(|e| KNOWN_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        .unwrap_or(false)
+}
+
+/// Expand stack arguments (files, directories, glob patterns) to a list of files, in order.
+///
+/// A directory contributes its files with a FITS/TIFF/EXR extension, sorted by name;
+/// a glob contributes its matches sorted by name; a plain path must exist.
+pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
+    let mut out = Vec::new();
+    for input in inputs {
+        let s = input.to_string_lossy();
+        if input.is_dir() {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(input)
+                .map_err(|e| Error::io(input, e))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.is_file() && has_known_extension(p))
+                .collect();
+            files.sort();
+            if files.is_empty() {
+                return Err(Error::input(
+                    input,
+                    "directory holds no FITS, TIFF or EXR file",
+                ));
+            }
+            out.extend(files);
+        } else if input.exists() {
+            out.push(input.clone());
+        } else if s.contains(['*', '?', '[']) {
+            let paths = glob::glob(&s)
+                .map_err(|e| Error::usage("STACK", format!("bad glob pattern {s}: {e}")))?;
+            let mut files: Vec<PathBuf> = paths
+                .filter_map(|p| p.ok())
+                .filter(|p| p.is_file())
+                .collect();
+            files.sort();
+            if files.is_empty() {
+                return Err(Error::input(input, "glob pattern matches no file"));
+            }
+            out.extend(files);
+        } else {
+            return Err(Error::io(
+                input,
+                std::io::Error::new(std::io::ErrorKind::NotFound, "no such file or directory"),
+            ));
+        }
+    }
+    if out.is_empty() {
+        return Err(Error::usage("STACK", "no input given"));
+    }
+    Ok(out)
+}
+
+/// A stack of frames of one shape spread over one or more files; frames are read on demand.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameStack {
+    /// The files, in stack order.
+    pub sources: Vec<SourceFile>,
+    /// Frame shape (rows, cols).
+    pub shape: (usize, usize),
+    /// Total number of frames.
+    pub frames: usize,
+    /// Sample type of the first file (others may differ in type, not in shape).
+    pub sample_type: SampleType,
+}
+
+impl FrameStack {
+    /// Open a stack from files, directories or glob patterns, reading headers only.
+    /// Fails (naming file and frame) when shapes differ or a file is unreadable.
+    pub fn open(inputs: &[PathBuf]) -> Result<FrameStack> {
+        let files = expand_inputs(inputs)?;
+        let mut sources = Vec::with_capacity(files.len());
+        let mut start = 0usize;
+        for path in &files {
+            let src = scan_file(path)?;
+            if let Some(first) = sources.first() {
+                let first: &SourceFile = first;
+                if src.shape != first.shape {
+                    return Err(Error::input(
+                        path,
+                        format!(
+                            "frame 0 (stack frame {start}): shape {}x{} differs from {}x{} of {}",
+                            src.shape.0,
+                            src.shape.1,
+                            first.shape.0,
+                            first.shape.1,
+                            first.path.display()
+                        ),
+                    ));
+                }
+            }
+            start += src.frames;
+            sources.push(src);
+        }
+        let shape = sources[0].shape;
+        let sample_type = sources[0].sample_type;
+        Ok(FrameStack {
+            sources,
+            shape,
+            frames: start,
+            sample_type,
+        })
+    }
+
+    /// Pixels per frame.
+    pub fn pixels(&self) -> usize {
+        self.shape.0 * self.shape.1
+    }
+
+    /// Source file paths, in order.
+    pub fn paths(&self) -> Vec<PathBuf> {
+        self.sources.iter().map(|s| s.path.clone()).collect()
+    }
+
+    /// Total bytes of sample data as stored (used for throughput figures).
+    pub fn stored_bytes(&self) -> u64 {
+        self.sources
+            .iter()
+            .map(|s| {
+                let b = match s.sample_type {
+                    SampleType::U8 | SampleType::I8 => 1,
+                    SampleType::U16 | SampleType::I16 | SampleType::F16 => 2,
+                    SampleType::U32 | SampleType::I32 | SampleType::F32 | SampleType::Scaled => 4,
+                    SampleType::I64 | SampleType::F64 => 8,
+                };
+                (b * s.frames * s.shape.0 * s.shape.1) as u64
+            })
+            .sum()
+    }
+
+    /// Largest integer sample value of the stored type (None for floats), for saturation checks.
+    pub fn saturation_value(&self) -> Option<f64> {
+        self.sources
+            .iter()
+            .map(|s| s.sample_type.max_value())
+            .try_fold(f64::INFINITY, |m, v| v.map(|v| m.min(v)))
+    }
+
+    /// Fail unless the stack has at least `n` frames (variances need 2).
+    pub fn require_frames(&self, n: usize, what: &str) -> Result<()> {
+        if self.frames < n {
+            return Err(Error::input(
+                &self.sources[0].path,
+                format!(
+                    "frame {}: stack has {} frame(s), {what} needs at least {n}",
+                    self.frames, self.frames
+                ),
+            ));
+        }
+        Ok(())
+    }
+
+    /// A sequential reader over all frames.
+    pub fn reader(&self) -> StackReader<'_> {
+        StackReader {
+            stack: self,
+            file_index: 0,
+            local: 0,
+            global: 0,
+            open: None,
+        }
+    }
+}
+
+/// Sequential reader over the frames of a [`FrameStack`]; holds at most one open file.
+pub struct StackReader<'a> {
+    stack: &'a FrameStack,
+    file_index: usize,
+    local: usize,
+    global: usize,
+    open: Option<Box<dyn FileFrames>>,
+}
+
+impl StackReader<'_> {
+    /// Read the next frame into `out` (rows*cols f64, row-major). Returns the stack frame
+    /// index, or None at the end. Non-finite samples are an error naming file and frame.
+    pub fn next_frame(&mut self, out: &mut [f64]) -> Result<Option<usize>> {
+        while self.file_index < self.stack.sources.len()
+            && self.local >= self.stack.sources[self.file_index].frames
+        {
+            self.file_index += 1;
+            self.local = 0;
+            self.open = None;
+        }
+        let Some(src) = self.stack.sources.get(self.file_index) else {
+            return Ok(None);
+        };
+        assert_eq!(
+            out.len(),
+            self.stack.pixels(),
+            "frame buffer has the wrong length"
+        );
+        if self.open.is_none() {
+            self.open = Some(open_file(src)?);
+        }
+        let reader = self.open.as_mut().expect("opened above");
+        reader
+            .read_frame(self.local, out)
+            .map_err(|e| add_stack_frame(e, self.global))?;
+        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+            return Err(Error::input(
+                &src.path,
+                format!(
+                    "frame {} (stack frame {}): non-finite sample {} at row {}, column {}",
+                    self.local,
+                    self.global,
+                    out[i],
+                    i / src.shape.1,
+                    i % src.shape.1
+                ),
+            ));
+        }
+        let k = self.global;
+        self.local += 1;
+        self.global += 1;
+        Ok(Some(k))
+    }
+}
+
+fn add_stack_frame(e: Error, global: usize) -> Error {
+    match e {
+        Error::Input { path, message } => Error::Input {
+            path,
+            message: format!("{message} (stack frame {global})"),
+        },
+        other => other,
+    }
+}
+
+/// Convert a decoding error of frame `k` of `path` into an input error.
+pub(crate) fn frame_error(path: &Path, k: usize, what: impl std::fmt::Display) -> Error {
+    Error::input(path, format!("frame {k}: {what}"))
+}
+
+/// Copy any numeric slice into an f64 buffer, checking the length.
+pub(crate) fn widen<T: Copy + Into<f64>>(
+    path: &Path,
+    k: usize,
+    src: &[T],
+    out: &mut [f64],
+) -> Result<()> {
+    if src.len() != out.len() {
+        return Err(frame_error(
+            path,
+            k,
+            format!("{} samples decoded, {} expected", src.len(), out.len()),
+        ));
+    }
+    for (o, s) in out.iter_mut().zip(src) {
+        *o = (*s).into();
+    }
+    Ok(())
+}
+
+/// Read the first frame of a FITS, TIFF or EXR file (or stack argument) as a map.
+/// NaN is allowed in maps (it marks masked pixels), so this does not use the stack check.
+pub fn read_first_frame(path: &Path) -> Result<Map> {
+    let src = scan_file(path)?;
+    let mut data = vec![0.0; src.shape.0 * src.shape.1];
+    open_file(&src)?.read_frame(0, &mut data)?;
+    Ok(Map {
+        rows: src.shape.0,
+        cols: src.shape.1,
+        data,
+    })
+}

@@ -1,0 +1,328 @@
+//! TIFF and BigTIFF frames through the `tiff` crate: one frame per page (IFD), any
+//! compression the crate decodes (LZW, Deflate, PackBits), and ImageJ stacks whose frames
+//! follow the first page contiguously (`images=N` in ImageDescription, one IFD).
+//!
+//! The crate decodes pages of other shapes or RGB pages without complaint, so every page's
+//! shape and channel count is checked here when the file is opened.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::os::unix::fs::FileExt;
+use std::path::{Path, PathBuf};
+
+use tiff::decoder::{Decoder, DecodingResult, Limits};
+use tiff::tags::{ByteOrder, CompressionMethod, Tag};
+use tiff::ColorType;
+
+use super::{frame_error, widen, FileFrames, SampleType};
+use crate::error::{Error, Result};
+
+type Dec = Decoder<BufReader<File>>;
+
+fn open_decoder(path: &Path) -> Result<Dec> {
+    let f = File::open(path).map_err(|e| Error::io(path, e))?;
+    let mut limits = Limits::default();
+    limits.decoding_buffer_size = 1 << 31;
+    Decoder::new(BufReader::new(f))
+        .map(|d| d.with_limits(limits))
+        .map_err(|e| frame_error(path, 0, format!("cannot decode TIFF header: {e}")))
+}
+
+/// Shape, channel check and sample type of the decoder's current page.
+fn page_info(path: &Path, k: usize, dec: &mut Dec) -> Result<((usize, usize), SampleType)> {
+    let (w, h) = dec.dimensions().map_err(|e| frame_error(path, k, e))?;
+    let ct = dec.colortype().map_err(|e| frame_error(path, k, e))?;
+    let ColorType::Gray(bits) = ct else {
+        return Err(frame_error(
+            path,
+            k,
+            format!("colour type {ct:?}: only single-channel frames are supported"),
+        ));
+    };
+    let format = dec
+        .find_tag_unsigned::<u16>(Tag::SampleFormat)
+        .map_err(|e| frame_error(path, k, e))?
+        .unwrap_or(1);
+    let t = match (format, bits) {
+        (1, 8) => SampleType::U8,
+        (2, 8) => SampleType::I8,
+        (1, 16) => SampleType::U16,
+        (2, 16) => SampleType::I16,
+        (1, 32) => SampleType::U32,
+        (2, 32) => SampleType::I32,
+        (2, 64) => SampleType::I64,
+        (3, 16) => SampleType::F16,
+        (3, 32) => SampleType::F32,
+        (3, 64) => SampleType::F64,
+        (f, b) => {
+            return Err(frame_error(
+                path,
+                k,
+                format!("unsupported sample type ({b} bits, SampleFormat {f})"),
+            ))
+        }
+    };
+    Ok(((h as usize, w as usize), t))
+}
+
+/// ImageJ frame count from the first page's ImageDescription (`images=N`), if any.
+fn imagej_images(dec: &mut Dec) -> Option<usize> {
+    let desc = dec.get_tag_ascii_string(Tag::ImageDescription).ok()?;
+    if !desc.starts_with("ImageJ=") {
+        return None;
+    }
+    desc.lines()
+        .find_map(|l| l.strip_prefix("images="))
+        .and_then(|v| v.trim().parse().ok())
+}
+
+/// Contiguous frames after the first page of an ImageJ stack with a single IFD.
+#[derive(Clone, Copy, Debug)]
+struct Contiguous {
+    offset: u64,
+    big_endian: bool,
+}
+
+fn bytes_of(t: SampleType) -> usize {
+    match t {
+        SampleType::U8 | SampleType::I8 => 1,
+        SampleType::U16 | SampleType::I16 | SampleType::F16 => 2,
+        SampleType::U32 | SampleType::I32 | SampleType::F32 | SampleType::Scaled => 4,
+        SampleType::I64 | SampleType::F64 => 8,
+    }
+}
+
+struct Scan {
+    frames: usize,
+    shape: (usize, usize),
+    sample_type: SampleType,
+    contiguous: Option<Contiguous>,
+}
+
+fn scan_pages(path: &Path) -> Result<Scan> {
+    let mut dec = open_decoder(path)?;
+    let (shape, sample_type) = page_info(path, 0, &mut dec)?;
+    let imagej = imagej_images(&mut dec);
+    let mut pages = 1;
+    while dec.more_images() {
+        dec.next_image()
+            .map_err(|e| frame_error(path, pages, format!("cannot read page header: {e}")))?;
+        let (s, t) = page_info(path, pages, &mut dec)?;
+        if s != shape {
+            return Err(frame_error(
+                path,
+                pages,
+                format!(
+                    "page shape {}x{} differs from {}x{} of page 0",
+                    s.0, s.1, shape.0, shape.1
+                ),
+            ));
+        }
+        if t != sample_type {
+            return Err(frame_error(
+                path,
+                pages,
+                format!("sample type {t:?} differs from {sample_type:?} of page 0"),
+            ));
+        }
+        pages += 1;
+    }
+    let mut contiguous = None;
+    let mut frames = pages;
+    if let Some(n) = imagej.filter(|&n| n > pages) {
+        if pages != 1 {
+            return Err(frame_error(
+                path,
+                pages,
+                format!("ImageJ description says {n} images but file has {pages} pages"),
+            ));
+        }
+        let mut dec = open_decoder(path)?;
+        let compression = dec
+            .find_tag_unsigned::<u16>(Tag::Compression)
+            .ok()
+            .flatten()
+            .unwrap_or(1);
+        if compression != CompressionMethod::None.to_u16() {
+            return Err(frame_error(
+                path,
+                1,
+                "compressed ImageJ stack with one IFD is not supported",
+            ));
+        }
+        let offsets = dec
+            .find_tag_unsigned_vec::<u64>(Tag::StripOffsets)
+            .map_err(|e| frame_error(path, 0, e))?
+            .ok_or_else(|| frame_error(path, 0, "no StripOffsets"))?;
+        let offset = offsets[0];
+        let frame_bytes = (shape.0 * shape.1 * bytes_of(sample_type)) as u64;
+        let len = std::fs::metadata(path)
+            .map_err(|e| Error::io(path, e))?
+            .len();
+        if offset + frame_bytes * n as u64 > len {
+            let complete = len.saturating_sub(offset) / frame_bytes;
+            return Err(frame_error(
+                path,
+                complete as usize,
+                format!(
+                    "file truncated: ImageJ stack of {n} frames needs {} bytes, file has {len}",
+                    offset + frame_bytes * n as u64
+                ),
+            ));
+        }
+        contiguous = Some(Contiguous {
+            offset,
+            big_endian: dec.byte_order() == ByteOrder::BigEndian,
+        });
+        frames = n;
+    }
+    Ok(Scan {
+        frames,
+        shape,
+        sample_type,
+        contiguous,
+    })
+}
+
+/// Frame count, shape and sample type of a TIFF file (walks every page header).
+pub fn scan(path: &Path) -> Result<(usize, (usize, usize), SampleType)> {
+    let s = scan_pages(path)?;
+    Ok((s.frames, s.shape, s.sample_type))
+}
+
+/// The frames of one TIFF file, decoded page by page in order.
+pub struct TiffFrames {
+    path: PathBuf,
+    dec: Dec,
+    page: usize,
+    sample_type: SampleType,
+    contiguous: Option<(Contiguous, File)>,
+    result: DecodingResult,
+    bytes: Vec<u8>,
+}
+
+impl TiffFrames {
+    /// Open `path`, whose shape and frame count were found by [`scan`].
+    pub fn open(path: &Path, _shape: (usize, usize), _frames: usize) -> Result<TiffFrames> {
+        let s = scan_pages(path)?;
+        let contiguous = match s.contiguous {
+            Some(c) => Some((c, File::open(path).map_err(|e| Error::io(path, e))?)),
+            None => None,
+        };
+        Ok(TiffFrames {
+            path: path.to_path_buf(),
+            dec: open_decoder(path)?,
+            page: 0,
+            sample_type: s.sample_type,
+            contiguous,
+            result: DecodingResult::U8(Vec::new()),
+            bytes: Vec::new(),
+        })
+    }
+
+    fn read_contiguous(&mut self, k: usize, out: &mut [f64]) -> Result<()> {
+        let (c, file) = self.contiguous.as_ref().expect("checked by caller");
+        let width = bytes_of(self.sample_type);
+        self.bytes.resize(out.len() * width, 0);
+        file.read_exact_at(&mut self.bytes, c.offset + (k * out.len() * width) as u64)
+            .map_err(|e| frame_error(&self.path, k, format!("cannot read data: {e}")))?;
+        macro_rules! dec {
+            ($t:ty, $n:expr) => {
+                for (o, b) in out.iter_mut().zip(self.bytes.chunks_exact($n)) {
+                    let a: [u8; $n] = b.try_into().expect("chunk size");
+                    *o = if c.big_endian {
+                        <$t>::from_be_bytes(a)
+                    } else {
+                        <$t>::from_le_bytes(a)
+                    } as f64;
+                }
+            };
+        }
+        match self.sample_type {
+            SampleType::U8 => dec!(u8, 1),
+            SampleType::I8 => dec!(i8, 1),
+            SampleType::U16 => dec!(u16, 2),
+            SampleType::I16 => dec!(i16, 2),
+            SampleType::U32 => dec!(u32, 4),
+            SampleType::I32 => dec!(i32, 4),
+            SampleType::I64 => dec!(i64, 8),
+            SampleType::F32 => dec!(f32, 4),
+            SampleType::F64 => dec!(f64, 8),
+            t => {
+                return Err(frame_error(
+                    &self.path,
+                    k,
+                    format!("sample type {t:?} in a contiguous ImageJ stack"),
+                ))
+            }
+        }
+        Ok(())
+    }
+}
+
+impl FileFrames for TiffFrames {
+    fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()> {
+        if self.contiguous.is_some() {
+            return self.read_contiguous(k, out);
+        }
+        while self.page < k {
+            self.dec
+                .next_image()
+                .map_err(|e| frame_error(&self.path, self.page + 1, e))?;
+            self.page += 1;
+        }
+        let path = self.path.clone();
+        self.dec
+            .read_image_to_buffer(&mut self.result)
+            .map_err(|e| frame_error(&path, k, format!("cannot decode page: {e}")))?;
+        match &self.result {
+            DecodingResult::U8(v) => widen(&path, k, v, out),
+            DecodingResult::I8(v) => widen(&path, k, v, out),
+            DecodingResult::U16(v) => widen(&path, k, v, out),
+            DecodingResult::I16(v) => widen(&path, k, v, out),
+            DecodingResult::U32(v) => widen(&path, k, v, out),
+            DecodingResult::I32(v) => widen(&path, k, v, out),
+            DecodingResult::F32(v) => widen(&path, k, v, out),
+            DecodingResult::F64(v) => widen(&path, k, v, out),
+            DecodingResult::F16(v) => widen(&path, k, v, out),
+            DecodingResult::I64(v) => {
+                let w: Vec<f64> = v.iter().map(|x| *x as f64).collect();
+                widen(&path, k, &w, out)
+            }
+            DecodingResult::U64(v) => {
+                let w: Vec<f64> = v.iter().map(|x| *x as f64).collect();
+                widen(&path, k, &w, out)
+            }
+        }
+    }
+}
+
+/// Write frames as a multi-page TIFF (one page per frame), atomically; `u16` stores
+/// unsigned 16-bit integers (rounded, clamped), otherwise 32-bit floats.
+pub fn write_pages(
+    path: &Path,
+    shape: (usize, usize),
+    frames: usize,
+    u16_samples: bool,
+    next: &mut dyn FnMut() -> Vec<f64>,
+) -> Result<()> {
+    use tiff::encoder::{colortype, TiffEncoder};
+    crate::maps::write_atomic(path, |tmp| {
+        let file = File::create(tmp).map_err(|e| Error::io(tmp, e))?;
+        let mut enc = TiffEncoder::new(std::io::BufWriter::new(file))
+            .map_err(|e| Error::io(tmp, std::io::Error::other(e)))?;
+        let (w, h) = (shape.1 as u32, shape.0 as u32);
+        for _ in 0..frames {
+            let frame = next();
+            let r = if u16_samples {
+                let v: Vec<u16> = frame.iter().map(|x| super::fits::to_u16(*x)).collect();
+                enc.write_image::<colortype::Gray16>(w, h, &v)
+            } else {
+                let v: Vec<f32> = frame.iter().map(|x| *x as f32).collect();
+                enc.write_image::<colortype::Gray32Float>(w, h, &v)
+            };
+            r.map_err(|e| Error::io(tmp, std::io::Error::other(e)))?;
+        }
+        Ok(())
+    })
+}
