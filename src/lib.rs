@@ -12,6 +12,8 @@ pub mod fit;
 pub mod io;
 pub mod maps;
 pub mod pdf;
+pub mod plot;
+pub mod pp;
 pub mod rng;
 pub mod stats;
 pub mod synth;
