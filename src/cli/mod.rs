@@ -1,6 +1,8 @@
 //! Command-line interface: one module per subcommand.
 
 pub mod darks;
+pub mod emgain;
+pub mod fit_pdf;
 pub mod ptc;
 pub mod synth;
 
@@ -18,6 +20,10 @@ pub struct Cli {
 enum Command {
     /// Per-pixel offset and read-noise maps from a dark stack.
     Darks(darks::DarksArgs),
+    /// Fit models of the per-pixel read-noise pdf to a noise map (e-).
+    FitPdf(fit_pdf::FitPdfArgs),
+    /// Fit bias, read noise, EM gain and light level to EMCCD frames.
+    Emgain(emgain::EmgainArgs),
     /// Photon transfer: conversion gain (global and per pixel) from darks and flats.
     Ptc(ptc::PtcArgs),
     /// Write a synthetic sCMOS or EMCCD stack with a manifest of its truth.
@@ -29,6 +35,8 @@ pub fn main() {
     let cli = Cli::parse();
     let r = match &cli.command {
         Command::Darks(a) => darks::run(a),
+        Command::FitPdf(a) => fit_pdf::run(a),
+        Command::Emgain(a) => emgain::run(a),
         Command::Ptc(a) => ptc::run(a),
         Command::Synth(a) => synth::run(a),
     };

@@ -52,6 +52,10 @@ pub struct EmGainOptions {
     /// Values above this (adu) are excluded (cosmics, hot pixels). Default: bias + 40 G
     /// (1 + lambda + 5 sqrt(lambda)) from the start values.
     pub max_value_adu: Option<f64>,
+    /// Bias (adu) known from no-signal frames: held fixed (with the read noise).
+    pub fixed_bias_adu: Option<f64>,
+    /// Read noise (adu rms) known from no-signal frames: held fixed (with the bias).
+    pub fixed_read_noise_adu: Option<f64>,
 }
 
 impl Default for EmGainOptions {
@@ -60,6 +64,8 @@ impl Default for EmGainOptions {
             shape: EmShape::Gamma,
             gain_e_per_adu: None,
             max_value_adu: None,
+            fixed_bias_adu: None,
+            fixed_read_noise_adu: None,
         }
     }
 }
@@ -398,6 +404,38 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
     })
 }
 
+/// Start values with bias `b` and read noise `s` (adu) known: gain and lambda from the
+/// moments, mean = b + lambda G and var = s^2 + lambda G^2 F^2. Errors if the frames
+/// hold no signal beyond the read noise.
+fn start_from_moments(h: &ValueHistogram, b: f64, s: f64, shape: EmShape, conv: f64) -> Result<EmStart> {
+    let n = h.total();
+    if (n as usize) < MIN_SAMPLES {
+        return Err(Error::Numeric(format!(
+            "only {n} pixel-samples: an EM-gain fit needs at least {MIN_SAMPLES}"
+        )));
+    }
+    let (mean, var) = h.mean_var();
+    // The mean's SE is sqrt(var/n): the signal must exceed 5 of them, and the excess
+    // variance 5 of its SE var sqrt(2/n).
+    if mean - b < 5.0 * (var / n).sqrt() || var - s * s < 5.0 * var * (2.0 / n).sqrt() {
+        return Err(Error::Numeric(format!(
+            "no EM signal above the read noise: mean {mean:.2} adu vs bias {b:.2} adu, variance {var:.2} adu^2 vs read noise^2 {:.2} adu^2",
+            s * s
+        )));
+    }
+    let mut g = (var - s * s) / ((mean - b) * 2.0);
+    // The register's F^2 depends on the gain itself: two fixed-point steps suffice.
+    for _ in 0..2 {
+        g = (var - s * s) / ((mean - b) * excess_noise_factor_sq(shape, g * conv));
+    }
+    Ok(EmStart {
+        bias_adu: b,
+        read_noise_adu: s,
+        gain_adu_per_e: g,
+        lambda_e: (mean - b) / g,
+    })
+}
+
 /// The exact bin probabilities of the model on a fine periodic grid.
 struct Model {
     shape: EmShape,
@@ -470,16 +508,30 @@ struct Problem {
     bias0: f64,
     s0: f64,
     guard_gain: f64,
+    /// Internal coordinates of the parameters that are not free.
+    base: [f64; 4],
+    /// Indices (into bias, ln s, ln G, ln lambda) of the free parameters.
+    free: Vec<usize>,
 }
 
 impl Problem {
+    /// Natural parameters (b, s, G, lambda) from the free internal coordinates `u`.
     fn params(&self, u: &[f64]) -> [f64; 4] {
+        let mut v = self.base;
+        for (k, i) in self.free.iter().enumerate() {
+            v[*i] = u[k];
+        }
         [
-            self.bias0 + u[0] * self.s0,
-            u[1].exp(),
-            u[2].exp(),
-            u[3].exp(),
+            self.bias0 + v[0] * self.s0,
+            v[1].exp(),
+            v[2].exp(),
+            v[3].exp(),
         ]
+    }
+
+    /// Internal coordinates of all four natural parameters `p`.
+    fn internal(&self, p: &[f64; 4]) -> [f64; 4] {
+        [(p[0] - self.bias0) / self.s0, p[1].ln(), p[2].ln(), p[3].ln()]
     }
 
     /// Probabilities of the fitted bins, normalised over the fitted range.
@@ -487,7 +539,7 @@ impl Problem {
         let [b, s, g, lambda] = *p;
         // The model is valid while the fine cells resolve the Gaussian and the EM tail
         // does not wrap around the period.
-        if s < 2.5 * self.model.h || g > self.guard_gain || lambda > 200.0 {
+        if s < 2.5 * self.model.h || g > self.guard_gain || lambda > 1e5 {
             return None;
         }
         let cells = self.model.cells(b, s, g, lambda)?;
@@ -583,6 +635,8 @@ impl Layout {
             excluded,
             bias0: 0.0,
             s0: 1.0,
+            base: [0.0; 4],
+            free: vec![0, 1, 2, 3],
             guard_gain: (m as f64 * self.hfine - (self.cut - self.lo)) / 25.0,
         })
     }
@@ -604,23 +658,33 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
         }
         (_, c) => c.unwrap_or(1.0),
     };
-    let st = start_values(h)?;
     let w0 = h.width();
     let c = h.counts();
     let data_hi = h.centre(c.len() - 1) + 0.5 * w0;
+    let (mean, var) = h.mean_var();
+    let (q4, q3, q50) = (h.quantile(1e-4), h.quantile(1e-3), h.quantile(0.5));
+    let sq = ((q3 - q4) / 0.63).max(w0 / 12f64.sqrt());
+    let st = match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
+        (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv)?,
+        (None, None) => start_values(h)?,
+        _ => {
+            return Err(Error::usage(
+                "--offset/--read-noise",
+                "bias and read noise are fixed together (both from no-signal frames) or not at all",
+            ))
+        }
+    };
+    let fixed = opts.fixed_bias_adu.is_some();
     let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
     let cut = opts
         .max_value_adu
         .unwrap_or(st.bias_adu + 40.0 * g0 * (1.0 + l0 + 5.0 * l0.sqrt()))
         .min(data_hi);
-    let (mean, var) = h.mean_var();
     // Candidate starts: the peak-based values, and a grid of biases between the lowest
     // values and the median with read noises from the spacing of the lowest quantiles
     // (where the bias peak drowns in the EM signal, e.g. low gain at high light), each
     // with gain and lambda from the moments: mean = b + lambda G,
     // var = s^2 + lambda G^2 F^2.
-    let (q4, q3, q50) = (h.quantile(1e-4), h.quantile(1e-3), h.quantile(0.5));
-    let sq = ((q3 - q4) / 0.63).max(w0 / 12f64.sqrt());
     let f2 = excess_noise_factor_sq(opts.shape, g0 * conv);
     let mut cands = vec![[st.bias_adu, st.read_noise_adu, g0, l0]];
     for s in [st.read_noise_adu, 0.6 * sq, sq] {
@@ -628,21 +692,22 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
             let b = q4 + (q50 - q4) * k as f64 / 24.0;
             let g = (var - s * s) / ((mean - b) * f2);
             let l = (mean - b) / g;
-            if g > 0.0 && l > 0.0 && g.is_finite() && l.is_finite() {
+            if !fixed && g > 0.0 && l > 0.0 && g.is_finite() && l.is_finite() {
                 cands.push([b, s, g, l]);
             }
         }
     }
-    let s_min = cands.iter().map(|c| c[1]).fold(f64::INFINITY, f64::min);
+    let s_min = cands
+        .iter()
+        .map(|c| c[1])
+        .fold(f64::INFINITY, f64::min)
+        .min(sq);
     let g_max = cands.iter().map(|c| c[2]).fold(0.0, f64::max).min(4.0 * g0);
     let grid = Layout::new(h, s_min, sq, q4, cut);
     let mut problem = grid.problem(h, opts.shape, conv, (10.0 * sq).max(25.0 * g_max))?;
-    let to_u = |p: &[f64; 4], pr: &Problem| {
-        [(p[0] - pr.bias0) / pr.s0, p[1].ln(), p[2].ln(), p[3].ln()]
-    };
     let best = cands
         .iter()
-        .map(|p| (problem.nll(&to_u(p, &problem)), *p))
+        .map(|p| (problem.nll(&problem.internal(p)), *p))
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .expect("at least one candidate");
     if best.0 >= INVALID_COST {
@@ -655,15 +720,21 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     problem = grid.problem(h, opts.shape, conv, (10.0 * sq).max(75.0 * best.1[2]))?;
     problem.bias0 = best.1[0];
     problem.s0 = best.1[1];
+    problem.base = problem.internal(&best.1);
+    if fixed {
+        problem.free = vec![2, 3];
+    }
     let (n, w, lo, cut, excluded) = (problem.n, grid.w, grid.lo, grid.cut, problem.excluded);
     let s0 = problem.s0;
-    let u0 = to_u(&best.1, &problem);
+    let u0: Vec<f64> = problem.free.iter().map(|i| problem.base[*i]).collect();
+    let steps = [0.3, 0.1, 0.2, 0.2];
+    let step: Vec<f64> = problem.free.iter().map(|i| steps[*i]).collect();
     let cost = |u: &[f64]| problem.nll(u);
     // Stop when the simplex spans 1e-4 in total log-likelihood.
     let tol = 1e-4 / n;
-    let fit = minimise(cost, &u0, &[0.3, 0.1, 0.2, 0.2], tol, 20_000, "EM-gain fit")?;
+    let fit = minimise(cost, &u0, &step, tol, 20_000, "EM-gain fit")?;
     let p = problem.params(&fit.x);
-    let hm: Vec<Vec<f64>> = hessian(cost, &fit.x, &[1e-3; 4])
+    let hm: Vec<Vec<f64>> = hessian(cost, &fit.x, &vec![1e-3; u0.len()])
         .into_iter()
         .map(|r| r.into_iter().map(|v| v * n).collect())
         .collect();
@@ -672,12 +743,12 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
             "EM-gain fit: the likelihood is flat in some direction at the optimum (Hessian not positive definite): the data do not constrain gain and light level separately".into(),
         )
     })?;
-    let se = [
-        cov[0][0].sqrt() * s0,
-        cov[1][1].sqrt() * p[1],
-        cov[2][2].sqrt() * p[2],
-        cov[3][3].sqrt() * p[3],
-    ];
+    // Fixed parameters have no standard error here (0): theirs is the no-signal frames'.
+    let mut se = [0.0; 4];
+    for (k, i) in problem.free.iter().enumerate() {
+        let scale = if *i == 0 { s0 } else { p[*i] };
+        se[*i] = cov[k][k].sqrt() * scale;
+    }
     let f2 = excess_noise_factor_sq(opts.shape, p[2] * conv);
     let (mean, var) = fitted_moments(&problem, lo, w);
     let signal = mean - p[0];
