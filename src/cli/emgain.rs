@@ -6,7 +6,7 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::fit::emgain::{
-    fit_emgain, gain_from_mean_ratio, model_curve, EmGainFit, EmGainOptions, EmShape,
+    fit_emgain, gain_from_mean_ratio, model_curve, CurveBin, EmGainFit, EmGainOptions, EmShape,
     ValueHistogram,
 };
 use crate::io::FrameStack;
@@ -224,33 +224,27 @@ fn accumulate(
 
 /// Histogram (log y) with the fitted model and its components.
 fn chart(h: &ValueHistogram, fit: &EmGainFit, path: &Path) -> Result<()> {
-    let curve: Vec<_> = model_curve(h, fit)
-        .into_iter()
-        .filter(|c| c.0 <= fit.max_value_adu)
-        .collect();
-    let pos = |v: f64| v;
+    let curve = model_curve(h, fit, 160);
+    let width = curve.get(1).map_or(h.width(), |c| c.x_adu - curve[0].x_adu);
     let mut c = LineChart::new(
         format!(
             "EM gain {:.2} +- {:.2} {}, read noise {:.2} adu, lambda {:.3} e-",
             fit.em_gain, fit.em_gain_se, fit.em_gain_units, fit.read_noise_adu, fit.lambda_e
         ),
         "pixel value (adu)",
-        format!("pixel-samples per {} adu bin", h.width()),
+        format!("pixel-samples per {width:.3} adu bin"),
     );
     c.log_y = true;
+    let pts = |f: fn(&CurveBin) -> f64| curve.iter().map(move |c| (c.x_adu, f(c))).collect::<Vec<_>>();
     c.series = vec![
-        Series::new("data", curve.iter().map(|c| (c.0, pos(c.1)))).styled(SeriesStyle::Markers),
-        Series::new("model", curve.iter().map(|c| (c.0, pos(c.2)))).styled(SeriesStyle::Line),
-        Series::new("no input electron", curve.iter().map(|c| (c.0, pos(c.3))))
+        Series::new("data", pts(|c| c.data)).styled(SeriesStyle::Markers),
+        Series::new("model", pts(|c| c.model)).styled(SeriesStyle::Line),
+        Series::new("no input electron", pts(|c| c.zero_electron)).styled(SeriesStyle::Line),
+        Series::new(">= 1 input electron", pts(|c| c.model - c.zero_electron))
             .styled(SeriesStyle::Line),
-        Series::new(
-            ">= 1 input electron",
-            curve.iter().map(|c| (c.0, pos(c.2 - c.3))),
-        )
-        .styled(SeriesStyle::Line),
     ];
     let ymin = 0.3;
-    let ymax = curve.iter().map(|c| c.1.max(c.2)).fold(1.0, f64::max) * 2.0;
+    let ymax = curve.iter().map(|c| c.data.max(c.model)).fold(1.0, f64::max) * 2.0;
     c.y_range = Some((ymin, ymax));
     c.save(path)
 }

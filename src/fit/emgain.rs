@@ -816,40 +816,65 @@ pub fn excess_noise_factor_sq(shape: EmShape, g_e: f64) -> f64 {
     }
 }
 
-/// The fitted model's expected counts per histogram bin of `h` with its two components
-/// (no input electron; one or more): (centre adu, data, model total, zero-electron part).
-pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit) -> Vec<(f64, f64, f64, f64)> {
+/// One bin of the chart of a fit: data and model counts (pixel-samples).
+#[derive(Debug, Clone, Copy)]
+pub struct CurveBin {
+    /// Bin centre (adu).
+    pub x_adu: f64,
+    /// Observed pixel-samples.
+    pub data: f64,
+    /// Expected pixel-samples of the fitted model.
+    pub model: f64,
+    /// Expected pixel-samples with no input electron (bias + read noise only).
+    pub zero_electron: f64,
+}
+
+/// The data and the fitted model on at most `max_bins` bins (whole histogram bins merged)
+/// up to the fit's upper limit, with the zero-electron component.
+pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<CurveBin> {
     let (b, s, g, l) = (fit.bias_adu, fit.read_noise_adu, fit.gain_adu_per_e, fit.lambda_e);
-    let n = fit.n_samples;
     let w = h.width();
-    let norm = |x: f64| (-0.5 * ((x - b) / s).powi(2)).exp() / (s * (2.0 * std::f64::consts::PI).sqrt());
-    // Total model by the Bessel-free route: Gaussian + numerically convolved Gamma series
-    // would duplicate the fitter; the chart uses the fitted bin probabilities instead.
-    let conv = fit.gain_e_per_adu.unwrap_or(1.0);
+    let used = h
+        .counts()
+        .iter()
+        .enumerate()
+        .take_while(|(i, _)| h.centre(*i) <= fit.max_value_adu)
+        .count()
+        .max(1);
+    let group = used.div_ceil(max_bins.max(1));
     let lo = h.centre(0) - 0.5 * w;
-    let hfine = (w / ((4.5 * w / s).ceil())).min(w);
-    let per_bin = (w / hfine).round() as usize;
-    let span = h.counts().len() as f64 * w + (10.0 * s).max(100.0 * g);
-    let m = ((span / hfine).ceil() as usize).next_power_of_two().min(MAX_FFT);
+    let per_bin = ((4.5 * w / s).ceil() as usize).max(1);
+    let hfine = w / per_bin as f64;
+    let span = used as f64 * w + (10.0 * s).max(100.0 * g);
+    let m = ((span / hfine).ceil() as usize)
+        .next_power_of_two()
+        .min(MAX_FFT);
     let model = Model {
         shape: fit.shape,
-        conv,
+        conv: fit.gain_e_per_adu.unwrap_or(1.0),
         x0: lo,
         h: hfine,
         fft: FftPlanner::new().plan_fft_forward(m),
         m,
     };
-    let cells = model.cells(b, s, g, l).unwrap_or_else(|| vec![0.0; m]);
-    h.counts()
-        .iter()
-        .enumerate()
-        .map(|(i, c)| {
-            let x = h.centre(i);
-            let tot: f64 = cells
-                .get(i * per_bin..(i + 1) * per_bin)
-                .map(|v| v.iter().sum())
-                .unwrap_or(0.0);
-            (x, *c, tot * n, (-l).exp() * norm(x) * w * n)
+    let zeros = vec![0.0; m];
+    let total = model.cells(b, s, g, l).unwrap_or_else(|| zeros.clone());
+    let gauss = model.cells(b, s, g, 0.0).unwrap_or(zeros);
+    let n = fit.n_samples;
+    let sum = |v: &[f64], i0: usize, i1: usize| -> f64 {
+        v.get(i0 * per_bin..(i1 * per_bin).min(v.len()))
+            .map_or(0.0, |c| c.iter().sum())
+    };
+    (0..used)
+        .step_by(group)
+        .map(|i0| {
+            let i1 = (i0 + group).min(used);
+            CurveBin {
+                x_adu: lo + 0.5 * (i0 + i1) as f64 * w,
+                data: h.counts()[i0..i1].iter().sum(),
+                model: n * sum(&total, i0, i1),
+                zero_electron: n * (-l).exp() * sum(&gauss, i0, i1),
+            }
         })
         .collect()
 }
