@@ -6,17 +6,33 @@ use assert_cmd::Command;
 use detnoise::io::FrameStack;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/interop").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/interop")
+        .join(name)
 }
 
 /// Write `frames` (each rows*cols) as a float32 FITS cube.
 fn write_fits(path: &Path, shape: (usize, usize), frames: &[Vec<f64>]) {
     let mut it = frames.iter().cloned();
-    detnoise::io::fits::write_cube(path, shape, frames.len(), false, &mut || it.next().unwrap(), &[]).unwrap();
+    detnoise::io::fits::write_cube(
+        path,
+        shape,
+        frames.len(),
+        false,
+        &mut || it.next().unwrap(),
+        &[],
+    )
+    .unwrap();
 }
 
 fn frames(n: usize, shape: (usize, usize)) -> Vec<Vec<f64>> {
-    (0..n).map(|k| (0..shape.0 * shape.1).map(|i| (i * 7 + k * 13) as f64 % 17.0).collect()).collect()
+    (0..n)
+        .map(|k| {
+            (0..shape.0 * shape.1)
+                .map(|i| (i * 7 + k * 13) as f64 % 17.0)
+                .collect()
+        })
+        .collect()
 }
 
 /// Run `detnoise darks` on `inputs`; assert exit code 2, that stderr names `needle`s, and
@@ -24,13 +40,22 @@ fn frames(n: usize, shape: (usize, usize)) -> Vec<Vec<f64>> {
 fn darks_fails(inputs: &[PathBuf], needles: &[&str]) {
     let out = tempfile::tempdir().unwrap();
     let out_dir = out.path().join("maps");
-    let assert = Command::cargo_bin("detnoise").unwrap().arg("darks").args(inputs).arg("--out").arg(&out_dir).assert().code(2);
+    let assert = Command::cargo_bin("detnoise")
+        .unwrap()
+        .arg("darks")
+        .args(inputs)
+        .arg("--out")
+        .arg(&out_dir)
+        .assert()
+        .code(2);
     let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
     for n in needles {
         assert!(stderr.contains(n), "stderr {stderr:?} should contain {n:?}");
     }
     assert!(!stderr.contains("panicked"), "{stderr}");
-    let left: Vec<_> = std::fs::read_dir(&out_dir).map(|d| d.collect()).unwrap_or_default();
+    let left: Vec<_> = std::fs::read_dir(&out_dir)
+        .map(|d| d.collect())
+        .unwrap_or_default();
     assert!(left.is_empty(), "output left behind: {left:?}");
 }
 
@@ -83,7 +108,10 @@ fn nan_sample_names_file_frame_and_pixel() {
     let mut f = frames(4, (3, 5));
     f[2][5 + 4] = f64::NAN;
     write_fits(&p, (3, 5), &f);
-    darks_fails(&[p], &["nan.fits", "frame 2", "non-finite", "row 1, column 4"]);
+    darks_fails(
+        &[p],
+        &["nan.fits", "frame 2", "non-finite", "row 1, column 4"],
+    );
 }
 
 #[test]
@@ -111,8 +139,10 @@ fn rgb_tiff_is_an_unsupported_type() {
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("rgb.tif");
     let mut enc = TiffEncoder::new(std::fs::File::create(&p).unwrap()).unwrap();
-    enc.write_image::<colortype::RGB8>(4, 3, &[7u8; 36]).unwrap();
-    enc.write_image::<colortype::RGB8>(4, 3, &[9u8; 36]).unwrap();
+    enc.write_image::<colortype::RGB8>(4, 3, &[7u8; 36])
+        .unwrap();
+    enc.write_image::<colortype::RGB8>(4, 3, &[9u8; 36])
+        .unwrap();
     darks_fails(&[p], &["rgb.tif", "frame 0", "single-channel"]);
 }
 
@@ -122,11 +152,17 @@ fn tiff_page_of_another_shape_is_caught_at_open() {
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("mixed.tif");
     let mut enc = TiffEncoder::new(std::fs::File::create(&p).unwrap()).unwrap();
-    enc.write_image::<colortype::Gray16>(4, 3, &[1u16; 12]).unwrap();
-    enc.write_image::<colortype::Gray16>(4, 3, &[2u16; 12]).unwrap();
-    enc.write_image::<colortype::Gray16>(3, 4, &[3u16; 12]).unwrap();
+    enc.write_image::<colortype::Gray16>(4, 3, &[1u16; 12])
+        .unwrap();
+    enc.write_image::<colortype::Gray16>(4, 3, &[2u16; 12])
+        .unwrap();
+    enc.write_image::<colortype::Gray16>(3, 4, &[3u16; 12])
+        .unwrap();
     let e = FrameStack::open(&[p]).unwrap_err().to_string();
-    assert!(e.contains("mixed.tif") && e.contains("frame 2") && e.contains("differs"), "{e}");
+    assert!(
+        e.contains("mixed.tif") && e.contains("frame 2") && e.contains("differs"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -142,6 +178,11 @@ fn truncated_tiff_fails_on_a_named_frame() {
 fn missing_file_and_empty_glob_are_errors() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("o");
-    Command::cargo_bin("detnoise").unwrap().args(["darks", "/nonexistent/x.fits", "--out"]).arg(&out).assert().code(1);
+    Command::cargo_bin("detnoise")
+        .unwrap()
+        .args(["darks", "/nonexistent/x.fits", "--out"])
+        .arg(&out)
+        .assert()
+        .code(1);
     darks_fails(&[d.path().join("nothing-*.fits")], &["matches no file"]);
 }

@@ -15,12 +15,16 @@ fn dir() -> PathBuf {
 
 fn reference_u16() -> Vec<f64> {
     let b = std::fs::read(dir().join("reference-u16.bin")).unwrap();
-    b.chunks_exact(2).map(|c| u16::from_le_bytes([c[0], c[1]]) as f64).collect()
+    b.chunks_exact(2)
+        .map(|c| u16::from_le_bytes([c[0], c[1]]) as f64)
+        .collect()
 }
 
 fn reference_half() -> Vec<f64> {
     let b = std::fs::read(dir().join("reference-half.bin")).unwrap();
-    b.chunks_exact(4).map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64).collect()
+    b.chunks_exact(4)
+        .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f64)
+        .collect()
 }
 
 fn read_all(paths: &[PathBuf]) -> (FrameStack, Vec<f64>) {
@@ -44,7 +48,13 @@ fn check(name: &str, expected: &[f64]) {
 #[test]
 fn astropy_fits_variants_read_identically() {
     let r = reference_u16();
-    for name in ["astropy-u16-bzero.fits", "astropy-f32.fits", "astropy-mef.fits", "astropy-rice.fits", "astropy-u16-bzero.fits.gz"] {
+    for name in [
+        "astropy-u16-bzero.fits",
+        "astropy-f32.fits",
+        "astropy-mef.fits",
+        "astropy-rice.fits",
+        "astropy-u16-bzero.fits.gz",
+    ] {
         check(name, &r);
     }
     let (stack, _) = read_all(&[dir().join("astropy-u16-bzero.fits")]);

@@ -106,7 +106,11 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
     let (fixed_bias_adu, fixed_read_noise_adu) = match (&args.read_noise, &args.offset) {
         (Some(rn), Some(off)) => {
             let r = read_map(rn)?;
-            let ms = map_mean(&Map::new(r.rows, r.cols, r.data.iter().map(|v| v * v).collect()));
+            let ms = map_mean(&Map::new(
+                r.rows,
+                r.cols,
+                r.data.iter().map(|v| v * v).collect(),
+            ));
             (Some(map_mean(&read_map(off)?)), Some(ms.sqrt()))
         }
         _ => (None, None),
@@ -159,7 +163,11 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
 }
 
 fn paths(stack: &FrameStack) -> Vec<String> {
-    stack.paths().iter().map(|p| p.display().to_string()).collect()
+    stack
+        .paths()
+        .iter()
+        .map(|p| p.display().to_string())
+        .collect()
 }
 
 fn map_mean(m: &Map) -> f64 {
@@ -169,9 +177,16 @@ fn map_mean(m: &Map) -> f64 {
 
 fn median_of_map(path: &Path) -> Result<f64> {
     let m = read_map(path)?;
-    let mut v: Vec<f64> = m.data.into_iter().filter(|v| v.is_finite() && *v > 0.0).collect();
+    let mut v: Vec<f64> = m
+        .data
+        .into_iter()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
     if v.is_empty() {
-        return Err(Error::input(path, "frame 0: no positive finite conversion gain"));
+        return Err(Error::input(
+            path,
+            "frame 0: no positive finite conversion gain",
+        ));
     }
     v.sort_by(f64::total_cmp);
     Ok(v[v.len() / 2])
@@ -214,9 +229,8 @@ fn accumulate(
         if let Some(off) = &off {
             frame.iter_mut().zip(off).for_each(|(v, o)| *v -= o);
         }
-        hist.add_all(&frame).map_err(|e| {
-            Error::input(&stack.sources[0].path, format!("stack frame {i}: {e}"))
-        })?;
+        hist.add_all(&frame)
+            .map_err(|e| Error::input(&stack.sources[0].path, format!("stack frame {i}: {e}")))?;
     }
     let (mean, _) = hist.mean_var();
     Ok((hist, mean))
@@ -235,7 +249,12 @@ fn chart(h: &ValueHistogram, fit: &EmGainFit, path: &Path) -> Result<()> {
         format!("pixel-samples per {width:.3} adu bin"),
     );
     c.log_y = true;
-    let pts = |f: fn(&CurveBin) -> f64| curve.iter().map(move |c| (c.x_adu, f(c))).collect::<Vec<_>>();
+    let pts = |f: fn(&CurveBin) -> f64| {
+        curve
+            .iter()
+            .map(move |c| (c.x_adu, f(c)))
+            .collect::<Vec<_>>()
+    };
     c.series = vec![
         Series::new("data", pts(|c| c.data)).styled(SeriesStyle::Markers),
         Series::new("model", pts(|c| c.model)).styled(SeriesStyle::Line),
@@ -244,7 +263,11 @@ fn chart(h: &ValueHistogram, fit: &EmGainFit, path: &Path) -> Result<()> {
             .styled(SeriesStyle::Line),
     ];
     let ymin = 0.3;
-    let ymax = curve.iter().map(|c| c.data.max(c.model)).fold(1.0, f64::max) * 2.0;
+    let ymax = curve
+        .iter()
+        .map(|c| c.data.max(c.model))
+        .fold(1.0, f64::max)
+        * 2.0;
     c.y_range = Some((ymin, ymax));
     c.save(path)
 }
@@ -255,11 +278,26 @@ fn print_summary(r: &EmgainReport) {
         "{} frames of {}x{}: {} pixel-samples fitted ({} excluded above {:.0} adu)",
         r.frames, r.shape[0], r.shape[1], f.n_samples, f.n_excluded, f.max_value_adu
     );
-    println!("em_gain        {:.4} +- {:.4} {}", f.em_gain, f.em_gain_se, f.em_gain_units);
-    println!("gain           {:.4} +- {:.4} adu/e-", f.gain_adu_per_e, f.gain_adu_per_e_se);
-    println!("bias           {:.3} +- {:.3} adu", f.bias_adu, f.bias_adu_se);
-    println!("read noise     {:.3} +- {:.3} adu", f.read_noise_adu, f.read_noise_adu_se);
-    println!("lambda         {:.5} +- {:.5} e-/pixel", f.lambda_e, f.lambda_e_se);
+    println!(
+        "em_gain        {:.4} +- {:.4} {}",
+        f.em_gain, f.em_gain_se, f.em_gain_units
+    );
+    println!(
+        "gain           {:.4} +- {:.4} adu/e-",
+        f.gain_adu_per_e, f.gain_adu_per_e_se
+    );
+    println!(
+        "bias           {:.3} +- {:.3} adu",
+        f.bias_adu, f.bias_adu_se
+    );
+    println!(
+        "read noise     {:.3} +- {:.3} adu",
+        f.read_noise_adu, f.read_noise_adu_se
+    );
+    println!(
+        "lambda         {:.5} +- {:.5} e-/pixel",
+        f.lambda_e, f.lambda_e_se
+    );
     let cc = &f.cross_checks;
     println!(
         "cross-check: mean-variance / F^2 ({:.3}) = {:.4} adu/e- (without F^2: {:.4})",

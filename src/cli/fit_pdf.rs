@@ -94,7 +94,11 @@ fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
         }
     };
     let flags_path = args.flags.clone().or_else(|| {
-        let p = args.map.parent().unwrap_or(Path::new(".")).join("flags.fits");
+        let p = args
+            .map
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("flags.fits");
         p.exists().then_some(p)
     });
     let flags = match (&flags_path, args.keep_flagged) {
@@ -133,13 +137,19 @@ fn chart(report: &PdfFitReport, values: &[f64], path: &Path) -> Result<()> {
         }
         let pdf = report.pdf(Some(name))?;
         let d = hi * 1e-3;
-        let pts = xs.iter().map(|x| (*x, (pdf.cdf(x + d) - pdf.cdf(x - d)) / (2.0 * d)));
+        let pts = xs
+            .iter()
+            .map(|x| (*x, (pdf.cdf(x + d) - pdf.cdf(x - d)) / (2.0 * d)));
         let label = if *name == report.best_model {
             format!("{name} (best AIC)")
         } else {
             name.clone()
         };
-        curves.push(Series::new(label, pts).styled(SeriesStyle::Line).coloured(i + 1));
+        curves.push(
+            Series::new(label, pts)
+                .styled(SeriesStyle::Line)
+                .coloured(i + 1),
+        );
     }
     let mut h = Histogram::new(
         format!(
@@ -148,7 +158,11 @@ fn chart(report: &PdfFitReport, values: &[f64], path: &Path) -> Result<()> {
         ),
         "read noise rms (e-)",
         "probability density (1/e-)",
-        values.iter().copied().filter(|v| *v > 0.0 && *v <= hi).collect(),
+        values
+            .iter()
+            .copied()
+            .filter(|v| *v > 0.0 && *v <= hi)
+            .collect(),
     );
     h.sample_label = "map".into();
     h.bins = Bins::Count(200);
@@ -187,7 +201,10 @@ fn table(r: &PdfFitReport) -> String {
         );
         for (k, v) in &m.params {
             let se = m.param_se.get(k).copied().flatten();
-            s += &format!("    {k} = {v:.6}{}\n", se.map_or(String::new(), |e| format!(" +- {e:.6}")));
+            s += &format!(
+                "    {k} = {v:.6}{}\n",
+                se.map_or(String::new(), |e| format!(" +- {e:.6}"))
+            );
         }
         if !m.note.is_empty() {
             s += &format!("    note: {}\n", m.note);

@@ -150,8 +150,7 @@ impl ValueHistogram {
             self.counts = c;
             self.start = new_start;
         }
-        self.counts
-            .resize((new_end - self.start) as usize, 0.0);
+        self.counts.resize((new_end - self.start) as usize, 0.0);
         Ok(())
     }
 
@@ -407,7 +406,13 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
 /// Start values with bias `b` and read noise `s` (adu) known: gain and lambda from the
 /// moments, mean = b + lambda G and var = s^2 + lambda G^2 F^2. Errors if the frames
 /// hold no signal beyond the read noise.
-fn start_from_moments(h: &ValueHistogram, b: f64, s: f64, shape: EmShape, conv: f64) -> Result<EmStart> {
+fn start_from_moments(
+    h: &ValueHistogram,
+    b: f64,
+    s: f64,
+    shape: EmShape,
+    conv: f64,
+) -> Result<EmStart> {
     let n = h.total();
     if (n as usize) < MIN_SAMPLES {
         return Err(Error::Numeric(format!(
@@ -531,7 +536,12 @@ impl Problem {
 
     /// Internal coordinates of all four natural parameters `p`.
     fn internal(&self, p: &[f64; 4]) -> [f64; 4] {
-        [(p[0] - self.bias0) / self.s0, p[1].ln(), p[2].ln(), p[3].ln()]
+        [
+            (p[0] - self.bias0) / self.s0,
+            p[1].ln(),
+            p[2].ln(),
+            p[3].ln(),
+        ]
     }
 
     /// Probabilities of the fitted bins, normalised over the fitted range.
@@ -646,7 +656,10 @@ impl Layout {
 pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit> {
     if let Some(c) = opts.gain_e_per_adu {
         if !(c > 0.0 && c.is_finite()) {
-            return Err(Error::usage("--gain-e-per-adu", "must be a positive number"));
+            return Err(Error::usage(
+                "--gain-e-per-adu",
+                "must be a positive number",
+            ));
         }
     }
     let conv = match (opts.shape, opts.gain_e_per_adu) {
@@ -664,16 +677,15 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     let (mean, var) = h.mean_var();
     let (q4, q3, q50) = (h.quantile(1e-4), h.quantile(1e-3), h.quantile(0.5));
     let sq = ((q3 - q4) / 0.63).max(w0 / 12f64.sqrt());
-    let st = match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
-        (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv)?,
-        (None, None) => start_values(h)?,
-        _ => {
-            return Err(Error::usage(
+    let st =
+        match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
+            (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv)?,
+            (None, None) => start_values(h)?,
+            _ => return Err(Error::usage(
                 "--offset/--read-noise",
                 "bias and read noise are fixed together (both from no-signal frames) or not at all",
-            ))
-        }
-    };
+            )),
+        };
     let fixed = opts.fixed_bias_adu.is_some();
     let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
     let cut = opts
@@ -832,7 +844,12 @@ pub struct CurveBin {
 /// The data and the fitted model on at most `max_bins` bins (whole histogram bins merged)
 /// up to the fit's upper limit, with the zero-electron component.
 pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<CurveBin> {
-    let (b, s, g, l) = (fit.bias_adu, fit.read_noise_adu, fit.gain_adu_per_e, fit.lambda_e);
+    let (b, s, g, l) = (
+        fit.bias_adu,
+        fit.read_noise_adu,
+        fit.gain_adu_per_e,
+        fit.lambda_e,
+    );
     let w = h.width();
     let used = h
         .counts()
@@ -910,14 +927,23 @@ mod tests {
         let opts = EmGainOptions {
             shape: EmShape::Register { stages: 512 },
             gain_e_per_adu: Some(1.0),
-            max_value_adu: None,
+            ..Default::default()
         };
         let mut bad = vec![];
-        for (i, (g, lambda)) in [(5.0f64, 0.05f64), (5.0, 5.0), (50.0, 0.05), (50.0, 1.0), (300.0, 0.2), (300.0, 5.0), (1000.0, 0.05), (1000.0, 2.0)]
-            .into_iter()
-            .enumerate()
+        for (i, (g, lambda)) in [
+            (5.0f64, 0.05f64),
+            (5.0, 5.0),
+            (50.0, 0.05),
+            (50.0, 1.0),
+            (300.0, 0.2),
+            (300.0, 5.0),
+            (1000.0, 0.05),
+            (1000.0, 2.0),
+        ]
+        .into_iter()
+        .enumerate()
         {
-            let sigma: f64 = (0.2 * g as f64).min(50.0);
+            let sigma: f64 = (0.2 * g).min(50.0);
             let v = synth(400_000, g, lambda, sigma, 1.0, i as u64);
             let h = ValueHistogram::from_values(&v, 1.0).unwrap();
             let t = std::time::Instant::now();
@@ -937,7 +963,9 @@ mod tests {
             // is <= 1.8 % at N = 4e5; 6 % is > 3 SE.
             let mv = f.cross_checks.mean_variance_gain_adu_per_e / f.gain_adu_per_e - 1.0;
             if eg.abs() > tol_g || es.abs() > tol_s || mv.abs() > 0.06 {
-                bad.push(format!("g {g} lambda {lambda}: {eg:+.4} (tol {tol_g:.3}) {es:+.4} (tol {tol_s:.3})"));
+                bad.push(format!(
+                    "g {g} lambda {lambda}: {eg:+.4} (tol {tol_g:.3}) {es:+.4} (tol {tol_s:.3})"
+                ));
             }
         }
         assert!(bad.is_empty(), "{bad:?}");
@@ -953,8 +981,16 @@ mod tests {
         let f = fit_emgain(&h, &EmGainOptions::default()).unwrap();
         assert_eq!(f.em_gain_units, "adu/e-");
         assert!((f.em_gain / 60.0 - 1.0).abs() < 0.02, "{}", f.em_gain);
-        assert!((f.read_noise_adu / 10.0 - 1.0).abs() < 0.02, "{}", f.read_noise_adu);
-        assert!((f.bias_adu - 1000.0).abs() < 4.0 * f.bias_adu_se + 0.1, "{}", f.bias_adu);
+        assert!(
+            (f.read_noise_adu / 10.0 - 1.0).abs() < 0.02,
+            "{}",
+            f.read_noise_adu
+        );
+        assert!(
+            (f.bias_adu - 1000.0).abs() < 4.0 * f.bias_adu_se + 0.1,
+            "{}",
+            f.bias_adu
+        );
     }
 
     #[test]
@@ -962,12 +998,18 @@ mod tests {
         // Read noise only: no sample-rate of signal above 5 sigma beyond chance.
         let noise = Normal::new(500.0f64, 3.0).unwrap();
         let mut rng = stream(4, 0, 0);
-        let v: Vec<f64> = (0..100_000).map(|_| noise.sample(&mut rng).round()).collect();
+        let v: Vec<f64> = (0..100_000)
+            .map(|_| noise.sample(&mut rng).round())
+            .collect();
         let h = ValueHistogram::from_values(&v, 1.0).unwrap();
-        let e = fit_emgain(&h, &EmGainOptions::default()).unwrap_err().to_string();
+        let e = fit_emgain(&h, &EmGainOptions::default())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no EM signal"), "{e}");
         let h = ValueHistogram::from_values(&v[..500], 1.0).unwrap();
-        let e = fit_emgain(&h, &EmGainOptions::default()).unwrap_err().to_string();
+        let e = fit_emgain(&h, &EmGainOptions::default())
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("pixel-samples"), "{e}");
         assert!(ValueHistogram::from_values(&[1.0, f64::NAN], 1.0).is_err());
     }

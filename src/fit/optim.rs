@@ -81,7 +81,9 @@ pub(crate) fn minimise(
                 )))
             }
             TerminationStatus::NotTerminated => {
-                return Err(Error::Numeric(format!("{what}: the optimiser stopped early")))
+                return Err(Error::Numeric(format!(
+                    "{what}: the optimiser stopped early"
+                )))
             }
         }
         let x = state
@@ -124,7 +126,8 @@ pub(crate) fn hessian(f: impl Fn(&[f64]) -> f64, x: &[f64], h: &[f64]) -> Vec<Ve
     for i in 0..n {
         hm[i][i] = (at(&[(i, h[i])]) - 2.0 * f0 + at(&[(i, -h[i])])) / (h[i] * h[i]);
         for j in 0..i {
-            let v = (at(&[(i, h[i]), (j, h[j])]) - at(&[(i, h[i]), (j, -h[j])])
+            let v = (at(&[(i, h[i]), (j, h[j])])
+                - at(&[(i, h[i]), (j, -h[j])])
                 - at(&[(i, -h[i]), (j, h[j])])
                 + at(&[(i, -h[i]), (j, -h[j])]))
                 / (4.0 * h[i] * h[j]);
@@ -144,7 +147,7 @@ pub(crate) fn spd_inverse(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
         for j in 0..=i {
             let s: f64 = a[i][j] - (0..j).map(|k| l[i][k] * l[j][k]).sum::<f64>();
             if i == j {
-                if !(s > 0.0) || !s.is_finite() {
+                if s.is_nan() || s <= 0.0 || !s.is_finite() {
                     return None;
                 }
                 l[i][i] = s.sqrt();
@@ -155,6 +158,7 @@ pub(crate) fn spd_inverse(a: &[Vec<f64>]) -> Option<Vec<Vec<f64>>> {
     }
     // Columns of L^-1 by forward substitution, then A^-1 = L^-T L^-1.
     let mut linv = vec![vec![0.0; n]; n];
+    #[allow(clippy::needless_range_loop)] // triangular index arithmetic reads best as indices
     for c in 0..n {
         for i in c..n {
             let s: f64 = (c..i).map(|k| l[i][k] * linv[k][c]).sum::<f64>();

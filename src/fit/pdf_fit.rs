@@ -152,7 +152,7 @@ impl Data {
 /// Fit every requested model to the rms values `values` (e-) of a map.
 pub fn fit_pdf(values: &[f64], opts: &PdfFitOptions) -> Result<PdfFitReport> {
     let cut = opts.upper_cut_e.unwrap_or(f64::INFINITY);
-    if !(cut > 0.0) {
+    if cut.is_nan() || cut <= 0.0 {
         return Err(Error::usage("--upper-cut", "must be positive (e-)"));
     }
     let mut sorted: Vec<f64> = values
@@ -168,7 +168,9 @@ pub fn fit_pdf(values: &[f64], opts: &PdfFitOptions) -> Result<PdfFitReport> {
         )));
     }
     sorted.sort_by(f64::total_cmp);
-    let upper = opts.upper_cut_e.unwrap_or(*sorted.last().expect("non-empty"));
+    let upper = opts
+        .upper_cut_e
+        .unwrap_or(*sorted.last().expect("non-empty"));
     if sorted[0] == upper {
         return Err(Error::Numeric(
             "every value of the map is the same: no distribution to fit".into(),
@@ -350,7 +352,10 @@ fn fit_parametric(model: PdfModel, data: &Data, upper: f64, start: Vec<f64>) -> 
 /// The empirical model: the values themselves, or equal-mass quantiles of a large map.
 fn fit_empirical(sorted: &[f64]) -> ModelFit {
     let (table, note) = if sorted.len() <= EMPIRICAL_TABLE_MAX {
-        (sorted.to_vec(), "values_e holds every value of the map".to_string())
+        (
+            sorted.to_vec(),
+            "values_e holds every value of the map".to_string(),
+        )
     } else {
         let emp = EmpiricalPdf::new(sorted, "map").expect("non-empty");
         let m = EMPIRICAL_TABLE_MAX;
@@ -419,16 +424,15 @@ impl PdfFitReport {
                 .ok_or_else(|| Error::Numeric("the empirical model has no usable values".into()))?;
             return Ok(Arc::new(pdf));
         }
-        let p = kind
-            .params()
-            .iter()
-            .map(|(k, _)| {
-                fit.params
-                    .get(*k)
-                    .copied()
-                    .ok_or_else(|| Error::Numeric(format!("model {name}: parameter {k} missing")))
-            })
-            .collect::<Result<Vec<f64>>>()?;
+        let p =
+            kind.params()
+                .iter()
+                .map(|(k, _)| {
+                    fit.params.get(*k).copied().ok_or_else(|| {
+                        Error::Numeric(format!("model {name}: parameter {k} missing"))
+                    })
+                })
+                .collect::<Result<Vec<f64>>>()?;
         let upper = fit
             .params
             .get("upper_cut_e")
@@ -493,7 +497,10 @@ mod tests {
         let ps = &r.models["paper-scaled"];
         let s = ps.params["scale"];
         let se = ps.param_se["scale"].unwrap();
-        eprintln!("{side}x{side}: scale {s:.5} +- {se:.5} ({:.2} SE from 1)", (s - 1.0) / se);
+        eprintln!(
+            "{side}x{side}: scale {s:.5} +- {se:.5} ({:.2} SE from 1)",
+            (s - 1.0) / se
+        );
         assert!((s - 1.0).abs() < 3.0 * se, "scale {s} +- {se}");
         for (name, m) in &r.models {
             let dm = m.median_e / r.data.median_e - 1.0;
@@ -525,7 +532,45 @@ mod tests {
         let r = fit_pdf(&values, &PdfFitOptions::default()).unwrap();
         let a_ln = r.models["lognormal+tail"].aic.unwrap();
         let a_ps = r.models["paper-scaled"].aic.unwrap();
-        eprintln!("lognormal map: AIC lognormal+tail {a_ln:.1}, paper-scaled {a_ps:.1}, best {}", r.best_model);
+        eprintln!(
+            "lognormal map: AIC lognormal+tail {a_ln:.1}, paper-scaled {a_ps:.1}, best {}",
+            r.best_model
+        );
         assert!(a_ln < a_ps);
+    }
+
+    #[test]
+    fn bad_maps_get_a_reason() {
+        let e = fit_pdf(&[1.0; 10], &PdfFitOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("at least 50"), "{e}");
+        let e = fit_pdf(&[1.0; 100], &PdfFitOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("same"), "{e}");
+        let mut v = paper_map(16, 5);
+        v.extend([f64::NAN, -1.0, 0.0]);
+        let r = fit_pdf(
+            &v,
+            &PdfFitOptions {
+                models: vec![PdfModel::Empirical],
+                upper_cut_e: None,
+            },
+        )
+        .unwrap();
+        assert_eq!((r.n_values, r.n_excluded), (256, 3));
+        assert_eq!(r.best_model, "empirical");
+    }
+
+    #[test]
+    fn json_round_trip_rebuilds_the_fitted_pdf() {
+        let r = fit_pdf(&paper_map(32, 6), &PdfFitOptions::default()).unwrap();
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("pdf_fit.json");
+        r.write_json(&path).unwrap();
+        for (name, m) in &r.models {
+            let pdf = load_pdf_fit(&path, Some(name)).unwrap();
+            assert!((pdf.median() - m.median_e).abs() < 1e-12, "{name}");
+            assert!((pdf.mean() - m.mean_e).abs() < 1e-12, "{name}");
+        }
+        let best = load_pdf_fit(&path, None).unwrap();
+        assert!((best.median() - r.models[&r.best_model].median_e).abs() < 1e-12);
     }
 }

@@ -328,7 +328,11 @@ mod tests {
 
     #[test]
     fn transforms_round_trip() {
-        for (t, v) in [(Transform::Log, 3.5), (Transform::Logit, 0.2), (Transform::Free, -1.0)] {
+        for (t, v) in [
+            (Transform::Log, 3.5),
+            (Transform::Logit, 0.2),
+            (Transform::Free, -1.0),
+        ] {
             assert!((t.to_natural(t.to_internal(v)) - v).abs() < 1e-12);
         }
     }
