@@ -5,16 +5,22 @@
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
 pub mod calib;
+pub mod centroid;
 pub mod cli;
 pub mod detector;
+pub mod effective;
 pub mod error;
 pub mod fit;
 pub mod io;
 pub mod maps;
+pub mod montecarlo;
+pub mod output;
+pub mod paper;
 pub mod pdf;
 pub mod plot;
 pub mod pp;
 pub mod rng;
+pub mod spot;
 pub mod stats;
 pub mod synth;
 

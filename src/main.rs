@@ -1,3 +1,5 @@
+//! The `detnoise` binary: see `detnoise --help`.
+
 fn main() {
-    detnoise::cli::main();
+    std::process::exit(detnoise::cli::main());
 }

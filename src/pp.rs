@@ -21,10 +21,27 @@
 //! the mean transfer curve `E[K | lambda] = sum_k P(X > t_k | lambda)` by interpolation on a
 //! tabulated `lambda` grid; the per-count inverse is precomputed, so correcting a pixel is a lookup.
 //!
-//! Cost: building a [`PpCounter`] for Rule A is O(thresholds x n_max + grid x Poisson window),
-//! about 0.1-0.5 ms for the default `lambda_max`; a readout whose reference `lambda` changes per
-//! frame should use [`PpCache`] (the sub-aperture mean photo-electrons per pixel takes few distinct
-//! values, total electrons / pixels, so the cache hits almost always).
+//! Use in a readout (the register output plus read noise, divided by g, is `x_over_g`):
+//!
+//! ```
+//! use detnoise::pp::{PpCache, PpConfig, PpRule};
+//! let cache = PpCache::new(PpConfig::new(PpRule::PoissonPrior, 500.0, 50.0)?, 1024)?;
+//! // Once per frame: the sub-aperture's photo-electrons per pixel.
+//! let counter = cache.get(50.0 / 64.0)?;
+//! let x_over_g = 1.3;
+//! let photons = counter.count(x_over_g); // `emccd-pp-uncorrected`
+//! let lambda_hat = counter.corrected(x_over_g); // `emccd-pp`
+//! assert_eq!(photons, 1);
+//! assert!(lambda_hat > 0.0);
+//! # Ok::<(), detnoise::Error>(())
+//! ```
+//!
+//! Cost (release build, `cargo run --release --example pp_cost`): a Rule A [`PpCounter`] takes
+//! 0.4 ms (lambda_ref 0.05) to 1 ms (lambda_ref 20) to build with the default `lambda_max`, mostly
+//! the exact per-electron transfer table; Rule B takes about 0.36 s, once per run. A readout whose
+//! reference light level changes per frame should use [`PpCache`]: the sub-aperture mean
+//! photo-electrons per pixel (total / pixels) takes few distinct values, so almost every frame
+//! is a cache hit (about 1 us).
 
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex, OnceLock};
@@ -72,6 +89,8 @@ pub struct PpConfig {
 impl PpConfig {
     /// Default largest light level covered by the thresholds and the correction, photo-electrons per pixel.
     pub const DEFAULT_LAMBDA_MAX: f64 = 256.0;
+    /// Reference light levels below this (photo-electrons per pixel) are raised to it (Rule A).
+    pub const LAMBDA_MIN: f64 = 1e-6;
 
     /// A configuration with the rule's own 0|1 boundary and the default `lambda_max`; checks the values.
     pub fn new(rule: PpRule, gain: f64, read_noise_e: f64) -> Result<Self> {
@@ -120,22 +139,19 @@ impl PpConfig {
         Ok(())
     }
 
-    /// The thresholds for reference light level `lambda_ref` (photo-electrons per pixel; ignored by Rule B).
+    /// The thresholds for reference light level `lambda_ref` (photo-electrons per pixel, >= 0;
+    /// ignored by Rule B).
     pub fn thresholds(&self, lambda_ref: f64) -> Result<PpThresholds> {
         self.validate()?;
         let u_max = output_span_over_g(self.lambda_max);
         let mut t = match self.rule {
             PpRule::PoissonPrior => {
                 check_lambda(lambda_ref, "--pp-lambda")?;
-                if lambda_ref == 0.0 {
-                    return Err(Error::usage(
-                        "--pp-lambda",
-                        "Rule A needs a reference light level > 0",
-                    ));
-                }
-                let t0 =
-                    zero_one_threshold_e(lambda_ref, self.gain, self.read_noise_e)? / self.gain;
-                rule_a_thresholds(t0, lambda_ref, u_max)
+                // A dark frame (lambda 0) gets the thresholds of a very faint one: practically
+                // everything counts 0, which is the MAP answer.
+                let lambda = lambda_ref.max(Self::LAMBDA_MIN);
+                let t0 = zero_one_threshold_e(lambda, self.gain, self.read_noise_e)? / self.gain;
+                rule_a_thresholds(t0, lambda, u_max)
             }
             PpRule::EqualDensity => rule_b_thresholds(self.gain, self.read_noise_e, u_max)?,
         };
@@ -198,7 +214,8 @@ fn rule_a_thresholds(t0_over_g: f64, lambda: f64, u_max: f64) -> Vec<f64> {
     let mut t = vec![t0_over_g];
     let mut n = 1;
     loop {
-        // The 0|1 root lies far below 2 / lambda for any lambda, but keep the set strictly increasing.
+        // With read noise comparable to the gain the 0|1 boundary can lie above some n(n+1)/lambda;
+        // those boundaries are moved just above it (their bins stay empty), keeping the order.
         let tn = rule_a_threshold_over_g(n, lambda).max(t[t.len() - 1] * (1.0 + 1e-12) + 1e-12);
         t.push(tn);
         if tn >= u_max {
@@ -215,12 +232,14 @@ fn norm_cdf(z: f64) -> f64 {
 
 /// ln of the standard normal cdf, accurate far into the lower tail.
 fn ln_norm_cdf(z: f64) -> f64 {
-    if z > -30.0 {
+    if z > -37.0 {
         norm_cdf(z).ln()
     } else {
-        // Asymptotic series of the Mills ratio.
-        let z2 = z * z;
-        -0.5 * z2 - (-z).ln() - 0.5 * LN_2PI + (1.0 - 1.0 / z2 + 3.0 / (z2 * z2)).ln()
+        // Asymptotic series of the Mills ratio; at |z| >= 37 the next term is below 1e-15.
+        let q = 1.0 / (z * z);
+        let series =
+            1.0 - q * (1.0 - 3.0 * q * (1.0 - 5.0 * q * (1.0 - 7.0 * q * (1.0 - 9.0 * q))));
+        -0.5 * z * z - (-z).ln() - 0.5 * LN_2PI + series.ln()
     }
 }
 
@@ -439,8 +458,23 @@ fn rule_b_thresholds(gain: f64, sigma: f64, u_max: f64) -> Result<Vec<f64>> {
 /// plus N(0, sigma^2) read noise, t in output electrons. Exact: the Gaussian integral of the
 /// regularised upper incomplete gamma reduces to partial Gaussian moments with a 3-term recurrence.
 pub fn survival_by_n(t_e: f64, gain: f64, read_noise_e: f64, n_max: usize) -> Vec<f64> {
-    let mut out = Vec::with_capacity(n_max + 1);
+    survival_with(t_e, gain, read_noise_e, &reciprocals(n_max + 1))
+}
+
+/// 1 / n for n = 0..=n_max (entry 0 is unused): the recurrences multiply instead of dividing,
+/// which keeps divisions out of their dependency chains.
+fn reciprocals(n_max: usize) -> Vec<f64> {
+    (0..=n_max).map(|n| 1.0 / n.max(1) as f64).collect()
+}
+
+/// [`survival_by_n`] for n = 0..inv.len() - 1, with the reciprocal table `inv`.
+fn survival_with(t_e: f64, gain: f64, read_noise_e: f64, inv: &[f64]) -> Vec<f64> {
+    let n_max = inv.len() - 1;
     let sigma = read_noise_e;
+    if sigma > 0.0 && (t_e - sigma * sigma / gain) < -0.5 * sigma {
+        return survival_low_threshold(t_e, gain, sigma, inv);
+    }
+    let mut out = Vec::with_capacity(n_max + 1);
     let (base, mut ln_scale, mut m_prev2, mut m_prev, b) = if sigma > 0.0 {
         let mu = t_e - sigma * sigma / gain;
         let m0 = norm_cdf(mu / sigma);
@@ -477,9 +511,8 @@ pub fn survival_by_n(t_e: f64, gain: f64, read_noise_e: f64, n_max: usize) -> Ve
     };
     out.push(value(cum, ln_scale, factor));
     for n in 2..=n_max {
-        let j = (n - 1) as f64;
         if n > 2 {
-            let m = (a * m_prev + b * m_prev2) / j;
+            let m = (a * m_prev + b * m_prev2) * inv[n - 1];
             m_prev2 = m_prev;
             m_prev = m;
         }
@@ -492,6 +525,51 @@ pub fn survival_by_n(t_e: f64, gain: f64, read_noise_e: f64, n_max: usize) -> Ve
             factor = ln_scale.exp();
         }
         let v = value(cum, ln_scale, factor);
+        out.push(v);
+        if v >= 1.0 - 1e-16 {
+            out.resize(n_max + 1, 1.0);
+            break;
+        }
+    }
+    out
+}
+
+/// [`survival_with`] where mu = t - sigma^2 / g < -sigma / 2 (thresholds below about 0, or read
+/// noise much larger than the gain). There the forward recurrence of the partial moments M_j
+/// cancels catastrophically (M_j is its minimal solution; at mu = -5 sigma it is wrong by 1e5
+/// within 40 terms), so the ratios r_j = M_j / M_(j-1) come from the backward recurrence
+/// r_j = j sigma^2 / (r_(j+1) - mu), started at the mode of s^J N(s; mu, sigma) far enough out
+/// that the start error has decayed (it shrinks like exp(-2 |mu| / sigma (sqrt J - sqrt j))),
+/// and the (all positive) terms are summed in log space. Between -sigma / 2 and 0 the forward
+/// recurrence loses at most ~1e-7 relative over 500 terms and is used instead.
+fn survival_low_threshold(t_e: f64, gain: f64, sigma: f64, inv: &[f64]) -> Vec<f64> {
+    let n_max = inv.len() - 1;
+    let s2 = sigma * sigma;
+    let mu = t_e - s2 / gain;
+    let base = norm_cdf(-t_e / sigma);
+    let mut out = Vec::with_capacity(n_max + 1);
+    out.push(base);
+    let m = (-mu / sigma).max(0.5);
+    let j_start = ((n_max as f64).sqrt() + 12.0 / m).powi(2).ceil() as usize + 10;
+    let mut r = 0.5 * (mu + (mu * mu + 4.0 * j_start as f64 * s2).sqrt());
+    let mut ratios = vec![0.0; n_max.max(1)];
+    for j in (1..j_start).rev() {
+        r = j as f64 * s2 / (r - mu);
+        if j < ratios.len() {
+            ratios[j] = r;
+        }
+    }
+    // ln of the j-th term e^(-t/g + s^2 / 2g^2) M_j / (g^j j!), starting at j = 0.
+    let mut ln_term = -t_e / gain + s2 / (2.0 * gain * gain) + ln_norm_cdf(mu / sigma);
+    let ln_g = gain.ln();
+    let mut cum = 0.0;
+    for n in 1..=n_max {
+        let j = n - 1;
+        if j >= 1 {
+            ln_term += (ratios[j] * inv[j]).ln() - ln_g;
+        }
+        cum += ln_term.exp();
+        let v = (base + cum).clamp(0.0, 1.0);
         out.push(v);
         if v >= 1.0 - 1e-16 {
             out.resize(n_max + 1, 1.0);
@@ -585,14 +663,11 @@ impl PhotometricCorrection {
             ));
         }
         let n_max = n_max_for(lambda_max);
+        let inv = reciprocals(n_max + 1);
         let mut count_given_n = vec![0.0; n_max + 1];
+        let (g, sigma) = (thresholds.gain, thresholds.read_noise_e);
         for &t in &thresholds.t_over_g {
-            let s = survival_by_n(
-                t * thresholds.gain,
-                thresholds.gain,
-                thresholds.read_noise_e,
-                n_max,
-            );
+            let s = survival_with(t * g, g, sigma, &inv[..=n_max]);
             for (c, s) in count_given_n.iter_mut().zip(s) {
                 *c += s;
             }
@@ -601,7 +676,10 @@ impl PhotometricCorrection {
         let lambda: Vec<f64> = (0..=j_max)
             .map(|j| lambda_max * (j as f64 / j_max as f64).powi(2))
             .collect();
-        let mut mean_count: Vec<f64> = lambda.iter().map(|&l| mean_of(&count_given_n, l)).collect();
+        let mut mean_count: Vec<f64> = lambda
+            .iter()
+            .map(|&l| mean_of(&count_given_n, l, &inv))
+            .collect();
         // Rounding can break monotonicity by ~1e-16 where the curve is flat; the inverse needs order.
         for j in 1..mean_count.len() {
             if mean_count[j] < mean_count[j - 1] {
@@ -622,7 +700,8 @@ impl PhotometricCorrection {
 
     /// E[K | lambda] computed exactly from the per-electron table (lambda in photo-electrons, <= lambda_max).
     pub fn expected_count(&self, lambda: f64) -> f64 {
-        mean_of(&self.count_given_n, lambda)
+        let inv = reciprocals(self.count_given_n.len());
+        mean_of(&self.count_given_n, lambda, &inv)
     }
 
     /// E[K | n] for n photo-electrons (n up to the table's end).
@@ -664,10 +743,23 @@ impl PhotometricCorrection {
 }
 
 /// Poisson(lambda) average of a per-electron quantity tabulated for n = 0..=n_max (the table reaches
-/// 12 sigma beyond lambda_max, so the truncated mass is negligible).
-fn mean_of(per_n: &[f64], lambda: f64) -> f64 {
-    let (lo, pmf) = poisson_window(lambda, per_n.len() - 1);
-    pmf.iter().zip(&per_n[lo..]).map(|(p, c)| p * c).sum()
+/// 12 sigma beyond lambda_max, so the truncated mass is negligible); `inv` holds 1 / n up to n_max + 1.
+fn mean_of(per_n: &[f64], lambda: f64, inv: &[f64]) -> f64 {
+    if lambda == 0.0 {
+        return per_n[0];
+    }
+    let n_max = per_n.len() - 1;
+    // 8 sigma plus 20 terms either side leaves out less than 1e-15 of the mass.
+    let spread = 8.0 * lambda.sqrt() + 20.0;
+    let lo = ((lambda - spread).floor().max(0.0) as usize).min(n_max);
+    let hi = ((lambda + spread).ceil() as usize).min(n_max);
+    let mut p = (-lambda + lo as f64 * lambda.ln() - ln_gamma(lo as f64 + 1.0)).exp();
+    let mut sum = 0.0;
+    for n in lo..=hi {
+        sum += p * per_n[n];
+        p *= lambda * inv[n + 1];
+    }
+    sum
 }
 
 /// A ready PP readout for one reference light level: thresholds and photometric correction.
@@ -818,6 +910,45 @@ mod tests {
     }
 
     #[test]
+    fn ln_norm_cdf_is_accurate_in_the_far_tail() {
+        // Both branches agree where both are representable (the switch is at -37).
+        for z in [-36.0, -37.5, -38.0] {
+            let direct = norm_cdf(z).ln();
+            assert!(
+                (ln_norm_cdf(z) - direct).abs() < 1e-9 * direct.abs(),
+                "z = {z}"
+            );
+        }
+        assert!(ln_norm_cdf(-100.0).is_finite());
+    }
+
+    #[test]
+    fn low_gain_thresholds_stay_ordered_and_invertible() {
+        // Read noise 50 e- at gain 10: at lambda 0.3 the 0|1 boundary (about 20.2 g) lies above
+        // the 1|2 and 2|3 boundaries (6.7 g, 20 g). The set must stay increasing, and the
+        // correction must still invert the transfer curve (and the survival stays accurate
+        // where mu = t - sigma^2 / g is far below 0 for every threshold).
+        let cfg = PpConfig::new(PpRule::PoissonPrior, 10.0, SIGMA).unwrap();
+        for lambda in [0.3, 3.0, 30.0] {
+            let c = cfg.counter(lambda).unwrap();
+            let t = &c.thresholds.t_over_g;
+            assert!(t.windows(2).all(|w| w[0] < w[1]));
+            if lambda == 0.3 {
+                assert!(
+                    t[0] > 20.0 && t[1] > t[0] && t[2] > t[1] && t[3] == 40.0,
+                    "{:?}",
+                    &t[..4]
+                );
+            }
+            let back = c.correction.invert(c.correction.expected_count(lambda));
+            assert!(
+                (back - lambda).abs() < 5e-3 * lambda,
+                "lambda {lambda} -> {back}"
+            );
+        }
+    }
+
+    #[test]
     fn survival_without_read_noise_is_gamma_ur() {
         use statrs::function::gamma::gamma_ur;
         for t in [0.05, 0.7, 3.0, 40.0] {
@@ -841,12 +972,28 @@ mod tests {
     fn survival_with_read_noise_matches_numerical_integral() {
         // P(Y_n + e > t) = Phi(-t/s) + int_{-12 s}^{t} Q(n, (t-e)/g) phi_s(e) de, the integral by
         // Simpson's rule on 20,000 intervals (the integrand is smooth there; error < 1e-10).
+        // Cases cover both evaluation paths (mu = t - s^2/g below and above 0) and read noise far
+        // above the gain (g = 10 and 1.5 e-), where the Gamma scale is resolved by 400,000 steps.
         use statrs::function::gamma::gamma_ur;
-        for t in [-40.0, 30.0, 89.6, 500.0, 3000.0] {
-            let s = survival_by_n(t, G, SIGMA, 8);
+        let cases = [
+            (G, -300.0),
+            (G, -40.0),
+            (G, 3.0),
+            (G, 30.0),
+            (G, 89.6),
+            (G, 500.0),
+            (G, 3000.0),
+            (10.0, -100.0),
+            (10.0, 60.0),
+            (10.0, 400.0),
+            (1.5, 20.0),
+            (1.5, 2500.0),
+        ];
+        for (g, t) in cases {
+            let s = survival_by_n(t, g, SIGMA, 8);
             assert!((s[0] - norm_cdf(-t / SIGMA)).abs() < 1e-15);
             for (n, &got) in s.iter().enumerate().skip(1) {
-                let steps = 20_000;
+                let steps = if g < 100.0 { 400_000 } else { 20_000 };
                 let (lo, hi) = (-12.0 * SIGMA, t.min(12.0 * SIGMA));
                 let h = (hi - lo) / steps as f64;
                 let mut sum = 0.0;
@@ -859,12 +1006,15 @@ mod tests {
                     } else {
                         2.0
                     };
-                    let u = ((t - e) / G).max(0.0);
+                    let u = ((t - e) / g).max(0.0);
                     let q = if u == 0.0 { 1.0 } else { gamma_ur(n as f64, u) };
                     sum += w * q * ln_gauss(e, SIGMA).exp();
                 }
                 let want = norm_cdf(-t / SIGMA) + sum * h / 3.0;
-                assert!((got - want).abs() < 1e-9, "t {t} n {n}: {got} vs {want}");
+                assert!(
+                    (got - want).abs() < 1e-9,
+                    "g {g} t {t} n {n}: {got} vs {want}"
+                );
             }
         }
     }
@@ -957,8 +1107,14 @@ mod tests {
         cfg.zero_one = ZeroOneRule::KSigma(5.0);
         let t = cfg.thresholds(1.0).unwrap();
         assert_eq!(t.t_over_g[0], 0.5);
-        assert!(cfg.thresholds(0.0).is_err());
+        assert!(cfg.thresholds(-1.0).is_err());
         assert!(cfg.thresholds(f64::NAN).is_err());
+        // A dark reference gives a counter that counts read noise as 0.
+        cfg.zero_one = ZeroOneRule::Equal;
+        let dark = cfg.counter(0.0).unwrap();
+        assert_eq!(dark.count(0.5), 0);
+        assert!(dark.thresholds.t_over_g[0] > 0.5);
+        cfg.zero_one = ZeroOneRule::KSigma(5.0);
         cfg.zero_one = ZeroOneRule::KSigma(50.0);
         assert!(cfg.thresholds(1.0).is_err());
         assert!(PpConfig::new(PpRule::PoissonPrior, -1.0, SIGMA).is_err());

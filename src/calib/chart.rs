@@ -38,7 +38,7 @@ pub fn histogram_png(values: &[f64], xlabel: &str, title: &str) -> Result<Vec<u8
     let mut buf = vec![255u8; (w * h * 3) as usize];
     let lo = v.iter().copied().fold(f64::INFINITY, f64::min).min(0.0);
     let mut hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    if !(hi > lo) {
+    if hi.partial_cmp(&lo) != Some(std::cmp::Ordering::Greater) {
         hi = lo + 1.0;
     }
     let bins = 100usize;

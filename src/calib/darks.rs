@@ -10,6 +10,7 @@
 //! in cache while it sees every frame of the batch. The reading runs on its own thread
 //! (CFITSIO handles are not `Send`); memory is the accumulators plus a few frames.
 
+use std::ops::Range;
 use std::sync::mpsc;
 
 use rayon::prelude::*;
@@ -22,9 +23,11 @@ use crate::maps::Map;
 /// Frames per parity accumulated as shifted sums before a Chan merge.
 const BLOCK: usize = 64;
 /// Frames read ahead and swept together.
-const BATCH: usize = 8;
+const BATCH: usize = 4;
 /// Pixels per tile.
-const TILE: usize = 2048;
+const TILE: usize = 4096;
+/// Pixels per cache block within a tile.
+const SUB: usize = 256;
 
 /// Flag bit: hot pixel (offset far above the frame's typical offset).
 pub const FLAG_HOT: i32 = 1;
@@ -111,7 +114,8 @@ struct Tile {
     shift: Vec<f64>,
     s1: [Vec<f64>; 2],
     s2: [Vec<f64>; 2],
-    cnt: [Vec<f64>; 2],
+    /// Per-pixel block counts; only with a window (otherwise every pixel has the block count).
+    cnt: Option<[Vec<f64>; 2]>,
     n: [Vec<f64>; 2],
     mean: [Vec<f64>; 2],
     m2: [Vec<f64>; 2],
@@ -138,7 +142,7 @@ impl Tile {
             shift: zeros(len),
             s1: pair(),
             s2: pair(),
-            cnt: pair(),
+            cnt: None,
             n: pair(),
             mean: pair(),
             m2: pair(),
@@ -151,34 +155,53 @@ impl Tile {
         }
     }
 
-    fn add(&mut self, x: &[f64], parity: usize, first: bool, extremes: usize) {
-        let x = &x[self.start..self.start + self.len];
+    /// Add the samples of tile-local pixels `r` of frame `x` (a whole frame).
+    fn add(&mut self, x: &[f64], parity: usize, first: bool, extremes: usize, r: Range<usize>) {
+        let x = &x[self.start + r.start..self.start + r.end];
         if first {
-            self.shift.copy_from_slice(x);
-            self.prev.copy_from_slice(x);
+            self.shift[r.clone()].copy_from_slice(x);
+            self.prev[r.clone()].copy_from_slice(x);
         }
-        let (s1, s2, cnt) = (
-            &mut self.s1[parity],
-            &mut self.s2[parity],
-            &mut self.cnt[parity],
+        let n = x.len();
+        let (s1, s2) = (
+            &mut self.s1[parity][r.clone()],
+            &mut self.s2[parity][r.clone()],
         );
+        let shift = &self.shift[r.clone()];
         match &self.window {
             None => {
-                for i in 0..self.len {
-                    let d = x[i] - self.shift[i];
+                // Index loops over equal-length slices: the bounds checks hoist and the body
+                // vectorises.
+                let (prev, vn, max) = (
+                    &mut self.prev[r.clone()],
+                    &mut self.vn[r.clone()],
+                    &mut self.max[r.clone()],
+                );
+                let (s1, s2, shift, prev, vn, max) = (
+                    &mut s1[..n],
+                    &mut s2[..n],
+                    &shift[..n],
+                    &mut prev[..n],
+                    &mut vn[..n],
+                    &mut max[..n],
+                );
+                for i in 0..n {
+                    let d = x[i] - shift[i];
                     s1[i] += d;
                     s2[i] += d * d;
-                    cnt[i] += 1.0;
-                    let v = x[i] - self.prev[i];
-                    self.vn[i] += v * v;
-                    self.prev[i] = x[i];
-                    self.max[i] = self.max[i].max(x[i]);
+                    let v = x[i] - prev[i];
+                    vn[i] += v * v;
+                    prev[i] = x[i];
+                    max[i] = max[i].max(x[i]);
                 }
             }
             Some((lo, hi)) => {
-                for i in 0..self.len {
+                let cnt =
+                    &mut self.cnt.as_mut().expect("counts exist with a window")[parity][r.clone()];
+                let (lo, hi) = (&lo[r.clone()], &hi[r.clone()]);
+                for i in 0..n {
                     let keep = (x[i] >= lo[i] && x[i] <= hi[i]) as u8 as f64;
-                    let d = (x[i] - self.shift[i]) * keep;
+                    let d = (x[i] - shift[i]) * keep;
                     s1[i] += d;
                     s2[i] += d * d;
                     cnt[i] += keep;
@@ -186,7 +209,8 @@ impl Tile {
             }
         }
         if extremes > 0 {
-            for (i, &v) in x.iter().enumerate() {
+            for (j, &v) in x.iter().enumerate() {
+                let i = r.start + j;
                 insert_extreme(
                     &mut self.hi[i * extremes..(i + 1) * extremes],
                     v,
@@ -204,9 +228,9 @@ impl Tile {
     }
 
     /// Chan merge of the shifted block sums of `parity` into its running Welford state.
-    fn flush(&mut self, parity: usize) {
+    fn flush(&mut self, parity: usize, block: f64) {
         for i in 0..self.len {
-            let nb = self.cnt[parity][i];
+            let nb = self.cnt.as_ref().map_or(block, |c| c[parity][i]);
             if nb == 0.0 {
                 continue;
             }
@@ -222,7 +246,9 @@ impl Tile {
         }
         self.s1[parity].fill(0.0);
         self.s2[parity].fill(0.0);
-        self.cnt[parity].fill(0.0);
+        if let Some(c) = self.cnt.as_mut() {
+            c[parity].fill(0.0);
+        }
     }
 
     /// Undo the Welford update of sample `v` in `parity` (extremes clipping).
@@ -281,13 +307,13 @@ fn sample_std(n: f64, m2: f64) -> f64 {
     }
 }
 
-/// Run `consume` on batches of frames read on a separate thread (at most 2 batches in flight).
+/// Run `consume` on batches of frames read on a separate thread (one being read while one is used).
 fn stream_batches(
     stack: &FrameStack,
     mut consume: impl FnMut(&mut [Vec<f64>], usize) -> Result<()>,
 ) -> Result<()> {
     let npix = stack.pixels();
-    let (tx, rx) = mpsc::sync_channel::<Result<(Vec<Vec<f64>>, usize)>>(1);
+    let (tx, rx) = mpsc::sync_channel::<Result<(Vec<Vec<f64>>, usize)>>(0);
     let (back_tx, back_rx) = mpsc::channel::<Vec<Vec<f64>>>();
     std::thread::scope(|s| {
         let reader_stack = stack.clone();
@@ -354,6 +380,7 @@ fn pass(
                 lo[t.start..t.start + t.len].to_vec(),
                 hi[t.start..t.start + t.len].to_vec(),
             ));
+            t.cnt = Some([zeros(t.len), zeros(t.len)]);
         }
     }
     let mut per_frame = Vec::with_capacity(stack.frames);
@@ -382,34 +409,39 @@ fn pass(
             per_frame.extend(values);
         }
         tiles.par_iter_mut().for_each(|t| {
-            for (j, f) in batch.iter().enumerate() {
-                let k = first + j;
-                let is_first = k == 0;
-                if is_first {
-                    if let Some(sh) = shift {
-                        t.shift.copy_from_slice(&sh[t.start..t.start + t.len]);
-                        t.prev.copy_from_slice(&f[t.start..t.start + t.len]);
-                    }
+            if first == 0 {
+                if let Some(sh) = shift {
+                    t.shift.copy_from_slice(&sh[t.start..t.start + t.len]);
+                    t.prev.copy_from_slice(&batch[0][t.start..t.start + t.len]);
                 }
-                t.add(f, k % 2, is_first && shift.is_none(), extremes);
+            }
+            // Cache blocking: each run of SUB pixels sees every frame of the batch while its
+            // accumulators sit in L1.
+            for a in (0..t.len).step_by(SUB) {
+                let r = a..(a + SUB).min(t.len);
+                for (j, f) in batch.iter().enumerate() {
+                    let k = first + j;
+                    t.add(f, k % 2, k == 0 && shift.is_none(), extremes, r.clone());
+                }
             }
         });
         for j in 0..batch.len() {
             let k = first + j;
             pending[k % 2] += 1;
         }
-        for p in 0..2 {
-            if pending[p] >= BLOCK {
-                tiles.par_iter_mut().for_each(|t| t.flush(p));
-                pending[p] = 0;
+        for (p, count) in pending.iter_mut().enumerate() {
+            if *count >= BLOCK {
+                let block = *count as f64;
+                tiles.par_iter_mut().for_each(|t| t.flush(p, block));
+                *count = 0;
             }
         }
         frames = first + batch.len();
         Ok(())
     })?;
     tiles.par_iter_mut().for_each(|t| {
-        t.flush(0);
-        t.flush(1);
+        t.flush(0, pending[0] as f64);
+        t.flush(1, pending[1] as f64);
         if !raw_max.is_empty() {
             t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);
         }

@@ -150,7 +150,7 @@ pub fn flat_stats(
     let frame_means = stats.per_frame.clone();
     if opts.flicker {
         let big_m = frame_means.iter().sum::<f64>() / frame_means.len() as f64;
-        if !(big_m > 0.0) {
+        if big_m.is_nan() || big_m <= 0.0 {
             return Err(Error::input(
                 &stack.sources[0].path,
                 "frame 0: flat stack has no signal above the dark offset",
@@ -251,7 +251,7 @@ pub fn photon_transfer(
         });
     }
     let (slope, slope_err, intercept, chi2) = fit_line(&levels)?;
-    if !(slope > 0.0) {
+    if slope.is_nan() || slope <= 0.0 {
         return Err(Error::Numeric(format!(
             "photon transfer slope {slope} adu is not positive: flats brighter than darks?"
         )));
@@ -322,7 +322,7 @@ fn fit_line(levels: &[Level]) -> Result<(f64, f64, f64, f64)> {
         sxy += w * l.mean_adu * l.var_adu2;
     }
     let det = s * sxx - sx * sx;
-    if !(det > 0.0) {
+    if det.is_nan() || det <= 0.0 {
         return Err(Error::Numeric(
             "photon transfer fit is singular: the flat levels have equal means".into(),
         ));

@@ -303,7 +303,14 @@ pub fn write_outputs(
 pub fn run(args: &DarksArgs) -> Result<()> {
     let opts = options(args)?;
     let stack = FrameStack::open(&args.stack)?;
+    let t = std::time::Instant::now();
     let (maps, inputs) = with_inputs_hashed(&stack, || dark_maps(&stack, &opts))?;
+    let secs = t.elapsed().as_secs_f64();
+    let mb = stack.stored_bytes() as f64 / 1e6;
+    eprintln!(
+        "read {mb:.1} MB of samples in {secs:.2} s ({:.0} MB/s)",
+        mb / secs
+    );
     let s = write_outputs(&args.out, &stack, &maps, &opts, args.gain_e_per_adu, inputs)?;
     eprintln!(
         "{} frames of {}x{}: median read noise {:.4} adu{}, split-half correlation {:.4}, {} flagged pixels; wrote {}",

@@ -1,23 +1,42 @@
-//! Command-line interface: one module per subcommand.
+//! The `detnoise` command line: a thin layer over the library.
 
+pub mod args;
+mod charts;
 pub mod darks;
+pub mod effective;
 pub mod emgain;
 pub mod fit_pdf;
+pub mod paper;
+pub mod progress;
 pub mod ptc;
+pub mod simulate;
 pub mod synth;
 
 use clap::{Parser, Subcommand};
 
 /// detnoise: read-noise models of sCMOS and EMCCD cameras for Shack-Hartmann wavefront sensors.
+///
+/// Units: positions and errors in pixels (px), signals in photons per sub-aperture, noise and
+/// background levels in electrons (e-) referred to the detector input.
 #[derive(Parser, Debug)]
-#[command(version, about)]
+#[command(name = "detnoise", version, about, long_about = None, max_term_width = 100)]
 pub struct Cli {
+    /// Worker threads (default: all cores). Results do not depend on it.
+    #[arg(long, global = true)]
+    pub threads: Option<usize>,
     #[command(subcommand)]
-    command: Command,
+    pub command: Command,
 }
 
+/// The subcommands.
 #[derive(Subcommand, Debug)]
-enum Command {
+pub enum Command {
+    /// Sub-aperture Monte-Carlo: mean radial centroid error R for readout models over a sweep.
+    Simulate(simulate::SimulateArgs),
+    /// Effective Gaussian read noise of a detector over sub-aperture sizes, spots and signals.
+    Effective(effective::EffectiveArgs),
+    /// Regenerate every figure of Basden (2015) with data, captions and an index page.
+    Paper(paper::PaperArgs),
     /// Per-pixel offset and read-noise maps from a dark stack.
     Darks(darks::DarksArgs),
     /// Fit models of the per-pixel read-noise pdf to a noise map (e-).
@@ -30,18 +49,33 @@ enum Command {
     Synth(synth::SynthArgs),
 }
 
-/// Parse the command line, run the subcommand and exit with the error's code on failure.
-pub fn main() {
+/// Parse the command line, run it, and return the process exit code.
+pub fn main() -> i32 {
     let cli = Cli::parse();
-    let r = match &cli.command {
+    if let Some(t) = cli.threads {
+        if let Err(e) = rayon::ThreadPoolBuilder::new()
+            .num_threads(t.max(1))
+            .build_global()
+        {
+            eprintln!("detnoise: cannot set --threads: {e}");
+            return 2;
+        }
+    }
+    let result = match &cli.command {
+        Command::Simulate(a) => simulate::run_cli(a),
+        Command::Effective(a) => effective::run_cli(a),
+        Command::Paper(a) => paper::run_cli(a),
         Command::Darks(a) => darks::run(a),
         Command::FitPdf(a) => fit_pdf::run(a),
         Command::Emgain(a) => emgain::run(a),
         Command::Ptc(a) => ptc::run(a),
         Command::Synth(a) => synth::run(a),
     };
-    if let Err(e) = r {
-        eprintln!("error: {e}");
-        std::process::exit(e.exit_code());
+    match result {
+        Ok(()) => 0,
+        Err(e) => {
+            eprintln!("detnoise: error: {e}");
+            e.exit_code()
+        }
     }
 }

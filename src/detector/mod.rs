@@ -4,12 +4,14 @@
 //! with [`ModelSpec`], which builds a readout for one sub-aperture size.
 
 mod emccd;
+mod pp;
 pub mod register;
 mod scmos;
 
 pub use emccd::{EmccdDistribution, EmccdSimple, EmccdStochastic};
+pub use pp::EmccdPp;
 pub use register::EmRegister;
-pub use scmos::{PerPixelSigma, ScmosConstant, ScmosRandom};
+pub use scmos::{NoiseMap, PerPixelSigma, ScmosConstant, ScmosMap, ScmosRandom};
 
 use crate::pdf::RmsPdf;
 use crate::rng::SimRng;
@@ -58,6 +60,12 @@ pub struct ModelParams {
     pub pdf: Arc<dyn RmsPdf>,
     /// Seed of the fixed sCMOS noise patterns (pattern K uses stream K of it).
     pub pattern_seed: u64,
+    /// Measured noise map for `scmos-map`.
+    pub map: Option<Arc<NoiseMap>>,
+    /// Threshold rule of `emccd-pp`.
+    pub pp_rule: crate::pp::PpRule,
+    /// Fixed reference light level of `emccd-pp` (photo-electrons per pixel); None = sub-aperture mean.
+    pub pp_lambda: Option<f64>,
 }
 
 impl Default for ModelParams {
@@ -71,6 +79,9 @@ impl Default for ModelParams {
             sigma_e: 1.0,
             pdf: Arc::new(crate::pdf::paper()),
             pattern_seed: 2015,
+            map: None,
+            pp_rule: crate::pp::PpRule::PoissonPrior,
+            pp_lambda: None,
         }
     }
 }
@@ -82,6 +93,8 @@ pub enum ModelSpec {
     EmccdSimple,
     /// Exact 520-stage register + Normal(0, 50 e-), divided by the gain.
     EmccdStochastic,
+    /// `emccd-stochastic` then Poisson-probability thresholding; `true` = photometrically corrected.
+    EmccdPp(bool),
     /// Gamma(k, g) register + Normal(0, 50 e-), divided by the gain.
     EmccdDistribution,
     /// One sigma for all pixels (e-); None takes the run's `--sigma`.
@@ -94,11 +107,14 @@ pub enum ModelSpec {
     ScmosFixed(u32),
     /// Per-pixel sigma drawn anew from the pdf every frame.
     ScmosRandom,
+    /// Per-pixel sigma from a random window of a measured noise map (`--map FILE`).
+    ScmosMap,
 }
 
 /// Every model name accepted by [`ModelSpec::parse`], for help texts.
-pub const MODEL_NAMES: &str = "emccd-simple, emccd-stochastic, emccd-distribution, \
-scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random";
+pub const MODEL_NAMES: &str =
+    "emccd-simple, emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
+scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map";
 
 impl ModelSpec {
     /// Parse a model name such as `scmos-fixed:3` or `scmos-constant:1.2`.
@@ -118,9 +134,12 @@ impl ModelSpec {
             "emccd-simple" => no_arg(ModelSpec::EmccdSimple),
             "emccd-stochastic" => no_arg(ModelSpec::EmccdStochastic),
             "emccd-distribution" => no_arg(ModelSpec::EmccdDistribution),
+            "emccd-pp" => no_arg(ModelSpec::EmccdPp(true)),
+            "emccd-pp-uncorrected" => no_arg(ModelSpec::EmccdPp(false)),
             "scmos-median" => no_arg(ModelSpec::ScmosMedian),
             "scmos-mean" => no_arg(ModelSpec::ScmosMean),
             "scmos-random" => no_arg(ModelSpec::ScmosRandom),
+            "scmos-map" => no_arg(ModelSpec::ScmosMap),
             "scmos-constant" => match arg {
                 None => Ok(ModelSpec::ScmosConstant(None)),
                 Some(a) => match a.parse::<f64>() {
@@ -145,17 +164,24 @@ impl ModelSpec {
     }
 
     /// Build the readout for `subap_px` x `subap_px` sub-apertures.
-    pub fn build(&self, params: &ModelParams, subap_px: usize) -> Box<dyn Readout> {
+    pub fn build(&self, params: &ModelParams, subap_px: usize) -> Result<Box<dyn Readout>> {
         let constant = |sigma: f64, name: String| -> Box<dyn Readout> {
             Box::new(ScmosConstant::new(sigma, name))
         };
-        match self {
+        Ok(match self {
             ModelSpec::EmccdSimple => Box::new(EmccdSimple::paper()),
             ModelSpec::EmccdStochastic => Box::new(EmccdStochastic::new(
                 EmRegister::new(params.gain, params.stages),
                 params.emccd_read_noise_e,
                 params.cascade_register,
             )),
+            ModelSpec::EmccdPp(corrected) => Box::new(EmccdPp::new(
+                EmRegister::new(params.gain, params.stages),
+                params.emccd_read_noise_e,
+                crate::pp::PpConfig::new(params.pp_rule, params.gain, params.emccd_read_noise_e)?,
+                params.pp_lambda,
+                *corrected,
+            )?),
             ModelSpec::EmccdDistribution => Box::new(EmccdDistribution::new(
                 params.gain,
                 params.emccd_read_noise_e,
@@ -174,7 +200,16 @@ impl ModelSpec {
                 *k,
             )),
             ModelSpec::ScmosRandom => Box::new(ScmosRandom::new(params.pdf.clone())),
-        }
+            ModelSpec::ScmosMap => match &params.map {
+                Some(map) => Box::new(ScmosMap::new(map.clone(), subap_px)?),
+                None => {
+                    return Err(Error::usage(
+                        "--model",
+                        "scmos-map needs a measured noise map: give --map FILE",
+                    ))
+                }
+            },
+        })
     }
 }
 
@@ -188,6 +223,8 @@ mod tests {
             "emccd-simple",
             "emccd-stochastic",
             "emccd-distribution",
+            "emccd-pp",
+            "emccd-pp-uncorrected",
             "scmos-constant",
             "scmos-constant:1.5",
             "scmos-median",
@@ -197,7 +234,7 @@ mod tests {
             "scmos-random",
         ] {
             let spec = ModelSpec::parse(name).unwrap();
-            let built = spec.build(&ModelParams::default(), 4);
+            let built = spec.build(&ModelParams::default(), 4).unwrap();
             assert!(built.name().starts_with(name.split(':').next().unwrap()));
         }
         for bad in [

@@ -96,6 +96,17 @@ impl<'s> FrameText<'s> {
     }
 }
 
+/// Bold font size (at most `px`, at least 11) at which `s` fits in `width` pixels less a margin.
+pub fn fitted_px(s: &str, px: f64, width: u32) -> f64 {
+    let avail = width.saturating_sub(40) as f64;
+    let w = super::style::text_width_styled(s, px, true) as f64;
+    if w > avail && w > 0.0 {
+        (px * avail / w).max(11.0)
+    } else {
+        px
+    }
+}
+
 /// Draws the title, axes, ticks, labels and grid on `area`; returns the chart for the data.
 pub fn frame<'a, DB: DrawingBackend>(
     area: &'a DrawingArea<DB, Shift>,
@@ -112,7 +123,10 @@ pub fn frame<'a, DB: DrawingBackend>(
         .x_label_area_size(x_area)
         .y_label_area_size(y_area);
     if !t.title.is_empty() {
-        b.caption(t.title, text(t.title_px, true));
+        b.caption(
+            t.title,
+            text(fitted_px(t.title, t.title_px, area.dim_in_pixel().0), true),
+        );
     }
     let mut chart = b.build_cartesian_2d(x.coord(), y.coord()).map_err(de)?;
     chart

@@ -111,7 +111,7 @@ impl Histogram {
             .filter(|v| v.is_finite())
             .collect();
         if finite.is_empty() {
-            return Err(Error::Numeric("histogram: no finite samples".into()));
+            return self.curves_only_range();
         }
         let (lo, hi) = match self.range {
             Some((a, b)) if a.is_finite() && b.is_finite() && b > a => (a, b),
@@ -165,6 +165,32 @@ impl Histogram {
             }
         }
         Ok((edges, counts))
+    }
+}
+
+impl Histogram {
+    /// Without samples, the chart is just the curves (e.g. a model pdf with a log inset): one empty
+    /// bin spanning the range or the curves' x extent.
+    fn curves_only_range(&self) -> Result<(Vec<f64>, Vec<f64>)> {
+        let xs = self
+            .curves
+            .iter()
+            .flat_map(|c| c.points.iter())
+            .map(|p| p.x);
+        let (lo, hi) = match self.range {
+            Some((a, b)) if a.is_finite() && b.is_finite() && b > a => (a, b),
+            _ => xs
+                .filter(|x| x.is_finite())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                    (a.min(x), b.max(x))
+                }),
+        };
+        if !(lo.is_finite() && hi > lo) {
+            return Err(Error::Numeric(
+                "histogram: no finite samples and no curve to draw".into(),
+            ));
+        }
+        Ok((vec![lo, hi], vec![0.0]))
     }
 }
 
@@ -281,7 +307,11 @@ impl Histogram {
                 let range = (10f64.powf(l0 - 2.0 * pad), 10f64.powf(l1 + pad));
                 return Axis::new(std::iter::empty(), true, Some(range), 0.0, "y");
             }
-            Axis::new(ys.into_iter(), true, None, 0.05, "y")
+            // Curves only: a pdf's far tail would stretch the axis over dozens of decades, so the
+            // floor is at most 6 decades below the top.
+            let top = ys.iter().cloned().fold(0.0, f64::max);
+            let ys = ys.into_iter().map(|y| y.max(top * 1e-6));
+            Axis::new(ys, true, None, 0.05, "y")
         } else {
             let max = ys.iter().cloned().fold(0.0, f64::max);
             let top = if max > 0.0 { max * 1.08 } else { 1.0 };

@@ -128,7 +128,8 @@ impl Chart for ImageGrid {
         let (cols, rows) = self.shape();
         let range = self.range();
         if !self.title.is_empty() {
-            let style = text(TITLE_PX, true).pos(Pos::new(HPos::Center, VPos::Center));
+            let px = super::axis::fitted_px(&self.title, TITLE_PX, w);
+            let style = text(px, true).pos(Pos::new(HPos::Center, VPos::Center));
             root.draw_text(&self.title, &style, ((w / 2) as i32, (HEADER / 2) as i32))
                 .map_err(de)?;
         }

@@ -5,7 +5,20 @@
 //! that renders in memory and then writes atomically (temporary file in the same directory,
 //! then rename), so a failure never leaves a partial file. Text uses DejaVu Sans, embedded in
 //! the binary (assets/fonts, Bitstream Vera licence beside it), because plotters is built
-//! without system font libraries.
+//! without system font libraries. SVG files name the font family `sans-serif`, so viewers use
+//! their own sans-serif face.
+//!
+//! ```
+//! use detnoise::plot::{LineChart, Series};
+//! let mut c = LineChart::new("R vs signal", "signal (photons)", "R (px)");
+//! c.log_x = true;
+//! c.series.push(Series::with_errors("EMCCD", [(20.0, 0.3, 0.01), (100.0, 0.1, 0.005)]));
+//! let dir = tempfile::tempdir().unwrap();
+//! c.save(dir.path().join("r.png"))?;
+//! c.save(dir.path().join("r.svg"))?;
+//! assert!(c.save(dir.path().join("r.jpg")).is_err());
+//! # Ok::<(), detnoise::Error>(())
+//! ```
 
 mod axis;
 mod heatmap;
@@ -98,6 +111,12 @@ fn save_chart<C: Chart>(chart: &C, path: &Path) -> Result<()> {
     let format = Format::from_path(path)?;
     ensure_fonts()?;
     let (w, h) = chart.size();
+    if !(64..=20_000).contains(&w) || !(64..=20_000).contains(&h) {
+        return Err(Error::usage(
+            "chart size",
+            format!("{w}x{h} px is outside 64..20000 px per side"),
+        ));
+    }
     let bytes = match format {
         Format::Svg => {
             let mut s = String::new();

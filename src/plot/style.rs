@@ -39,7 +39,17 @@ pub fn text(px: f64, bold: bool) -> TextStyle<'static> {
 
 /// Width of `s` in pixels at `px`, from the font's advance widths.
 pub fn text_width(s: &str, px: f64) -> u32 {
-    (FAMILY, px)
+    text_width_styled(s, px, false)
+}
+
+/// Width of `s` in pixels at `px` in the regular or bold face.
+pub fn text_width_styled(s: &str, px: f64, bold: bool) -> u32 {
+    let style = if bold {
+        FontStyle::Bold
+    } else {
+        FontStyle::Normal
+    };
+    (FAMILY, px, style)
         .into_font()
         .box_size(s)
         .map(|b| b.0)

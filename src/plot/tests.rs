@@ -116,6 +116,18 @@ fn unknown_extension_is_usage_error_and_leaves_no_file() {
 }
 
 #[test]
+fn absurd_canvas_size_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut c = r_vs_signal();
+    c.size = (0, 600);
+    assert!(matches!(
+        c.save(dir.path().join("a.png")),
+        Err(Error::Usage { .. })
+    ));
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+}
+
+#[test]
 fn no_data_is_an_error_and_leaves_no_file() {
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("empty.png");
@@ -325,4 +337,115 @@ fn charts_are_written_with_normal_permissions() {
         let mode = std::fs::metadata(&p).unwrap().permissions().mode();
         assert_eq!(mode & 0o044, 0o044, "mode {mode:o}");
     }
+}
+
+#[test]
+fn line_chart_many_series_linear_axes() {
+    let mut c = LineChart::new(
+        "R vs sub-aperture size, D = 2 px, 50 photons",
+        "sub-aperture size (px)",
+        "R (px)",
+    );
+    let names = [
+        "EMCCD simple",
+        "EMCCD stochastic",
+        "EMCCD distribution",
+        "sCMOS median",
+        "sCMOS mean",
+        "sCMOS fixed",
+        "sCMOS random",
+        "sCMOS map",
+    ];
+    for (k, name) in names.iter().enumerate() {
+        let pts = (2..=8).map(|h| {
+            let n = 2.0 * h as f64;
+            (n, 0.05 + 0.004 * n * (1.0 + 0.15 * k as f64), 0.01)
+        });
+        c.series.push(Series::with_errors(*name, pts));
+    }
+    // Non-positive and NaN values are skipped on a log axis instead of failing.
+    c.series
+        .push(Series::new("", [(4.0, f64::NAN), (6.0, 0.2)]));
+    both(
+        "line_many",
+        c.size,
+        &["sCMOS map", "sub-aperture size (px)"],
+        |p| c.save(p),
+    );
+    c.log_y = true;
+    c.title = "A very long title that would not fit on the canvas at the normal title size, so it shrinks to fit".into();
+    c.series.push(Series::new("", [(4.0, -1.0), (6.0, 0.0)]));
+    both("line_many_logy", c.size, &["sCMOS map"], |p| c.save(p));
+}
+
+#[test]
+fn failed_write_leaves_no_file_and_keeps_old_one() {
+    let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no_such_dir").join("chart.png");
+    assert!(matches!(
+        r_vs_signal().save(&missing),
+        Err(Error::Io { .. })
+    ));
+    assert!(!missing.exists());
+    // A chart that cannot be drawn leaves an existing file untouched.
+    let p = dir.path().join("chart.svg");
+    std::fs::write(&p, "old").unwrap();
+    assert!(LineChart::new("t", "x", "y").save(&p).is_err());
+    assert_eq!(std::fs::read_to_string(&p).unwrap(), "old");
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1);
+    // A successful save replaces it.
+    r_vs_signal().save(&p).unwrap();
+    check_svg(&p, &["EMCCD stochastic"]);
+}
+
+#[test]
+fn text_width_measures_the_embedded_font() {
+    ensure_fonts().unwrap();
+    let t = "A very long title";
+    let regular = style::text_width(t, 26.0);
+    let bold = style::text_width_styled(t, 26.0, true);
+    eprintln!("regular {regular} px, bold {bold} px");
+    assert!(regular > 150 && regular < 300, "{regular}");
+    assert!(bold > regular);
+}
+
+#[test]
+fn pdf_only_with_log_inset() {
+    // The paper's Fig. 1: a model pdf (no samples) with a log-scale inset of its tail.
+    let pdf = |x: f64| {
+        ((10.0 * x - 6.5).tanh() + 1.0)
+            * (1.0 / (x.powi(10) + 0.1)
+                + 1.0 / (2.0 * (x.powi(4) + 0.1))
+                + 1.0 / (2.0 * (x * x + 0.1)))
+    };
+    let xs: Vec<f64> = (0..=1000).map(|i| i as f64 * 0.01).collect();
+    let norm: f64 = xs
+        .windows(2)
+        .map(|w| 0.5 * (pdf(w[0]) + pdf(w[1])) * (w[1] - w[0]))
+        .sum();
+    let mut h = Histogram::new(
+        "sCMOS read-noise pdf (Basden 2015, Eq. 3)",
+        "rms (e⁻)",
+        "pdf (1/e⁻)",
+        vec![],
+    );
+    h.range = Some((0.0, 3.0));
+    h.curves.push(Series::new(
+        "paper pdf",
+        xs.iter().map(|&x| (x, pdf(x) / norm)),
+    ));
+    h.inset = Some(Inset {
+        title: "log scale, 0-10 e⁻".into(),
+        x_range: Some((0.0, 10.0)),
+    });
+    both(
+        "pdf_inset",
+        h.size,
+        &["paper pdf", "log scale, 0-10 e⁻"],
+        |p| h.save(p),
+    );
+    // Neither samples nor curves: nothing to draw.
+    let empty = Histogram::new("t", "x", "y", vec![f64::NAN]);
+    let dir = tempfile::tempdir().unwrap();
+    assert!(empty.save(dir.path().join("e.png")).is_err());
 }

@@ -1,0 +1,163 @@
+//! Photon transfer against known truth: the global gain within its stated uncertainty,
+//! per-pixel gains with correct errors, and lamp flicker removal.
+
+use std::path::{Path, PathBuf};
+
+use detnoise::calib::darks::{pixel_stats, Clip};
+use detnoise::calib::ptc::{photon_transfer, DarkReference, PtcOptions};
+use detnoise::io::FrameStack;
+use detnoise::synth::{
+    draw_truth, frame, write_synthetic, Camera, ScmosParams, StackFormat, SynthSpec,
+};
+
+const LEVELS: [f64; 4] = [100.0, 400.0, 1600.0, 6400.0];
+
+fn spec(frames: usize, light_e: f64) -> SynthSpec {
+    SynthSpec {
+        camera: Camera::Scmos(ScmosParams::default()),
+        shape: (40, 56),
+        frames,
+        light_e,
+        seed: 5,
+        u16_samples: true,
+    }
+}
+
+fn open(p: &Path) -> FrameStack {
+    FrameStack::open(&[p.to_path_buf()]).unwrap()
+}
+
+/// Darks and flats written by `synth`; returns (dark path, flat paths).
+fn series(dir: &Path, frames: usize) -> (PathBuf, Vec<PathBuf>) {
+    let pdf = detnoise::pdf::paper();
+    let dark = dir.join("dark.fits");
+    write_synthetic(&spec(frames, 0.0), &pdf, StackFormat::Fits, &dark).unwrap();
+    let flats = LEVELS
+        .iter()
+        .map(|l| {
+            let p = dir.join(format!("flat-{l}.fits"));
+            write_synthetic(&spec(frames, *l), &pdf, StackFormat::Fits, &p).unwrap();
+            p
+        })
+        .collect();
+    (dark, flats)
+}
+
+/// The gain a pixel-averaged PTC measures when pixel gains g differ:
+/// mean(m) / mean(v) = mean(1/g) / mean(1/g^2) (signal n e-: m = n/g, v = n/g^2).
+fn ptc_equivalent_gain(g: &[f64]) -> f64 {
+    let a = g.iter().map(|g| 1.0 / g).sum::<f64>();
+    let b = g.iter().map(|g| 1.0 / (g * g)).sum::<f64>();
+    a / b
+}
+
+#[test]
+fn global_and_per_pixel_gain_match_truth() {
+    let d = tempfile::tempdir().unwrap();
+    let (dark, flats) = series(d.path(), 100);
+    let dref = DarkReference::from_stats(&pixel_stats(&open(&dark), Clip::None, None).unwrap());
+    let flats: Vec<FrameStack> = flats.iter().map(|p| open(p)).collect();
+    let r = photon_transfer(&flats, &dref, &PtcOptions::default()).unwrap();
+    let truth = draw_truth(&spec(1, 0.0), &detnoise::pdf::paper());
+    let g_true = ptc_equivalent_gain(&truth.gain_e_per_adu.data);
+    let pull = (r.gain_e_per_adu - g_true) / r.gain_err_e_per_adu;
+    eprintln!(
+        "global gain {:.5} +/- {:.5} e/adu, truth {g_true:.5}, pull {pull:.2}",
+        r.gain_e_per_adu, r.gain_err_e_per_adu
+    );
+    // Within 3 stated standard errors (a 0.3 % chance of failing were the error exact).
+    assert!(pull.abs() < 3.0);
+    // Per-pixel pulls: mean 0 and std 1 over P = 2240 pixels, standard errors
+    // 1/sqrt(P) = 0.021 and 1/sqrt(2P) = 0.015; 5 of them plus 0.05 for the Gaussian
+    // approximation of the variance error (Poisson + read noise, 100 frames).
+    let z: Vec<f64> = (0..r.gain_map.data.len())
+        .map(|i| (r.gain_map.data[i] - truth.gain_e_per_adu.data[i]) / r.gain_err_map.data[i])
+        .collect();
+    let n = z.len() as f64;
+    let m = z.iter().sum::<f64>() / n;
+    let s = (z.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt();
+    eprintln!("per-pixel gain pulls: mean {m:.3} (tol 0.16), std {s:.3} (tol 1 +/- 0.13)");
+    assert!(m.abs() < 0.105 + 0.05 && (s - 1.0).abs() < 0.075 + 0.05);
+    assert!(r.levels.iter().all(|l| l.saturated_pixels == 0));
+}
+
+#[test]
+fn lamp_flicker_is_removed() {
+    let d = tempfile::tempdir().unwrap();
+    let frames = 100;
+    let pdf = detnoise::pdf::paper();
+    let dark = d.path().join("dark.fits");
+    write_synthetic(&spec(frames, 0.0), &pdf, StackFormat::Fits, &dark).unwrap();
+    let truth = draw_truth(&spec(frames, 0.0), &pdf);
+    // Each frame's signal scaled by 1 + 2 % x (a fixed pseudo-random pattern): the
+    // flicker adds (0.02 m)^2 to every variance, 8x the shot noise at m = 6400 e- / 0.25.
+    let flats: Vec<FrameStack> = LEVELS
+        .iter()
+        .map(|&l| {
+            let sp = spec(frames, l);
+            let fr: Vec<Vec<f64>> = (0..frames)
+                .map(|k| {
+                    let s = 1.0 + 0.02 * (((k * 7919) % 101) as f64 / 50.0 - 1.0);
+                    frame(&sp, &truth, None, k)
+                        .iter()
+                        .zip(&truth.offset_adu.data)
+                        .map(|(x, o)| o + (x - o) * s)
+                        .collect()
+                })
+                .collect();
+            let p = d.path().join(format!("flicker-{l}.fits"));
+            let mut it = fr.into_iter();
+            detnoise::io::fits::write_cube(
+                &p,
+                sp.shape,
+                frames,
+                true,
+                &mut || it.next().unwrap(),
+                &[],
+            )
+            .unwrap();
+            open(&p)
+        })
+        .collect();
+    let dref = DarkReference::from_stats(&pixel_stats(&open(&dark), Clip::None, None).unwrap());
+    let g_true = ptc_equivalent_gain(&truth.gain_e_per_adu.data);
+    let with = photon_transfer(&flats, &dref, &PtcOptions::default()).unwrap();
+    let without = photon_transfer(
+        &flats,
+        &dref,
+        &PtcOptions {
+            flicker: false,
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    let pull = (with.gain_e_per_adu - g_true) / with.gain_err_e_per_adu;
+    eprintln!(
+        "flicker: removed {:.5} +/- {:.5}, kept {:.5}, truth {g_true:.5}",
+        with.gain_e_per_adu, with.gain_err_e_per_adu, without.gain_e_per_adu
+    );
+    assert!(pull.abs() < 3.0, "pull {pull}");
+    assert!(
+        without.gain_e_per_adu < 0.8 * g_true,
+        "flicker inflates variance, so the kept-flicker gain is low"
+    );
+    assert!(
+        with.levels.iter().all(|l| l.flicker_fraction > 0.005),
+        "flicker is reported"
+    );
+}
+
+#[test]
+fn saturated_pixels_are_masked() {
+    let d = tempfile::tempdir().unwrap();
+    let (dark, _) = series(d.path(), 20);
+    // 60000 e- at 0.25 e/adu is 240000 adu: every pixel saturates the uint16 range.
+    let sp = spec(20, 60000.0);
+    let p = d.path().join("bright.fits");
+    write_synthetic(&sp, &detnoise::pdf::paper(), StackFormat::Fits, &p).unwrap();
+    let dref = DarkReference::from_stats(&pixel_stats(&open(&dark), Clip::None, None).unwrap());
+    let e = photon_transfer(&[open(&p)], &dref, &PtcOptions::default())
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("saturated"), "{e}");
+}
