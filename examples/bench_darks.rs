@@ -21,6 +21,18 @@ fn vm_hwm_kib() -> Option<u64> {
         .ok()
 }
 
+/// CPU time (user + system) of this process so far, in seconds.
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let after = s.rsplit(')').next().unwrap_or("");
+    let f: Vec<f64> = after
+        .split_whitespace()
+        .filter_map(|x| x.parse().ok())
+        .collect();
+    // Fields 14 and 15 of stat (utime, stime) are 12th and 13th after the command name.
+    (f.get(11).copied().unwrap_or(0.0) + f.get(12).copied().unwrap_or(0.0)) / 100.0
+}
+
 fn main() {
     let args: Vec<usize> = std::env::args()
         .skip(1)
@@ -63,11 +75,20 @@ fn main() {
     drop(buf);
     let hwm_before = vm_hwm_kib().unwrap_or(0);
 
-    let t = Instant::now();
     let stack = FrameStack::open(std::slice::from_ref(&cube)).unwrap();
+    let (t, c) = (Instant::now(), cpu_seconds());
+    let mut frame = vec![0.0; npix];
+    let mut reader = stack.reader();
+    while reader.next_frame(&mut frame).unwrap().is_some() {}
+    let t_read = t.elapsed().as_secs_f64();
+    let c_read = cpu_seconds() - c;
+    drop(frame);
+
+    let (t, c) = (Instant::now(), cpu_seconds());
     let opts = DarkOptions::default();
     let maps = dark_maps(&stack, &opts).unwrap();
     let t_maps = t.elapsed().as_secs_f64();
+    let c_maps = cpu_seconds() - c;
     let (_, inputs) = detnoise::calib::summary::with_inputs_hashed(&stack, || Ok(())).unwrap();
     let t_hash = t.elapsed().as_secs_f64() - t_maps;
     detnoise::cli::darks::write_outputs(
@@ -82,7 +103,20 @@ fn main() {
     let t_all = t.elapsed().as_secs_f64();
     let mb = stack.stored_bytes() as f64 / 1e6;
     println!("darks bench: {frames} frames of {rows}x{cols} uint16, {mb:.1} MB of samples");
-    println!("  statistics: {t_maps:.2} s = {:.0} MB/s", mb / t_maps);
+    println!("  reading alone (one thread, decode to f64): {t_read:.2} s = {:.0} MB/s ({c_read:.2} CPU s)", mb / t_read);
+    println!(
+        "  statistics: {t_maps:.2} s = {:.0} MB/s ({c_maps:.2} CPU s, {:.0} MB per CPU-second)",
+        mb / t_maps,
+        mb / c_maps
+    );
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    println!(
+        "  load average (2 cores): {}",
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
     println!("  SHA-256 of inputs (run alone here; the CLI overlaps it with the statistics): {t_hash:.2} s = {:.0} MB/s", mb / t_hash);
     println!(
         "  statistics + hash + outputs: {t_all:.2} s = {:.0} MB/s",

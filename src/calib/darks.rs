@@ -10,6 +10,7 @@
 //! in cache while it sees every frame of the batch. The reading runs on its own thread
 //! (CFITSIO handles are not `Send`); memory is the accumulators plus a few frames.
 
+use std::ops::Range;
 use std::sync::mpsc;
 
 use rayon::prelude::*;
@@ -24,7 +25,9 @@ const BLOCK: usize = 64;
 /// Frames read ahead and swept together.
 const BATCH: usize = 4;
 /// Pixels per tile.
-const TILE: usize = 2048;
+const TILE: usize = 4096;
+/// Pixels per cache block within a tile.
+const SUB: usize = 256;
 
 /// Flag bit: hot pixel (offset far above the frame's typical offset).
 pub const FLAG_HOT: i32 = 1;
@@ -152,24 +155,28 @@ impl Tile {
         }
     }
 
-    fn add(&mut self, x: &[f64], parity: usize, first: bool, extremes: usize) {
-        let x = &x[self.start..self.start + self.len];
+    /// Add the samples of tile-local pixels `r` of frame `x` (a whole frame).
+    fn add(&mut self, x: &[f64], parity: usize, first: bool, extremes: usize, r: Range<usize>) {
+        let x = &x[self.start + r.start..self.start + r.end];
         if first {
-            self.shift.copy_from_slice(x);
-            self.prev.copy_from_slice(x);
+            self.shift[r.clone()].copy_from_slice(x);
+            self.prev[r.clone()].copy_from_slice(x);
         }
-        let (s1, s2) = (&mut self.s1[parity], &mut self.s2[parity]);
+        let n = x.len();
+        let (s1, s2) = (
+            &mut self.s1[parity][r.clone()],
+            &mut self.s2[parity][r.clone()],
+        );
+        let shift = &self.shift[r.clone()];
         match &self.window {
             None => {
                 // Index loops over equal-length slices: the bounds checks hoist and the body
                 // vectorises.
-                let (shift, prev, vn, max) = (
-                    &self.shift[..],
-                    &mut self.prev[..],
-                    &mut self.vn[..],
-                    &mut self.max[..],
+                let (prev, vn, max) = (
+                    &mut self.prev[r.clone()],
+                    &mut self.vn[r.clone()],
+                    &mut self.max[r.clone()],
                 );
-                let n = x.len();
                 let (s1, s2, shift, prev, vn, max) = (
                     &mut s1[..n],
                     &mut s2[..n],
@@ -189,10 +196,12 @@ impl Tile {
                 }
             }
             Some((lo, hi)) => {
-                let cnt = &mut self.cnt.as_mut().expect("counts exist with a window")[parity];
-                for i in 0..self.len {
+                let cnt =
+                    &mut self.cnt.as_mut().expect("counts exist with a window")[parity][r.clone()];
+                let (lo, hi) = (&lo[r.clone()], &hi[r.clone()]);
+                for i in 0..n {
                     let keep = (x[i] >= lo[i] && x[i] <= hi[i]) as u8 as f64;
-                    let d = (x[i] - self.shift[i]) * keep;
+                    let d = (x[i] - shift[i]) * keep;
                     s1[i] += d;
                     s2[i] += d * d;
                     cnt[i] += keep;
@@ -200,7 +209,8 @@ impl Tile {
             }
         }
         if extremes > 0 {
-            for (i, &v) in x.iter().enumerate() {
+            for (j, &v) in x.iter().enumerate() {
+                let i = r.start + j;
                 insert_extreme(
                     &mut self.hi[i * extremes..(i + 1) * extremes],
                     v,
@@ -399,16 +409,20 @@ fn pass(
             per_frame.extend(values);
         }
         tiles.par_iter_mut().for_each(|t| {
-            for (j, f) in batch.iter().enumerate() {
-                let k = first + j;
-                let is_first = k == 0;
-                if is_first {
-                    if let Some(sh) = shift {
-                        t.shift.copy_from_slice(&sh[t.start..t.start + t.len]);
-                        t.prev.copy_from_slice(&f[t.start..t.start + t.len]);
-                    }
+            if first == 0 {
+                if let Some(sh) = shift {
+                    t.shift.copy_from_slice(&sh[t.start..t.start + t.len]);
+                    t.prev.copy_from_slice(&batch[0][t.start..t.start + t.len]);
                 }
-                t.add(f, k % 2, is_first && shift.is_none(), extremes);
+            }
+            // Cache blocking: each run of SUB pixels sees every frame of the batch while its
+            // accumulators sit in L1.
+            for a in (0..t.len).step_by(SUB) {
+                let r = a..(a + SUB).min(t.len);
+                for (j, f) in batch.iter().enumerate() {
+                    let k = first + j;
+                    t.add(f, k % 2, k == 0 && shift.is_none(), extremes, r.clone());
+                }
             }
         });
         for j in 0..batch.len() {

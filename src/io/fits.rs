@@ -304,6 +304,16 @@ fn decode_be(bitpix: i32, bytes: &[u8], scale: f64, zero: f64, out: &mut [f64]) 
 }
 
 impl FileFrames for FitsFrames {
+    fn may_be_nonfinite(&self, k: usize) -> bool {
+        // Raw integer HDUs have no BLANK (checked at open) and finite BSCALE/BZERO.
+        !self.hdus.iter().any(|h| {
+            k >= h.first
+                && k < h.first + h.frames
+                && h.raw
+                    .is_some_and(|r| r.bitpix > 0 && r.bscale.is_finite() && r.bzero.is_finite())
+        })
+    }
+
     fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()> {
         let h = self
             .hdus

@@ -133,6 +133,11 @@ pub(crate) trait FileFrames {
     /// Read frame `k` (0-based within the file) into `out` (row-major, rows*cols values).
     /// Frames are requested in increasing order.
     fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()>;
+
+    /// Whether frame `k` can hold NaN/Inf (false for plain integer storage, which skips the check).
+    fn may_be_nonfinite(&self, _k: usize) -> bool {
+        true
+    }
 }
 
 fn scan_file(path: &Path) -> Result<SourceFile> {
@@ -374,7 +379,13 @@ impl StackReader<'_> {
         reader
             .read_frame(self.local, out)
             .map_err(|e| add_stack_frame(e, self.global))?;
-        if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+        let check = reader.may_be_nonfinite(self.local);
+        let bad = if check {
+            out.iter().position(|v| !v.is_finite())
+        } else {
+            None
+        };
+        if let Some(i) = bad {
             return Err(Error::input(
                 &src.path,
                 format!(

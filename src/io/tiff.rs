@@ -261,6 +261,10 @@ impl TiffFrames {
 }
 
 impl FileFrames for TiffFrames {
+    fn may_be_nonfinite(&self, _k: usize) -> bool {
+        self.sample_type.is_float()
+    }
+
     fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()> {
         if self.contiguous.is_some() {
             return self.read_contiguous(k, out);
