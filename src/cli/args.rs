@@ -170,15 +170,24 @@ impl DetectorArgs {
         match (self.pdf.as_str(), &self.pdf_model) {
             ("paper", None) => Ok(Arc::new(crate::pdf::paper())),
             ("paper", Some(_)) => Err(Error::usage("--pdf-model", "applies only with --pdf FILE")),
-            (file, model) => crate::fit::pdf_fit::load_pdf_fit(std::path::Path::new(file), model.as_deref()),
+            (file, model) => {
+                crate::fit::pdf_fit::load_pdf_fit(std::path::Path::new(file), model.as_deref())
+            }
         }
     }
 
     /// The measured noise map named by `--map`, if any.
     fn noise_map(&self) -> Result<Option<Arc<crate::detector::NoiseMap>>> {
-        let Some(path) = &self.map else { return Ok(None) };
+        let Some(path) = &self.map else {
+            return Ok(None);
+        };
         let m = crate::maps::read_map(path)?;
-        Ok(Some(Arc::new(crate::detector::NoiseMap { rows: m.rows, cols: m.cols, rms_e: m.data, source: path.display().to_string() })))
+        Ok(Some(Arc::new(crate::detector::NoiseMap {
+            rows: m.rows,
+            cols: m.cols,
+            rms_e: m.data,
+            source: path.display().to_string(),
+        })))
     }
 }
 

@@ -145,12 +145,25 @@ const DEFAULT_SIGNAL: &str = "20,50,100,200,500,1000";
 
 fn grid(args: &ReportArgs) -> Result<Grid> {
     // --quick shrinks only what the user left at its default.
-    let pick = |given: &str, default: &str, quick: &'static str| if args.quick && given == default { quick.to_string() } else { given.to_string() };
+    let pick = |given: &str, default: &str, quick: &'static str| {
+        if args.quick && given == default {
+            quick.to_string()
+        } else {
+            given.to_string()
+        }
+    };
     Ok(Grid {
         subaps: super::args::parse_list(&pick(&args.subap, DEFAULT_SUBAP, "4,8,16"), "--subap")?,
         spots: super::args::parse_spots(&[pick(&args.spot, DEFAULT_SPOT, "airy:2,6")])?,
-        signals: super::args::parse_list(&pick(&args.signal, DEFAULT_SIGNAL, "20,50,500"), "--signal")?,
-        iters: if args.quick { args.iters.min(2000) } else { args.iters },
+        signals: super::args::parse_list(
+            &pick(&args.signal, DEFAULT_SIGNAL, "20,50,500"),
+            "--signal",
+        )?,
+        iters: if args.quick {
+            args.iters.min(2000)
+        } else {
+            args.iters
+        },
     })
 }
 
