@@ -375,7 +375,7 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
         .sum();
     if (above as usize) < MIN_SIGNAL_SAMPLES {
         return Err(Error::Numeric(format!(
-            "no EM signal above the read noise: {above} of {n} pixel-samples lie above bias + 5 read noise ({bias:.1} + 5 x {read_noise:.2} adu); at least {MIN_SIGNAL_SAMPLES} are needed to measure a gain (use brighter frames or more of them)"
+            "no EM signal above the read noise: {above} of {n} pixel-samples lie above bias + 5 read noise ({bias:.1} + 5 x {read_noise:.2} adu); at least {MIN_SIGNAL_SAMPLES} are needed to measure a gain. Dark frames: use more or brighter frames. Bright frames (no zero-electron peak left): give the bias and read noise from no-signal frames (--offset and --read-noise)"
         )));
     }
     let p0 = (2.0 * h.cdf(bias)).clamp(1e-6, 1.0 - 1e-6);
