@@ -232,3 +232,59 @@ fn real_emccd_gain_routes_agree() {
         );
     }
 }
+
+#[test]
+fn fit_pdf_converts_adu_and_excludes_flagged_pixels() {
+    // A 32x32 paper map stored in adu at 2 e-/adu, with 10 flagged pixels set to 1000 adu
+    // in flags.fits beside it: they must be excluded, and the fitted medians are in e-.
+    let dir = tempfile::tempdir().unwrap();
+    let p = paper();
+    let mut rng = stream(22, 0, 0);
+    let mut adu: Vec<f64> = (0..32 * 32).map(|_| p.sample(&mut rng) / 2.0).collect();
+    let mut flags = vec![0.0; 32 * 32];
+    for i in 0..10 {
+        adu[i * 7] = 1000.0;
+        flags[i * 7] = 1.0;
+    }
+    write_fits_map(
+        &dir.path().join("rms_adu.fits"),
+        &Map::new(32, 32, adu.clone()),
+        "adu",
+        &[],
+    )
+    .unwrap();
+    write_fits_map(
+        &dir.path().join("flags.fits"),
+        &Map::new(32, 32, flags),
+        "",
+        &[],
+    )
+    .unwrap();
+    let out = dir.path().join("fit");
+    detnoise()
+        .arg("fit-pdf")
+        .arg(dir.path().join("rms_adu.fits"))
+        .args([
+            "--unit",
+            "adu",
+            "--gain-e-per-adu",
+            "2",
+            "--models",
+            "paper-scaled,empirical",
+        ])
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    let j = json(&out.join("pdf_fit.json"));
+    assert_eq!(j["n_values"], 32 * 32 - 10);
+    let kept: Vec<f64> = adu
+        .iter()
+        .filter(|v| **v < 1000.0)
+        .map(|v| v * 2.0)
+        .collect();
+    let median = EmpiricalPdf::new(&kept, "kept").unwrap().median();
+    assert!((j["data"]["median_e"].as_f64().unwrap() - median).abs() < 1e-12);
+    assert!(j["upper_cut_e"].as_f64().unwrap() < 10.0);
+    assert!(j["models"].get("paper-family").is_none());
+}

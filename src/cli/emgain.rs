@@ -41,6 +41,10 @@ pub struct EmgainArgs {
     /// Default: the Gamma/Erlang model of the paper (Eq. 2).
     #[arg(long)]
     pub stages: Option<u32>,
+    /// Also fit serial clock-induced charge (electrons born inside the register; needs --stages).
+    /// Default: off (parallel CIC is always part of lambda).
+    #[arg(long, requires = "stages")]
+    pub serial_cic: bool,
     /// Exclude values above this (adu; cosmics, hot pixels). Default: bias + 40 G (1 + lambda + 5 sqrt(lambda)) from the start values.
     #[arg(long)]
     pub max_value_adu: Option<f64>,
@@ -121,6 +125,7 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
         max_value_adu: args.max_value_adu,
         fixed_bias_adu,
         fixed_read_noise_adu,
+        serial_cic: args.serial_cic,
     };
     let fit = fit_emgain(&hist, &opts).map_err(|e| match e {
         Error::Numeric(m) => Error::input(&stack.sources[0].path, m),
@@ -298,6 +303,9 @@ fn print_summary(r: &EmgainReport) {
         "lambda         {:.5} +- {:.5} e-/pixel",
         f.lambda_e, f.lambda_e_se
     );
+    if let (Some(c), Some(se)) = (f.serial_cic_e, f.serial_cic_e_se) {
+        println!("serial CIC     {c:.5} +- {se:.5} e-/pixel");
+    }
     let cc = &f.cross_checks;
     println!(
         "cross-check: mean-variance / F^2 ({:.3}) = {:.4} adu/e- (without F^2: {:.4})",

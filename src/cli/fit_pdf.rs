@@ -206,6 +206,17 @@ fn table(r: &PdfFitReport) -> String {
                 se.map_or(String::new(), |e| format!(" +- {e:.6}"))
             );
         }
+        if let Some(c) = &m.correlations {
+            let max_r = c
+                .iter()
+                .enumerate()
+                .flat_map(|(i, row)| row.iter().enumerate().filter(move |(j, _)| *j != i))
+                .map(|(_, r)| r.abs())
+                .fold(0.0, f64::max);
+            if c.len() > 1 {
+                s += &format!("    largest |correlation| between parameters: {max_r:.3}\n");
+            }
+        }
         if !m.note.is_empty() {
             s += &format!("    note: {}\n", m.note);
         }
