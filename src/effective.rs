@@ -97,11 +97,20 @@ pub fn effective_sigma(
 }
 
 /// The result when the detector's R lies outside R of the whole wide `grid` (`grid[0]` = 0).
-fn bound(cfg: &SimConfig, detector: &dyn Readout, grid: &[f64], status: Status, on_progress: &(dyn Fn(u64) + Sync)) -> Result<Effective> {
+fn bound(
+    cfg: &SimConfig,
+    detector: &dyn Readout,
+    grid: &[f64],
+    status: Status,
+    on_progress: &(dyn Fn(u64) + Sync),
+) -> Result<Effective> {
     let (det, consts) = run_grid(cfg, detector, grid, on_progress)?;
     let slope = (consts[1].r_px - consts[0].r_px) / (grid[1] - grid[0]);
     let (sigma, se) = match status {
-        Status::LowerBound if slope > 0.0 => (0.0, (det.r_se_px.powi(2) + consts[0].r_se_px.powi(2)).sqrt() / slope),
+        Status::LowerBound if slope > 0.0 => (
+            0.0,
+            (det.r_se_px.powi(2) + consts[0].r_se_px.powi(2)).sqrt() / slope,
+        ),
         Status::LowerBound => (0.0, f64::INFINITY),
         _ => (f64::NAN, f64::NAN),
     };

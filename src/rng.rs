@@ -18,7 +18,10 @@ fn mix64(mut z: u64) -> u64 {
 
 /// Independent stream for work item `item` and role `purpose` under the user's `seed`.
 pub fn stream(seed: u64, item: u64, purpose: u64) -> SimRng {
-    let key = mix64(mix64(mix64(seed ^ 0x6a09_e667_f3bc_c909) ^ item) ^ purpose.wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    let key = mix64(
+        mix64(mix64(seed ^ 0x6a09_e667_f3bc_c909) ^ item)
+            ^ purpose.wrapping_mul(0x9e37_79b9_7f4a_7c15),
+    );
     SimRng::seed_from_u64(key)
 }
 

@@ -67,8 +67,8 @@ impl Distribution {
 pub struct InputFile {
     /// Path as given.
     pub path: PathBuf,
-    /// SHA-256 of the file's bytes (hex).
-    pub sha256: String,
+    /// SHA-256 of the file's bytes (hex); None when checksums were skipped.
+    pub sha256: Option<String>,
     /// Frames read from it.
     pub frames: usize,
     /// Format.
@@ -100,11 +100,26 @@ pub fn inputs(stack: &FrameStack) -> Result<Vec<InputFile>> {
         .map(|s| {
             Ok(InputFile {
                 path: s.path.clone(),
-                sha256: sha256_file(&s.path)?,
+                sha256: Some(sha256_file(&s.path)?),
                 frames: s.frames,
                 format: s.format,
                 sample_type: s.sample_type,
             })
+        })
+        .collect()
+}
+
+/// Input records without checksums.
+pub fn unhashed(stack: &FrameStack) -> Vec<InputFile> {
+    stack
+        .sources
+        .iter()
+        .map(|s| InputFile {
+            path: s.path.clone(),
+            sha256: None,
+            frames: s.frames,
+            format: s.format,
+            sample_type: s.sample_type,
         })
         .collect()
 }

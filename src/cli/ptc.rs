@@ -4,13 +4,13 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::calib::chart::ptc_png;
 use crate::calib::darks::{pixel_stats, Clip};
 use crate::calib::ptc::{photon_transfer, DarkReference, Level, PtcOptions};
 use crate::calib::summary::{inputs, Distribution, InputFile};
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
-use crate::maps::{key, read_map, write_bytes_atomic, write_fits_map, write_json, KeyValue};
+use crate::maps::{key, read_map, write_fits_map, write_json, KeyValue};
+use crate::plot::ScatterFit;
 
 /// Options of `detnoise ptc`.
 #[derive(clap::Args, Debug)]
@@ -134,15 +134,6 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         .collect::<Result<_>>()?;
     let r = photon_transfer(&flats, &dark, &opts)?;
     let points: Vec<(f64, f64)> = r.levels.iter().map(|l| (l.mean_adu, l.var_adu2)).collect();
-    let png = ptc_png(
-        &points,
-        r.gain_e_per_adu / opts.em_gain / opts.excess_noise_factor_sq,
-        r.intercept_adu2,
-        &format!(
-            "photon transfer: {:.4} +/- {:.4} e/adu",
-            r.gain_e_per_adu, r.gain_err_e_per_adu
-        ),
-    )?;
     let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
     let outputs = [
         "gain_e_per_adu.fits",
@@ -168,6 +159,24 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         outputs: outputs.iter().map(|s| s.to_string()).collect(),
     };
     std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
+    // The chart goes first: if it fails, nothing has been written.
+    let slope = opts.em_gain * opts.excess_noise_factor_sq / r.gain_e_per_adu;
+    let a = r.intercept_adu2;
+    ScatterFit::new(
+        format!(
+            "photon transfer: {:.4} ± {:.4} e⁻/adu",
+            r.gain_e_per_adu, r.gain_err_e_per_adu
+        ),
+        "dark-subtracted mean (adu)",
+        "dark-subtracted variance (adu²)",
+        points,
+        "light levels (mean over pixels)",
+    )
+    .with_fit_fn(
+        format!("fit: variance = {a:.3} + {slope:.5} × mean"),
+        move |m| a + slope * m,
+    )
+    .save(args.out.join("ptc.png"))?;
     let keys = vec![
         key(
             "NLEVELS",
@@ -208,7 +217,6 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         "electron",
         &keys,
     )?;
-    write_bytes_atomic(&args.out.join("ptc.png"), &png)?;
     write_json(&args.out.join("ptc.json"), &summary)?;
     eprintln!(
         "conversion gain {:.5} +/- {:.5} e/adu over {} levels (reduced chi2 {:.2}); median read noise {:.3} e-; wrote {}",
