@@ -568,6 +568,14 @@ pub fn percentile(values: &[f64], p: f64) -> f64 {
         return f64::NAN;
     }
     v.sort_by(f64::total_cmp);
+    percentile_sorted(&v, p)
+}
+
+/// Percentile `p` (0..100) of ascending finite values, linear interpolation (NaN if empty).
+pub fn percentile_sorted(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
     let pos = p / 100.0 * (v.len() - 1) as f64;
     let (i, f) = (pos.floor() as usize, pos.fract());
     if i + 1 < v.len() {

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
-use super::darks::percentile;
+use super::darks::percentile_sorted as percentile;
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 
@@ -42,7 +42,8 @@ pub struct Distribution {
 impl Distribution {
     /// Figures of `values` (non-finite values are skipped).
     pub fn of(values: &[f64]) -> Distribution {
-        let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        v.sort_unstable_by(f64::total_cmp);
         let n = v.len().max(1) as f64;
         let median = percentile(&v, 50.0);
         Distribution {
