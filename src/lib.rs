@@ -10,6 +10,7 @@ pub mod cli;
 pub mod detector;
 pub mod effective;
 pub mod error;
+pub mod fit;
 pub mod io;
 pub mod maps;
 pub mod montecarlo;

@@ -43,11 +43,12 @@ pub struct FigureInfo {
     pub files: Vec<String>,
 }
 
-/// A curve of R against x with standard errors.
+/// A curve of R against x with standard errors, optionally with a fixed colour and style.
 #[derive(Debug, Clone)]
 struct Curve {
     name: String,
     points: Vec<(f64, f64, f64)>,
+    look: Option<(usize, crate::plot::SeriesStyle)>,
 }
 
 /// A line figure ready to draw.
@@ -320,7 +321,7 @@ fn fig02_patterns(ctx: &Ctx) -> Result<FigureInfo> {
     Ok(FigureInfo {
         number: 2,
         title: "Fixed noise patterns".into(),
-        caption: format!("Per-pixel rms read noise of the ten seeded patterns (models scmos-fixed:0..9, --pattern-seed {}).", ctx.params.pattern_seed),
+        caption: format!("Per-pixel rms read noise (e-) of the ten seeded patterns #0-#9 (models scmos-fixed:0..9, --pattern-seed {}); panel titles give each pattern's worst pixel and mean.", ctx.params.pattern_seed),
         files: ["png", "svg", "csv"].iter().map(|e| format!("{stem}.{e}")).collect(),
     })
 }
@@ -399,7 +400,11 @@ fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
     let names = ["emccd-stochastic", "emccd-pp", "emccd-pp-uncorrected"];
     let specs = parse(&names);
     let mut curves = Vec::new();
-    for s in ctx.pick(&[20.0, 50.0, 200.0, 1000.0], &[20.0, 1000.0]) {
+    for (si, s) in ctx
+        .pick(&[20.0, 50.0, 200.0, 1000.0], &[20.0, 1000.0])
+        .into_iter()
+        .enumerate()
+    {
         let raw = sweep(
             &gains,
             |_| ctx.cfg(8, airy(4.0), s),
@@ -412,7 +417,10 @@ fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
             },
             &strings(&names),
         )?;
-        for (label, k) in [("corrected", 1), ("uncorrected", 2)] {
+        for (label, k, style) in [
+            ("corrected", 1, crate::plot::SeriesStyle::LineMarkers),
+            ("uncorrected", 2, crate::plot::SeriesStyle::Markers),
+        ] {
             let points = raw[0]
                 .points
                 .iter()
@@ -611,6 +619,9 @@ fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
             "effective rms read noise (e-)",
         );
         h.decimals = 2;
+        // A few large values (wide spots in large sub-apertures) would flatten the scale; the
+        // printed numbers stay exact.
+        h.range = Some((0.0, 6.0));
         h.save(ctx.dir.join(format!("{stem}.png")))?;
         h.save(ctx.dir.join(format!("{stem}.svg")))?;
         files.push(format!("{stem}.png"));
@@ -623,7 +634,7 @@ fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     Ok(FigureInfo {
         number: 12,
         title: "Effective Gaussian read noise of an sCMOS camera".into(),
-        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. A dash marks a configuration where no constant sigma reaches the detector's R: a few very noisy pixels pull the centroid further than any uniform Gaussian noise does. {}", ctx.params.pdf.median(), ctx.sampling_note()),
+        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. Colours saturate at 6 e-; a dash marks a configuration where no constant sigma reaches the detector's R: a few very noisy pixels pull the centroid further than any uniform Gaussian noise does. {}", ctx.params.pdf.median(), ctx.sampling_note()),
         files,
     })
 }

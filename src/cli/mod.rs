@@ -4,6 +4,8 @@ pub mod args;
 mod charts;
 pub mod darks;
 pub mod effective;
+pub mod emgain;
+pub mod fit_pdf;
 pub mod paper;
 pub mod progress;
 pub mod ptc;
@@ -37,6 +39,10 @@ pub enum Command {
     Paper(paper::PaperArgs),
     /// Per-pixel offset and read-noise maps from a dark stack.
     Darks(darks::DarksArgs),
+    /// Fit models of the per-pixel read-noise pdf to a noise map (e-).
+    FitPdf(fit_pdf::FitPdfArgs),
+    /// Fit bias, read noise, EM gain and light level to EMCCD frames.
+    Emgain(emgain::EmgainArgs),
     /// Photon transfer: conversion gain (global and per pixel) from darks and flats.
     Ptc(ptc::PtcArgs),
     /// Write a synthetic sCMOS or EMCCD stack with a manifest of its truth.
@@ -60,6 +66,8 @@ pub fn main() -> i32 {
         Command::Effective(a) => effective::run_cli(a),
         Command::Paper(a) => paper::run_cli(a),
         Command::Darks(a) => darks::run(a),
+        Command::FitPdf(a) => fit_pdf::run(a),
+        Command::Emgain(a) => emgain::run(a),
         Command::Ptc(a) => ptc::run(a),
         Command::Synth(a) => synth::run(a),
     };

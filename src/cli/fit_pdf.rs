@@ -1,0 +1,218 @@
+//! `detnoise fit-pdf`: fit models of the per-pixel read-noise pdf to a measured noise map.
+
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+use crate::fit::{fit_pdf, PdfFitOptions, PdfFitReport, PdfModel};
+use crate::maps::read_map;
+use crate::plot::{Bins, HistNorm, Histogram, Inset, Series, SeriesStyle};
+
+/// Unit of the map's values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum MapUnit {
+    /// Electrons rms.
+    E,
+    /// adu rms (needs --gain-e-per-adu).
+    Adu,
+}
+
+/// Options of `detnoise fit-pdf`.
+#[derive(clap::Args, Debug)]
+pub struct FitPdfArgs {
+    /// Per-pixel read-noise map (FITS/TIFF/EXR, first frame), e.g. rms_e.fits from `darks`.
+    pub map: PathBuf,
+    /// Output directory (created if missing): pdf_fit.json and pdf_fit.png.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Unit of the map values. Default: e.
+    #[arg(long, value_enum, default_value = "e")]
+    pub unit: MapUnit,
+    /// Conversion gain (e per adu) for --unit adu. Default: none.
+    #[arg(long)]
+    pub gain_e_per_adu: Option<f64>,
+    /// Flag map (non-zero = hot/dead/RTS pixel, excluded). Default: flags.fits beside MAP if present.
+    #[arg(long)]
+    pub flags: Option<PathBuf>,
+    /// Keep flagged pixels in the fit. Default: off.
+    #[arg(long)]
+    pub keep_flagged: bool,
+    /// Models to fit, comma separated (paper-scaled, paper-family, lognormal+tail, empirical). Default: all.
+    #[arg(long, value_delimiter = ',')]
+    pub models: Vec<String>,
+    /// Upper cut of the support (e-); larger values are excluded. Default: the map's largest value.
+    #[arg(long)]
+    pub upper_cut_e: Option<f64>,
+}
+
+/// Run `detnoise fit-pdf`.
+pub fn run(args: &FitPdfArgs) -> Result<()> {
+    let values = map_values_e(args)?;
+    let models = if args.models.is_empty() {
+        PdfModel::ALL.to_vec()
+    } else {
+        args.models
+            .iter()
+            .map(|m| {
+                PdfModel::from_name(m.trim()).ok_or_else(|| {
+                    Error::usage(
+                        "--models",
+                        format!("unknown model {m:?} (paper-scaled, paper-family, lognormal+tail, empirical)"),
+                    )
+                })
+            })
+            .collect::<Result<Vec<_>>>()?
+    };
+    let opts = PdfFitOptions {
+        models,
+        upper_cut_e: args.upper_cut_e,
+    };
+    let report = fit_pdf(&values, &opts)?;
+    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
+    report.write_json(&args.out.join("pdf_fit.json"))?;
+    chart(&report, &values, &args.out.join("pdf_fit.png"))?;
+    print!("{}", table(&report));
+    Ok(())
+}
+
+/// The map's values in e-, without flagged pixels (unless kept).
+fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
+    let map = read_map(&args.map)?;
+    let scale = match (args.unit, args.gain_e_per_adu) {
+        (MapUnit::E, None) => 1.0,
+        (MapUnit::E, Some(_)) => {
+            return Err(Error::usage(
+                "--gain-e-per-adu",
+                "only applies with --unit adu (the map is already in electrons)",
+            ))
+        }
+        (MapUnit::Adu, Some(g)) if g > 0.0 && g.is_finite() => g,
+        (MapUnit::Adu, _) => {
+            return Err(Error::usage(
+                "--unit adu",
+                "needs a positive --gain-e-per-adu to convert the map to electrons",
+            ))
+        }
+    };
+    let flags_path = args.flags.clone().or_else(|| {
+        let p = args
+            .map
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("flags.fits");
+        p.exists().then_some(p)
+    });
+    let flags = match (&flags_path, args.keep_flagged) {
+        (Some(p), false) => {
+            let f = read_map(p)?;
+            if (f.rows, f.cols) != (map.rows, map.cols) {
+                return Err(Error::input(
+                    p,
+                    format!(
+                        "frame 0: flag map {}x{} differs from the noise map {}x{}",
+                        f.rows, f.cols, map.rows, map.cols
+                    ),
+                ));
+            }
+            Some(f.data)
+        }
+        _ => None,
+    };
+    Ok(map
+        .data
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| flags.as_ref().is_none_or(|f| f[*i] == 0.0))
+        .map(|(_, v)| v * scale)
+        .collect())
+}
+
+/// Histogram of the map with each fitted pdf, linear with a log-scale inset (paper Fig. 1).
+fn chart(report: &PdfFitReport, values: &[f64], path: &Path) -> Result<()> {
+    let hi = report.upper_cut_e;
+    let xs: Vec<f64> = (1..=600).map(|i| hi * i as f64 / 600.0).collect();
+    let mut curves = vec![];
+    for (i, name) in report.models.keys().enumerate() {
+        if name == "empirical" {
+            continue;
+        }
+        let pdf = report.pdf(Some(name))?;
+        let d = hi * 1e-3;
+        let pts = xs
+            .iter()
+            .map(|x| (*x, (pdf.cdf(x + d) - pdf.cdf(x - d)) / (2.0 * d)));
+        let label = if *name == report.best_model {
+            format!("{name} (best AIC)")
+        } else {
+            name.clone()
+        };
+        curves.push(
+            Series::new(label, pts)
+                .styled(SeriesStyle::Line)
+                .coloured(i + 1),
+        );
+    }
+    let mut h = Histogram::new(
+        format!(
+            "Per-pixel read noise: {} pixels, median {:.3} e-",
+            report.n_values, report.data.median_e
+        ),
+        "read noise rms (e-)",
+        "probability density (1/e-)",
+        values
+            .iter()
+            .copied()
+            .filter(|v| *v > 0.0 && *v <= hi)
+            .collect(),
+    );
+    h.sample_label = "map".into();
+    h.bins = Bins::Count(200);
+    h.range = Some((0.0, hi));
+    h.norm = HistNorm::Density;
+    h.curves = curves;
+    h.inset = Some(Inset {
+        title: "log scale".into(),
+        x_range: None,
+    });
+    h.save(path)
+}
+
+/// Plain-text summary of every model.
+fn table(r: &PdfFitReport) -> String {
+    let mut s = format!(
+        "{} values ({} excluded), cut {:.3} e-; map: median {:.4} e-, mean {:.4} e-, rms {:.4} e-, >3x median {:.4}\n",
+        r.n_values, r.n_excluded, r.upper_cut_e, r.data.median_e, r.data.mean_e, r.data.rms_e, r.data.frac_above_3x_median
+    );
+    s += &format!(
+        "{:<16} {:>12} {:>10} {:>8} {:>9} {:>9} {:>9} {:>8}\n",
+        "model", "lnL", "dAIC", "maxCDF", "median_e", "mean_e", "rms_e", ">3xmed"
+    );
+    for (name, m) in &r.models {
+        let f = |v: Option<f64>, p: usize| v.map_or("-".to_string(), |v| format!("{v:.p$}"));
+        s += &format!(
+            "{:<16} {:>12} {:>10} {:>8.4} {:>9.4} {:>9.4} {:>9.4} {:>8.4}\n",
+            name,
+            f(m.log_likelihood, 1),
+            f(m.delta_aic, 1),
+            m.max_cdf_distance,
+            m.median_e,
+            m.mean_e,
+            m.rms_e,
+            m.frac_above_3x_median
+        );
+        for (k, v) in &m.params {
+            let se = m.param_se.get(k).copied().flatten();
+            s += &format!(
+                "    {k} = {v:.6}{}\n",
+                se.map_or(String::new(), |e| format!(" +- {e:.6}"))
+            );
+        }
+        if !m.note.is_empty() {
+            s += &format!("    note: {}\n", m.note);
+        }
+    }
+    for (k, v) in &r.failures {
+        s += &format!("{k}: FAILED: {v}\n");
+    }
+    s += &format!("best model: {} ({})\n", r.best_model, r.selection);
+    s
+}
