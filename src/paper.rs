@@ -122,6 +122,7 @@ fn sweep(
         .map(|n| Curve {
             name: n.clone(),
             points: Vec::new(),
+            look: None,
         })
         .collect();
     for &x in xs {
@@ -204,7 +205,13 @@ fn save_line(ctx: &Ctx, fig: LineFigure) -> Result<FigureInfo> {
     chart.series = fig
         .curves
         .iter()
-        .map(|c| Series::with_errors(c.name.clone(), c.points.iter().copied()))
+        .map(|c| {
+            let s = Series::with_errors(c.name.clone(), c.points.iter().copied());
+            match c.look {
+                Some((colour, style)) => s.coloured(colour).styled(style),
+                None => s,
+            }
+        })
         .collect();
     if let Some((y, label)) = &fig.reference {
         chart.reference.push(crate::plot::RefLine {
@@ -330,14 +337,24 @@ fn fig_emccd_models(ctx: &Ctx, number: u32, d: f64) -> Result<FigureInfo> {
     let names = ["emccd-simple", "emccd-stochastic", "emccd-distribution"];
     let specs = parse(&names);
     let mut curves = Vec::new();
-    for n in ctx.pick(&[4usize, 8, 16], &[4, 16]) {
+    // Colour by sub-aperture, line style by model, as in the paper.
+    let styles = [
+        crate::plot::SeriesStyle::Line,
+        crate::plot::SeriesStyle::LineMarkers,
+        crate::plot::SeriesStyle::Markers,
+    ];
+    for (g, n) in ctx.pick(&[4usize, 8, 16], &[4, 16]).into_iter().enumerate() {
         let labels: Vec<String> = names.iter().map(|m| format!("{m}, {n}x{n}")).collect();
-        curves.extend(sweep(
+        let group = sweep(
             &ctx.signals(),
             |s| ctx.cfg(n, airy(d), s),
             |c, _| build(&specs, &ctx.params, c.subap_px),
             &labels,
-        )?);
+        )?;
+        curves.extend(group.into_iter().zip(styles).map(|(c, st)| Curve {
+            look: Some((g, st)),
+            ..c
+        }));
     }
     save_line(ctx, LineFigure {
         number,
@@ -437,6 +454,7 @@ fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
             curves.push(Curve {
                 name: format!("S = {s}, {label}"),
                 points,
+                look: Some((si, style)),
             });
         }
     }

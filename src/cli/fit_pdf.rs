@@ -127,7 +127,7 @@ fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
 }
 
 /// Histogram of the map with each fitted pdf, linear with a log-scale inset (paper Fig. 1).
-fn chart(report: &PdfFitReport, values: &[f64], path: &Path) -> Result<()> {
+pub fn chart(report: &PdfFitReport, values: &[f64], path: &Path) -> Result<()> {
     let hi = report.upper_cut_e;
     let xs: Vec<f64> = (1..=600).map(|i| hi * i as f64 / 600.0).collect();
     let mut curves = vec![];

@@ -9,6 +9,8 @@ pub mod fit_pdf;
 pub mod paper;
 pub mod progress;
 pub mod ptc;
+pub mod report;
+mod report_page;
 pub mod simulate;
 pub mod synth;
 
@@ -37,6 +39,8 @@ pub enum Command {
     Effective(effective::EffectiveArgs),
     /// Regenerate every figure of Basden (2015) with data, captions and an index page.
     Paper(paper::PaperArgs),
+    /// The end-to-end detector report: darks (and flats) in, effective read noise out.
+    Report(report::ReportArgs),
     /// Per-pixel offset and read-noise maps from a dark stack.
     Darks(darks::DarksArgs),
     /// Fit models of the per-pixel read-noise pdf to a noise map (e-).
@@ -65,6 +69,7 @@ pub fn main() -> i32 {
         Command::Simulate(a) => simulate::run_cli(a),
         Command::Effective(a) => effective::run_cli(a),
         Command::Paper(a) => paper::run_cli(a),
+        Command::Report(a) => report::run_cli(a),
         Command::Darks(a) => darks::run(a),
         Command::FitPdf(a) => fit_pdf::run(a),
         Command::Emgain(a) => emgain::run(a),

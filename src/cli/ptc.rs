@@ -229,3 +229,15 @@ pub fn run(args: &PtcArgs) -> Result<()> {
     );
     Ok(())
 }
+
+/// The photon-transfer chart (variance against mean, log-log, with the fit) of an sCMOS-style
+/// PTC (no EM gain) written to `path` as PNG.
+pub fn chart(r: &crate::calib::ptc::PtcResult, path: &std::path::Path) -> Result<()> {
+    let points: Vec<(f64, f64)> = r.levels.iter().map(|l| (l.mean_adu, l.var_adu2)).collect();
+    let title = format!(
+        "photon transfer: {:.4} +/- {:.4} e/adu",
+        r.gain_e_per_adu, r.gain_err_e_per_adu
+    );
+    let png = ptc_png(&points, r.gain_e_per_adu, r.intercept_adu2, &title)?;
+    crate::output::write_atomic(path, &png)
+}

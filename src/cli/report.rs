@@ -1,0 +1,491 @@
+//! `detnoise report`: a camera's dark (and flat) frames in, effective read-noise tables and
+//! charts out, with one page (`index.html`) that reads offline.
+
+use super::args::DetectorArgs;
+use super::effective::{write_outputs as write_effective, EffectiveRecord};
+use super::progress::Progress;
+use super::simulate::SimRecord;
+use crate::calib::darks::{dark_maps, DarkOptions};
+use crate::calib::ptc::{photon_transfer, DarkReference, PtcOptions, PtcResult};
+use crate::calib::summary::inputs;
+use crate::detector::{ModelParams, ModelSpec, NoiseMap, Readout};
+use crate::effective::effective_sigma;
+use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
+use crate::io::FrameStack;
+use crate::montecarlo::{run, BgGrid, SimConfig};
+use crate::output::{render, write_atomic, Format, OutputDir};
+use crate::plot::{LineChart, Series};
+use crate::spot::{Sampling, Spot};
+use crate::{Error, Result};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+/// Options of `detnoise report`.
+#[derive(clap::Args, Debug)]
+pub struct ReportArgs {
+    /// Dark frames: files, a directory or a glob (FITS, TIFF, OpenEXR).
+    #[arg(long, num_args = 1.., required = true)]
+    pub darks: Vec<PathBuf>,
+    /// Flat stacks at several light levels, one option per level (photon transfer gives the gain).
+    #[arg(long, num_args = 1..)]
+    pub flats: Vec<PathBuf>,
+    /// Conversion gain, e- per adu (needed when no flats are given).
+    #[arg(long)]
+    pub gain_e_per_adu: Option<f64>,
+    /// Sub-aperture sizes of the effective-noise table, px per side, comma-separated.
+    #[arg(long, default_value = "4,6,8,10,12,16")]
+    pub subap: String,
+    /// Airy spot diameters (first dark ring, px) of the table: airy:D1,D2,...
+    #[arg(long, default_value = "airy:1,2,4,6,8,10")]
+    pub spot: String,
+    /// Signal levels, photons per sub-aperture, comma-separated.
+    #[arg(long, default_value = "20,50,100,200,500,1000")]
+    pub signal: String,
+    /// Monte-Carlo iterations per configuration.
+    #[arg(long, default_value_t = 10_000)]
+    pub iters: u64,
+    /// Seed of every random stream.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Spot sampling.
+    #[arg(long, value_enum, default_value_t = Sampling::Integrated)]
+    pub sampling: Sampling,
+    /// Quantum efficiency of this (sCMOS) camera in the comparison chart.
+    #[arg(long, default_value_t = 1.0)]
+    pub qe: f64,
+    /// Quantum efficiency of the EMCCD it is compared with.
+    #[arg(long, default_value_t = 1.0)]
+    pub qe_emccd: f64,
+    /// Fast preview: at most 2,000 iterations and the sub-apertures 4,8,16, spots airy:2,6 and
+    /// signals 20,100,1000 (stated in the report). The full grid needs minutes.
+    #[arg(long)]
+    pub quick: bool,
+    #[command(flatten)]
+    pub detector: DetectorArgs,
+    /// Output directory; replaced only when the whole report succeeded.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// The key numbers of a report, written to `summary.json`.
+#[derive(Debug, serde::Serialize)]
+pub struct ReportSummary {
+    /// Tool and version.
+    pub tool: String,
+    /// Inputs with SHA-256.
+    pub inputs: Vec<crate::calib::summary::InputFile>,
+    /// Dark frames used.
+    pub frames: usize,
+    /// Frame shape [rows, cols].
+    pub shape: [usize; 2],
+    /// Conversion gain used (e-/adu) and where it came from.
+    pub gain_e_per_adu: f64,
+    /// `ptc` or `given`.
+    pub gain_source: String,
+    /// Standard error of the gain (e-/adu; photon transfer only).
+    pub gain_se_e_per_adu: Option<f64>,
+    /// Pixels used for the noise statistics (unflagged).
+    pub pixels_used: usize,
+    /// Pixels excluded by the dark flags (hot, dead, saturated, no data).
+    pub pixels_flagged: usize,
+    /// Median per-pixel read noise (e-).
+    pub median_rms_e: f64,
+    /// Mean per-pixel read noise (e-).
+    pub mean_rms_e: f64,
+    /// sqrt(mean(rms^2)) (e-), the noise-power equivalent single value.
+    pub rms_rms_e: f64,
+    /// Fraction of pixels above 3x the median.
+    pub frac_above_3x_median: f64,
+    /// Best pdf model by AIC.
+    pub pdf_best_model: String,
+    /// Split-half correlation of the noise maps (odd vs even frames).
+    pub split_half_correlation: f64,
+    /// The operating point of the headline numbers.
+    pub operating_point: OperatingPoint,
+    /// Monte-Carlo settings.
+    pub iters: u64,
+    /// Seed.
+    pub seed: u64,
+    /// Spot sampling.
+    pub sampling: String,
+    /// True for the reduced `--quick` grid.
+    pub quick: bool,
+}
+
+/// The headline configuration and its numbers.
+#[derive(Debug, serde::Serialize)]
+pub struct OperatingPoint {
+    /// Sub-aperture (px).
+    pub subap_px: usize,
+    /// Spot.
+    pub spot: String,
+    /// Signal (photons).
+    pub signal_photons: f64,
+    /// Effective read noise with the fitted pdf (e-).
+    pub sigma_eff_fitted_pdf_e: f64,
+    /// Its standard error (e-).
+    pub sigma_eff_fitted_pdf_se_e: f64,
+    /// Effective read noise with the measured map (e-).
+    pub sigma_eff_map_e: f64,
+    /// Its standard error (e-).
+    pub sigma_eff_map_se_e: f64,
+}
+
+struct Grid {
+    subaps: Vec<usize>,
+    spots: Vec<Spot>,
+    signals: Vec<f64>,
+    iters: u64,
+}
+
+fn grid(args: &ReportArgs) -> Result<Grid> {
+    if args.quick {
+        return Ok(Grid {
+            subaps: vec![4, 8, 16],
+            spots: vec![
+                Spot::Airy { diameter_px: 2.0 },
+                Spot::Airy { diameter_px: 6.0 },
+            ],
+            signals: vec![20.0, 100.0, 1000.0],
+            iters: args.iters.min(2000),
+        });
+    }
+    Ok(Grid {
+        subaps: super::args::parse_list(&args.subap, "--subap")?,
+        spots: super::args::parse_spots(std::slice::from_ref(&args.spot))?,
+        signals: super::args::parse_list(&args.signal, "--signal")?,
+        iters: args.iters,
+    })
+}
+
+/// Entry point of `detnoise report`.
+pub fn run_cli(args: &ReportArgs) -> Result<()> {
+    let grid = grid(args)?;
+    if grid.subaps.iter().any(|&n| n == 0) || grid.signals.iter().any(|&s| !(s > 0.0)) {
+        return Err(Error::usage(
+            "--subap/--signal",
+            "sizes and signals must be positive",
+        ));
+    }
+    let dir = OutputDir::new(&args.out)?;
+    let stack = FrameStack::open(&args.darks)?;
+    stack.require_frames(2, "a read-noise map")?;
+    eprintln!(
+        "report: {} dark frames of {}x{} px",
+        stack.frames, stack.shape.0, stack.shape.1
+    );
+    let dark_opts = DarkOptions::default();
+    let maps = dark_maps(&stack, &dark_opts)?;
+    let (gain, gain_source, gain_se, ptc) = conversion_gain(args, &maps)?;
+    let dark_summary = super::darks::write_outputs(
+        &dir.path(""),
+        &stack,
+        &maps,
+        &dark_opts,
+        Some(gain),
+        inputs(&stack)?,
+    )?;
+    // Noise map in e-, flagged pixels excluded (NaN) from the statistics and the windows.
+    let rms_e: Vec<f64> = maps
+        .rms_adu
+        .data
+        .iter()
+        .zip(&maps.flags)
+        .map(|(r, f)| if *f == 0 { r * gain } else { f64::NAN })
+        .collect();
+    let values: Vec<f64> = rms_e
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    if values.len() < 16 {
+        return Err(Error::input(
+            &args.darks[0],
+            format!(
+                "only {} unflagged pixels with a positive noise: too few to fit a distribution",
+                values.len()
+            ),
+        ));
+    }
+    let fit = fit_pdf(&values, &PdfFitOptions::default())?;
+    fit.write_json(&dir.path("pdf_fit.json"))?;
+    super::fit_pdf::chart(&fit, &values, &dir.path("pdf_fit.png"))?;
+    let pdf = fit.pdf(None)?;
+    let map = Arc::new(NoiseMap {
+        rows: maps.rms_adu.rows,
+        cols: maps.rms_adu.cols,
+        rms_e,
+        source: args.darks[0].display().to_string(),
+    });
+    let mut params = args.detector.params()?;
+    params.pdf = pdf.clone();
+    params.map = Some(map.clone());
+    let configs = configs(args, &grid);
+    let work: u64 = configs
+        .iter()
+        .map(|c| c.iters * (c.subap_px * c.subap_px) as u64 * 12)
+        .sum();
+    let progress = Progress::new(
+        "report",
+        2 * configs.iter().map(|c| c.iters).sum::<u64>(),
+        work,
+    );
+    let mut effective = Vec::new();
+    for spec in [ModelSpec::ScmosRandom, ModelSpec::ScmosMap] {
+        for cfg in &configs {
+            let model = spec.build(&params, cfg.subap_px)?;
+            let e = effective_sigma(cfg, model.as_ref(), &|k| progress.inc(k))?;
+            effective.push(EffectiveRecord {
+                model: if spec == ModelSpec::ScmosRandom {
+                    "scmos-random (fitted pdf)".into()
+                } else {
+                    "scmos-map (measured map)".into()
+                },
+                subap_px: cfg.subap_px,
+                spot: cfg.spot.label(),
+                sampling: cfg.sampling.label().into(),
+                signal_photons: cfg.signal_photons,
+                qe: cfg.qe,
+                iters: cfg.iters,
+                seed: cfg.seed,
+                sigma_eff_e: e.sigma_eff_e,
+                sigma_eff_se_e: e.sigma_eff_se_e,
+                r_px: e.r_px,
+                r_se_px: e.r_se_px,
+                b_opt_e: e.b_opt_e,
+                status: e.status,
+            });
+        }
+    }
+    progress.finish();
+    let fitted: Vec<EffectiveRecord> = effective
+        .iter()
+        .filter(|r| r.model.starts_with("scmos-random"))
+        .cloned()
+        .collect();
+    let heatmaps = write_effective(&fitted, &dir)?;
+    write_atomic(
+        &dir.path("effective_noise.csv"),
+        render(&effective, Format::Csv)?.as_bytes(),
+    )?;
+    write_atomic(
+        &dir.path("effective_noise.json"),
+        render(&effective, Format::Json)?.as_bytes(),
+    )?;
+    let op = operating_point(&grid);
+    let comparison = compare(args, &params, &grid, op)?;
+    write_atomic(
+        &dir.path("r_vs_signal.csv"),
+        render(&comparison, Format::Csv)?.as_bytes(),
+    )?;
+    comparison_chart(&comparison, &dir.path("r_vs_signal.png"))?;
+    comparison_chart(&comparison, &dir.path("r_vs_signal.svg"))?;
+    if let Some(p) = &ptc {
+        super::ptc::chart(p, &dir.path("ptc.png"))?;
+    }
+    let pick = |model: &str| {
+        effective
+            .iter()
+            .find(|r| {
+                r.model.starts_with(model)
+                    && r.subap_px == op.0
+                    && r.spot == op.1.label()
+                    && r.signal_photons == op.2
+            })
+            .expect("operating point is in the grid")
+    };
+    let (fr, mr) = (pick("scmos-random"), pick("scmos-map"));
+    let summary = ReportSummary {
+        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
+        inputs: dark_summary.inputs.clone(),
+        frames: stack.frames,
+        shape: [stack.shape.0, stack.shape.1],
+        gain_e_per_adu: gain,
+        gain_source,
+        gain_se_e_per_adu: gain_se,
+        pixels_used: values.len(),
+        pixels_flagged: maps.flags.iter().filter(|f| **f != 0).count(),
+        median_rms_e: fit.data.median_e,
+        mean_rms_e: fit.data.mean_e,
+        rms_rms_e: fit.data.rms_e,
+        frac_above_3x_median: fit.data.frac_above_3x_median,
+        pdf_best_model: fit.best_model.clone(),
+        split_half_correlation: maps.split_half_correlation,
+        operating_point: OperatingPoint {
+            subap_px: op.0,
+            spot: op.1.label(),
+            signal_photons: op.2,
+            sigma_eff_fitted_pdf_e: fr.sigma_eff_e,
+            sigma_eff_fitted_pdf_se_e: fr.sigma_eff_se_e,
+            sigma_eff_map_e: mr.sigma_eff_e,
+            sigma_eff_map_se_e: mr.sigma_eff_se_e,
+        },
+        iters: grid.iters,
+        seed: args.seed,
+        sampling: args.sampling.label().into(),
+        quick: args.quick,
+    };
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::Numeric(e.to_string()))?;
+    // The dark step wrote its own summary; the report's supersedes it and keeps it inside.
+    std::fs::rename(dir.path("summary.json"), dir.path("darks_summary.json"))
+        .map_err(|e| Error::io(dir.path("summary.json"), e))?;
+    write_atomic(&dir.path("summary.json"), json.as_bytes())?;
+    let page = super::report_page::index_html(
+        &summary,
+        &fit,
+        &effective,
+        &comparison,
+        &heatmaps,
+        ptc.is_some(),
+    );
+    write_atomic(&dir.path("index.html"), page.as_bytes())?;
+    let path = dir.commit()?;
+    eprintln!("report written to {} (open index.html)", path.display());
+    Ok(())
+}
+
+/// The gain: from photon transfer when flats are given, else the user's; never guessed.
+fn conversion_gain(
+    args: &ReportArgs,
+    maps: &crate::calib::darks::DarkMaps,
+) -> Result<(f64, String, Option<f64>, Option<PtcResult>)> {
+    match (&args.gain_e_per_adu, args.flats.is_empty()) {
+        (Some(g), true) if g.is_finite() && *g > 0.0 => Ok((*g, "given".into(), None, None)),
+        (Some(_), true) => Err(Error::usage("--gain-e-per-adu", "must be a positive number of e- per adu")),
+        (Some(_), false) => Err(Error::usage("--gain-e-per-adu", "give either --flats (photon transfer) or --gain-e-per-adu, not both")),
+        (None, true) => Err(Error::usage(
+            "--gain-e-per-adu",
+            "no conversion gain: give --gain-e-per-adu G (e- per adu, from the camera's data sheet) or flat stacks with --flats so photon transfer can measure it",
+        )),
+        (None, false) => {
+            let flats: Vec<FrameStack> = args.flats.iter().map(|f| FrameStack::open(std::slice::from_ref(f))).collect::<Result<_>>()?;
+            let dark = DarkReference::from_stats(&maps.stats);
+            let p = photon_transfer(&flats, &dark, &PtcOptions::default())?;
+            Ok((p.gain_e_per_adu, "ptc".into(), Some(p.gain_err_e_per_adu), Some(p)))
+        }
+    }
+}
+
+fn configs(args: &ReportArgs, grid: &Grid) -> Vec<SimConfig> {
+    let mut out = Vec::new();
+    for &n in &grid.subaps {
+        for &spot in &grid.spots {
+            for &signal_photons in &grid.signals {
+                out.push(SimConfig {
+                    spot,
+                    sampling: args.sampling,
+                    signal_photons,
+                    qe: args.qe,
+                    iters: grid.iters,
+                    seed: args.seed,
+                    bg_grid: BgGrid::Auto,
+                    ..SimConfig::paper(n)
+                });
+            }
+        }
+    }
+    out
+}
+
+/// The headline configuration: 8x8 px (or the nearest size), D = 2 px (or the first spot), 50 photons (or the nearest).
+fn operating_point(grid: &Grid) -> (usize, Spot, f64) {
+    let nearest_usize =
+        |v: &[usize], t: usize| *v.iter().min_by_key(|x| x.abs_diff(t)).expect("non-empty");
+    let nearest_f = |v: &[f64], t: f64| {
+        *v.iter()
+            .min_by(|a, b| (*a - t).abs().total_cmp(&(*b - t).abs()))
+            .expect("non-empty")
+    };
+    let spot = grid
+        .spots
+        .iter()
+        .copied()
+        .find(|s| *s == Spot::Airy { diameter_px: 2.0 })
+        .unwrap_or(grid.spots[0]);
+    (
+        nearest_usize(&grid.subaps, 8),
+        spot,
+        nearest_f(&grid.signals, 50.0),
+    )
+}
+
+/// R against signal at the operating point's sub-aperture and spot for this camera (fitted pdf,
+/// measured map), the one-number models, and an EMCCD.
+fn compare(
+    args: &ReportArgs,
+    params: &ModelParams,
+    grid: &Grid,
+    op: (usize, Spot, f64),
+) -> Result<Vec<SimRecord>> {
+    let groups: [(&[&str], f64); 2] = [
+        (
+            &["scmos-random", "scmos-map", "scmos-median", "scmos-mean"],
+            args.qe,
+        ),
+        (&["emccd-stochastic"], args.qe_emccd),
+    ];
+    let mut out = Vec::new();
+    for &signal_photons in &grid.signals {
+        for (names, qe) in groups {
+            let cfg = SimConfig {
+                spot: op.1,
+                sampling: args.sampling,
+                signal_photons,
+                qe,
+                iters: grid.iters,
+                seed: args.seed,
+                ..SimConfig::paper(op.0)
+            };
+            let built: Vec<Box<dyn Readout>> = names
+                .iter()
+                .map(|n| ModelSpec::parse(n)?.build(params, op.0))
+                .collect::<Result<_>>()?;
+            let refs: Vec<&dyn Readout> = built.iter().map(|m| m.as_ref()).collect();
+            for r in run(&cfg, &refs, &|_| {})? {
+                out.push(SimRecord::new(&cfg, params.gain, r));
+            }
+        }
+    }
+    Ok(out)
+}
+
+fn comparison_chart(records: &[SimRecord], path: &Path) -> Result<()> {
+    let first = &records[0];
+    let mut chart = LineChart::new(
+        format!(
+            "This camera against an EMCCD, {}x{} px, {}",
+            first.subap_px, first.subap_px, first.spot
+        ),
+        "signal (photons per sub-aperture)",
+        "R, mean radial error (px)",
+    );
+    chart.log_x = true;
+    chart.log_y = true;
+    let mut names: Vec<String> = Vec::new();
+    for r in records {
+        if !names.contains(&r.model) {
+            names.push(r.model.clone());
+        }
+    }
+    chart.series = names
+        .iter()
+        .map(|n| {
+            let label = match n.as_str() {
+                "scmos-random" => "this camera (fitted pdf)",
+                "scmos-map" => "this camera (measured map)",
+                "scmos-median" => "one number: median",
+                "scmos-mean" => "one number: mean",
+                "emccd-stochastic" => "EMCCD (g, 50 e- read noise)",
+                other => other,
+            };
+            Series::with_errors(
+                label,
+                records
+                    .iter()
+                    .filter(|r| &r.model == n)
+                    .map(|r| (r.signal_photons, r.r_px, r.r_se_px)),
+            )
+        })
+        .collect();
+    chart.save(path)
+}
