@@ -133,7 +133,6 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         .map(|f| FrameStack::open(std::slice::from_ref(f)))
         .collect::<Result<_>>()?;
     let r = photon_transfer(&flats, &dark, &opts)?;
-    let points: Vec<(f64, f64)> = r.levels.iter().map(|l| (l.mean_adu, l.var_adu2)).collect();
     let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
     let outputs = [
         "gain_e_per_adu.fits",
@@ -160,23 +159,7 @@ pub fn run(args: &PtcArgs) -> Result<()> {
     };
     std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
     // The chart goes first: if it fails, nothing has been written.
-    let slope = opts.em_gain * opts.excess_noise_factor_sq / r.gain_e_per_adu;
-    let a = r.intercept_adu2;
-    ScatterFit::new(
-        format!(
-            "photon transfer: {:.4} ± {:.4} e⁻/adu",
-            r.gain_e_per_adu, r.gain_err_e_per_adu
-        ),
-        "dark-subtracted mean (adu)",
-        "dark-subtracted variance (adu²)",
-        points,
-        "light levels (mean over pixels)",
-    )
-    .with_fit_fn(
-        format!("fit: variance = {a:.3} + {slope:.5} × mean"),
-        move |m| a + slope * m,
-    )
-    .save(args.out.join("ptc.png"))?;
+    chart(&r, &args.out.join("ptc.png"))?;
     let keys = vec![
         key(
             "NLEVELS",
@@ -230,14 +213,24 @@ pub fn run(args: &PtcArgs) -> Result<()> {
     Ok(())
 }
 
-/// The photon-transfer chart (variance against mean, log-log, with the fit) of an sCMOS-style
-/// PTC (no EM gain) written to `path` as PNG.
+/// The photon-transfer chart (dark-subtracted variance against mean, log-log, with the fit)
+/// written to `path` (PNG or SVG by extension), atomically.
 pub fn chart(r: &crate::calib::ptc::PtcResult, path: &std::path::Path) -> Result<()> {
     let points: Vec<(f64, f64)> = r.levels.iter().map(|l| (l.mean_adu, l.var_adu2)).collect();
-    let title = format!(
-        "photon transfer: {:.4} +/- {:.4} e/adu",
-        r.gain_e_per_adu, r.gain_err_e_per_adu
-    );
-    let png = ptc_png(&points, r.gain_e_per_adu, r.intercept_adu2, &title)?;
-    crate::output::write_atomic(path, &png)
+    let (a, slope) = (r.intercept_adu2, r.slope);
+    ScatterFit::new(
+        format!(
+            "photon transfer: {:.4} ± {:.4} e⁻/adu",
+            r.gain_e_per_adu, r.gain_err_e_per_adu
+        ),
+        "dark-subtracted mean (adu)",
+        "dark-subtracted variance (adu²)",
+        points,
+        "light levels (mean over pixels)",
+    )
+    .with_fit_fn(
+        format!("fit: variance = {a:.3} + {slope:.5} × mean"),
+        move |m| a + slope * m,
+    )
+    .save(path)
 }
