@@ -108,6 +108,17 @@ pub struct DetectorArgs {
     /// `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean.
     #[arg(long)]
     pub pp_lambda: Option<f64>,
+    /// Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or a
+    /// `pdf_fit.json` written by `detnoise fit-pdf` (its best model unless --pdf-model).
+    #[arg(long, default_value = "paper")]
+    pub pdf: String,
+    /// Model to take from a `pdf_fit.json`: paper-scaled, paper-family, lognormal+tail or empirical.
+    #[arg(long)]
+    pub pdf_model: Option<String>,
+    /// Measured read-noise map in e- (FITS/TIFF/EXR; e.g. `rms_e.fits` from `darks`) for the
+    /// `scmos-map` model; non-finite pixels are excluded.
+    #[arg(long)]
+    pub map: Option<std::path::PathBuf>,
 }
 
 impl DetectorArgs {
@@ -132,9 +143,9 @@ impl DetectorArgs {
             gaussian_switch_e: self.gaussian_switch,
             cascade_register: self.register == "cascade",
             sigma_e: self.sigma,
-            pdf: Arc::new(crate::pdf::paper()),
+            pdf: self.rms_pdf()?,
             pattern_seed: self.pattern_seed,
-            map: None,
+            map: self.noise_map()?,
             pp_rule: if self.pp_rule == "equal-density" {
                 crate::pp::PpRule::EqualDensity
             } else {
@@ -150,6 +161,33 @@ impl DetectorArgs {
                 other => other,
             },
         })
+    }
+}
+
+impl DetectorArgs {
+    /// The per-pixel rms distribution named by `--pdf`.
+    fn rms_pdf(&self) -> Result<Arc<dyn crate::pdf::RmsPdf>> {
+        match (self.pdf.as_str(), &self.pdf_model) {
+            ("paper", None) => Ok(Arc::new(crate::pdf::paper())),
+            ("paper", Some(_)) => Err(Error::usage("--pdf-model", "applies only with --pdf FILE")),
+            (file, model) => {
+                crate::fit::pdf_fit::load_pdf_fit(std::path::Path::new(file), model.as_deref())
+            }
+        }
+    }
+
+    /// The measured noise map named by `--map`, if any.
+    fn noise_map(&self) -> Result<Option<Arc<crate::detector::NoiseMap>>> {
+        let Some(path) = &self.map else {
+            return Ok(None);
+        };
+        let m = crate::maps::read_map(path)?;
+        Ok(Some(Arc::new(crate::detector::NoiseMap {
+            rows: m.rows,
+            cols: m.cols,
+            rms_e: m.data,
+            source: path.display().to_string(),
+        })))
     }
 }
 
