@@ -29,8 +29,8 @@ fn cpu_seconds() -> f64 {
         .split_whitespace()
         .filter_map(|x| x.parse().ok())
         .collect();
-    // Fields 14 and 15 of stat (utime, stime) are 12th and 13th after the command name.
-    (f.get(11).copied().unwrap_or(0.0) + f.get(12).copied().unwrap_or(0.0)) / 100.0
+    // Fields 14 and 15 of stat (utime, stime); the state letter (field 3) is not numeric, so they are the 11th and 12th numbers after the command name.
+    (f.get(10).copied().unwrap_or(0.0) + f.get(11).copied().unwrap_or(0.0)) / 100.0
 }
 
 fn main() {

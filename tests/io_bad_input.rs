@@ -186,3 +186,29 @@ fn missing_file_and_empty_glob_are_errors() {
         .code(1);
     darks_fails(&[d.path().join("nothing-*.fits")], &["matches no file"]);
 }
+
+#[test]
+fn ptc_with_a_one_frame_flat_fails_without_output() {
+    let d = tempfile::tempdir().unwrap();
+    let (dark, flat) = (d.path().join("dark.fits"), d.path().join("flat.fits"));
+    write_fits(&dark, (4, 6), &frames(5, (4, 6)));
+    write_fits(&flat, (4, 6), &frames(1, (4, 6)));
+    let out = d.path().join("ptc");
+    let a = Command::cargo_bin("detnoise")
+        .unwrap()
+        .arg("ptc")
+        .arg("--darks")
+        .arg(&dark)
+        .arg("--flats")
+        .arg(&flat)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .code(2);
+    let stderr = String::from_utf8_lossy(&a.get_output().stderr).to_string();
+    assert!(
+        stderr.contains("flat.fits") && stderr.contains("frame 1") && stderr.contains("at least 2"),
+        "{stderr}"
+    );
+    assert!(!out.exists(), "no output directory on failure");
+}

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::io::FrameStack;
+use crate::io::{FrameData, FrameStack};
 use crate::maps::Map;
 
 /// Frames per parity accumulated as shifted sums before a Chan merge.
@@ -155,9 +155,8 @@ impl Tile {
         }
     }
 
-    /// Add the samples of tile-local pixels `r` of frame `x` (a whole frame).
+    /// Add the samples `x` of tile-local pixels `r` of one frame.
     fn add(&mut self, x: &[f64], parity: usize, first: bool, extremes: usize, r: Range<usize>) {
-        let x = &x[self.start + r.start..self.start + r.end];
         if first {
             self.shift[r.clone()].copy_from_slice(x);
             self.prev[r.clone()].copy_from_slice(x);
@@ -310,11 +309,10 @@ fn sample_std(n: f64, m2: f64) -> f64 {
 /// Run `consume` on batches of frames read on a separate thread (one being read while one is used).
 fn stream_batches(
     stack: &FrameStack,
-    mut consume: impl FnMut(&mut [Vec<f64>], usize) -> Result<()>,
+    mut consume: impl FnMut(&mut [FrameData], usize) -> Result<()>,
 ) -> Result<()> {
-    let npix = stack.pixels();
-    let (tx, rx) = mpsc::sync_channel::<Result<(Vec<Vec<f64>>, usize)>>(0);
-    let (back_tx, back_rx) = mpsc::channel::<Vec<Vec<f64>>>();
+    let (tx, rx) = mpsc::sync_channel::<Result<(Vec<FrameData>, usize)>>(0);
+    let (back_tx, back_rx) = mpsc::channel::<Vec<FrameData>>();
     std::thread::scope(|s| {
         let reader_stack = stack.clone();
         s.spawn(move || {
@@ -322,11 +320,11 @@ fn stream_batches(
             let mut first = 0;
             loop {
                 let mut batch = back_rx.try_recv().unwrap_or_default();
-                batch.resize_with(BATCH, || vec![0.0; npix]);
+                batch.resize_with(BATCH, || FrameData::Values(Vec::new()));
                 let mut filled = 0;
                 let mut failed = None;
                 while filled < BATCH {
-                    match reader.next_frame(&mut batch[filled]) {
+                    match reader.next_frame_data(&mut batch[filled]) {
                         Ok(Some(_)) => filled += 1,
                         Ok(None) => break,
                         Err(e) => {
@@ -394,9 +392,10 @@ fn pass(
     };
     stream_batches(stack, |batch, first| {
         if let Some(h) = hook {
+            batch.par_iter_mut().for_each(|f| f.decode_in_place());
             raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
                 for f in batch.iter() {
-                    for (mi, x) in m.iter_mut().zip(&f[t * TILE..]) {
+                    for (mi, x) in m.iter_mut().zip(&f.values()[t * TILE..]) {
                         *mi = mi.max(*x);
                     }
                 }
@@ -404,24 +403,36 @@ fn pass(
             let values: Vec<f64> = batch
                 .par_iter_mut()
                 .enumerate()
-                .map(|(j, f)| h(first + j, f))
+                .map(|(j, f)| h(first + j, f.values_mut()))
                 .collect();
             per_frame.extend(values);
         }
         tiles.par_iter_mut().for_each(|t| {
             if first == 0 {
                 if let Some(sh) = shift {
+                    // Second pass (window): prev and vn are not used.
                     t.shift.copy_from_slice(&sh[t.start..t.start + t.len]);
-                    t.prev.copy_from_slice(&batch[0][t.start..t.start + t.len]);
                 }
             }
             // Cache blocking: each run of SUB pixels sees every frame of the batch while its
             // accumulators sit in L1.
+            // Raw frames are decoded here, a run at a time, so the stored bytes cross between
+            // threads instead of 8-byte values.
+            let mut local = [0.0f64; SUB];
             for a in (0..t.len).step_by(SUB) {
                 let r = a..(a + SUB).min(t.len);
+                let (lo, hi) = (t.start + r.start, t.start + r.end);
                 for (j, f) in batch.iter().enumerate() {
                     let k = first + j;
-                    t.add(f, k % 2, k == 0 && shift.is_none(), extremes, r.clone());
+                    let x: &[f64] = match f {
+                        FrameData::Values(v) => &v[lo..hi],
+                        FrameData::Raw(b, layout) => {
+                            let w = layout.width();
+                            layout.decode(&b[lo * w..hi * w], &mut local[..r.len()]);
+                            &local[..r.len()]
+                        }
+                    };
+                    t.add(x, k % 2, k == 0 && shift.is_none(), extremes, r.clone());
                 }
             }
         });
@@ -568,6 +579,14 @@ pub fn percentile(values: &[f64], p: f64) -> f64 {
         return f64::NAN;
     }
     v.sort_by(f64::total_cmp);
+    percentile_sorted(&v, p)
+}
+
+/// Percentile `p` (0..100) of ascending finite values, linear interpolation (NaN if empty).
+pub fn percentile_sorted(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
     let pos = p / 100.0 * (v.len() - 1) as f64;
     let (i, f) = (pos.floor() as usize, pos.fract());
     if i + 1 < v.len() {

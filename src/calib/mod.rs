@@ -1,6 +1,5 @@
 //! Calibration: per-pixel maps from dark and flat stacks.
 
-pub mod chart;
 pub mod darks;
 pub mod ptc;
 pub mod summary;

@@ -104,6 +104,8 @@ pub struct PtcResult {
     pub gain_e_per_adu: f64,
     /// Its standard error (e per adu).
     pub gain_err_e_per_adu: f64,
+    /// Fitted slope of dark-subtracted variance vs mean (adu): em_gain x F^2 / gain.
+    pub slope: f64,
     /// Fitted intercept of variance vs mean (adu^2; near 0 after dark subtraction).
     pub intercept_adu2: f64,
     /// Reduced chi-square of the global fit (NaN with fewer than 3 levels).
@@ -289,6 +291,7 @@ pub fn photon_transfer(
         levels,
         gain_e_per_adu: gain,
         gain_err_e_per_adu: gain_err,
+        slope,
         intercept_adu2: intercept,
         reduced_chi2: chi2,
         gain_map: Map::new(rows, cols, gain_map),

@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
-use super::darks::percentile;
+use super::darks::percentile_sorted as percentile;
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 
@@ -42,7 +42,8 @@ pub struct Distribution {
 impl Distribution {
     /// Figures of `values` (non-finite values are skipped).
     pub fn of(values: &[f64]) -> Distribution {
-        let v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        v.sort_unstable_by(f64::total_cmp);
         let n = v.len().max(1) as f64;
         let median = percentile(&v, 50.0);
         Distribution {
@@ -67,8 +68,8 @@ impl Distribution {
 pub struct InputFile {
     /// Path as given.
     pub path: PathBuf,
-    /// SHA-256 of the file's bytes (hex).
-    pub sha256: String,
+    /// SHA-256 of the file's bytes (hex); None when checksums were skipped.
+    pub sha256: Option<String>,
     /// Frames read from it.
     pub frames: usize,
     /// Format.
@@ -100,11 +101,26 @@ pub fn inputs(stack: &FrameStack) -> Result<Vec<InputFile>> {
         .map(|s| {
             Ok(InputFile {
                 path: s.path.clone(),
-                sha256: sha256_file(&s.path)?,
+                sha256: Some(sha256_file(&s.path)?),
                 frames: s.frames,
                 format: s.format,
                 sample_type: s.sample_type,
             })
+        })
+        .collect()
+}
+
+/// Input records without checksums.
+pub fn unhashed(stack: &FrameStack) -> Vec<InputFile> {
+    stack
+        .sources
+        .iter()
+        .map(|s| InputFile {
+            path: s.path.clone(),
+            sha256: None,
+            frames: s.frames,
+            format: s.format,
+            sample_type: s.sample_type,
         })
         .collect()
 }

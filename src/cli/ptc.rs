@@ -4,13 +4,13 @@ use std::path::PathBuf;
 
 use serde::Serialize;
 
-use crate::calib::chart::ptc_png;
 use crate::calib::darks::{pixel_stats, Clip};
 use crate::calib::ptc::{photon_transfer, DarkReference, Level, PtcOptions};
 use crate::calib::summary::{inputs, Distribution, InputFile};
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
-use crate::maps::{key, read_map, write_bytes_atomic, write_fits_map, write_json, KeyValue};
+use crate::maps::{key, read_map, write_fits_map, write_json, KeyValue};
+use crate::plot::ScatterFit;
 
 /// Options of `detnoise ptc`.
 #[derive(clap::Args, Debug)]
@@ -133,16 +133,6 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         .map(|f| FrameStack::open(std::slice::from_ref(f)))
         .collect::<Result<_>>()?;
     let r = photon_transfer(&flats, &dark, &opts)?;
-    let points: Vec<(f64, f64)> = r.levels.iter().map(|l| (l.mean_adu, l.var_adu2)).collect();
-    let png = ptc_png(
-        &points,
-        r.gain_e_per_adu / opts.em_gain / opts.excess_noise_factor_sq,
-        r.intercept_adu2,
-        &format!(
-            "photon transfer: {:.4} +/- {:.4} e/adu",
-            r.gain_e_per_adu, r.gain_err_e_per_adu
-        ),
-    )?;
     let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
     let outputs = [
         "gain_e_per_adu.fits",
@@ -168,6 +158,8 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         outputs: outputs.iter().map(|s| s.to_string()).collect(),
     };
     std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
+    // The chart goes first: if it fails, nothing has been written.
+    chart(&r, &args.out.join("ptc.png"))?;
     let keys = vec![
         key(
             "NLEVELS",
@@ -208,7 +200,6 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         "electron",
         &keys,
     )?;
-    write_bytes_atomic(&args.out.join("ptc.png"), &png)?;
     write_json(&args.out.join("ptc.json"), &summary)?;
     eprintln!(
         "conversion gain {:.5} +/- {:.5} e/adu over {} levels (reduced chi2 {:.2}); median read noise {:.3} e-; wrote {}",
@@ -222,14 +213,24 @@ pub fn run(args: &PtcArgs) -> Result<()> {
     Ok(())
 }
 
-/// The photon-transfer chart (variance against mean, log-log, with the fit) of an sCMOS-style
-/// PTC (no EM gain) written to `path` as PNG.
+/// The photon-transfer chart (dark-subtracted variance against mean, log-log, with the fit)
+/// written to `path` (PNG or SVG by extension), atomically.
 pub fn chart(r: &crate::calib::ptc::PtcResult, path: &std::path::Path) -> Result<()> {
     let points: Vec<(f64, f64)> = r.levels.iter().map(|l| (l.mean_adu, l.var_adu2)).collect();
-    let title = format!(
-        "photon transfer: {:.4} +/- {:.4} e/adu",
-        r.gain_e_per_adu, r.gain_err_e_per_adu
-    );
-    let png = ptc_png(&points, r.gain_e_per_adu, r.intercept_adu2, &title)?;
-    crate::output::write_atomic(path, &png)
+    let (a, slope) = (r.intercept_adu2, r.slope);
+    ScatterFit::new(
+        format!(
+            "photon transfer: {:.4} ± {:.4} e⁻/adu",
+            r.gain_e_per_adu, r.gain_err_e_per_adu
+        ),
+        "dark-subtracted mean (adu)",
+        "dark-subtracted variance (adu²)",
+        points,
+        "light levels (mean over pixels)",
+    )
+    .with_fit_fn(
+        format!("fit: variance = {a:.3} + {slope:.5} × mean"),
+        move |m| a + slope * m,
+    )
+    .save(path)
 }

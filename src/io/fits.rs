@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use fitsio::sys;
 use fitsio::FitsFile;
 
-use super::{frame_error, FileFrames, SampleType};
+use super::{frame_error, FileFrames, RawKind, SampleType};
 use crate::error::{Error, Result};
 
 const IMAGE_HDU: c_int = 0;
@@ -303,7 +303,45 @@ fn decode_be(bitpix: i32, bytes: &[u8], scale: f64, zero: f64, out: &mut [f64]) 
     }
 }
 
+impl FitsFrames {
+    fn hdu_of(&self, k: usize) -> Option<&HduFrames> {
+        self.hdus
+            .iter()
+            .find(|h| k >= h.first && k < h.first + h.frames)
+    }
+}
+
 impl FileFrames for FitsFrames {
+    fn raw_layout(&self, k: usize) -> Option<super::RawLayout> {
+        let raw = self.hdu_of(k)?.raw?;
+        let kind = match raw.bitpix {
+            8 => RawKind::U8,
+            16 => RawKind::I16,
+            32 => RawKind::I32,
+            64 => RawKind::I64,
+            _ => return None,
+        };
+        (raw.bscale.is_finite() && raw.bzero.is_finite()).then_some(super::RawLayout {
+            kind,
+            big_endian: true,
+            scale: raw.bscale,
+            zero: raw.bzero,
+        })
+    }
+
+    fn read_raw(&mut self, k: usize, bytes: &mut Vec<u8>) -> Result<()> {
+        let h = self
+            .hdu_of(k)
+            .cloned()
+            .ok_or_else(|| frame_error(&self.path, k, "no such frame"))?;
+        let (Some(raw), Some(file)) = (h.raw, self.raw_file.as_ref()) else {
+            return Err(frame_error(&self.path, k, "no raw layout"));
+        };
+        let offset = raw.datastart + ((k - h.first) * bytes.len()) as u64;
+        file.read_exact_at(bytes, offset)
+            .map_err(|e| frame_error(&self.path, k, format!("cannot read data: {e}")))
+    }
+
     fn may_be_nonfinite(&self, k: usize) -> bool {
         // Raw integer HDUs have no BLANK (checked at open) and finite BSCALE/BZERO.
         !self.hdus.iter().any(|h| {

@@ -138,6 +138,117 @@ pub(crate) trait FileFrames {
     fn may_be_nonfinite(&self, _k: usize) -> bool {
         true
     }
+
+    /// Layout of frame `k` when its stored bytes can be handed over undecoded (plain integers).
+    fn raw_layout(&self, _k: usize) -> Option<RawLayout> {
+        None
+    }
+
+    /// Read the stored bytes of frame `k` (only when `raw_layout(k)` is Some).
+    fn read_raw(&mut self, k: usize, _bytes: &mut Vec<u8>) -> Result<()> {
+        Err(Error::Numeric(format!(
+            "frame {k}: no raw read for this format"
+        )))
+    }
+}
+
+/// Integer storage of raw frame bytes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RawKind {
+    /// Unsigned 8-bit.
+    U8,
+    /// Signed 16-bit.
+    I16,
+    /// Signed 32-bit.
+    I32,
+    /// Signed 64-bit.
+    I64,
+}
+
+/// How stored frame bytes map to values: value = stored x scale + zero.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RawLayout {
+    /// Integer type of a sample.
+    pub kind: RawKind,
+    /// Big-endian byte order (FITS).
+    pub big_endian: bool,
+    /// Multiplier (FITS BSCALE).
+    pub scale: f64,
+    /// Offset (FITS BZERO).
+    pub zero: f64,
+}
+
+impl RawLayout {
+    /// Bytes per sample.
+    pub fn width(&self) -> usize {
+        match self.kind {
+            RawKind::U8 => 1,
+            RawKind::I16 => 2,
+            RawKind::I32 => 4,
+            RawKind::I64 => 8,
+        }
+    }
+
+    /// Decode `bytes` (a whole number of samples) into `out`.
+    pub fn decode(&self, bytes: &[u8], out: &mut [f64]) {
+        let (scale, zero) = (self.scale, self.zero);
+        macro_rules! dec {
+            ($t:ty, $n:expr) => {
+                for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
+                    let a: [u8; $n] = c.try_into().expect("chunk size");
+                    let v = if self.big_endian {
+                        <$t>::from_be_bytes(a)
+                    } else {
+                        <$t>::from_le_bytes(a)
+                    };
+                    *o = v as f64 * scale + zero;
+                }
+            };
+        }
+        match self.kind {
+            RawKind::U8 => dec!(u8, 1),
+            RawKind::I16 => dec!(i16, 2),
+            RawKind::I32 => dec!(i32, 4),
+            RawKind::I64 => dec!(i64, 8),
+        }
+    }
+}
+
+/// One frame as delivered by [`StackReader::next_frame_data`]: decoded values, or stored
+/// integer bytes with their layout (decoded later, where the values are used).
+#[derive(Clone, Debug)]
+pub enum FrameData {
+    /// Row-major values.
+    Values(Vec<f64>),
+    /// Row-major stored bytes and how to decode them.
+    Raw(Vec<u8>, RawLayout),
+}
+
+impl FrameData {
+    /// Turn a raw frame into values in place.
+    pub fn decode_in_place(&mut self) {
+        if let FrameData::Raw(bytes, layout) = self {
+            let mut v = vec![0.0; bytes.len() / layout.width()];
+            layout.decode(bytes, &mut v);
+            *self = FrameData::Values(v);
+        }
+    }
+
+    /// The values of a decoded frame (panics on a raw frame: call `decode_in_place` first).
+    pub fn values(&self) -> &[f64] {
+        match self {
+            FrameData::Values(v) => v,
+            FrameData::Raw(..) => panic!("frame not decoded"),
+        }
+    }
+
+    /// Mutable values of a decoded frame (panics on a raw frame).
+    pub fn values_mut(&mut self) -> &mut [f64] {
+        match self {
+            FrameData::Values(v) => v,
+            FrameData::Raw(..) => panic!("frame not decoded"),
+        }
+    }
 }
 
 fn scan_file(path: &Path) -> Result<SourceFile> {
@@ -354,6 +465,52 @@ pub struct StackReader<'a> {
 }
 
 impl StackReader<'_> {
+    /// Read the next frame into `slot`, as stored integer bytes when the file allows it
+    /// (reusing the slot's buffers), else as values. Returns the stack frame index, or None.
+    pub fn next_frame_data(&mut self, slot: &mut FrameData) -> Result<Option<usize>> {
+        self.skip_finished_files();
+        let Some(src) = self.stack.sources.get(self.file_index) else {
+            return Ok(None);
+        };
+        if self.open.is_none() {
+            self.open = Some(open_file(src)?);
+        }
+        let reader = self.open.as_mut().expect("opened above");
+        if let Some(layout) = reader.raw_layout(self.local) {
+            let mut bytes = match std::mem::replace(slot, FrameData::Values(Vec::new())) {
+                FrameData::Raw(b, _) => b,
+                FrameData::Values(_) => Vec::new(),
+            };
+            bytes.resize(self.stack.pixels() * layout.width(), 0);
+            reader
+                .read_raw(self.local, &mut bytes)
+                .map_err(|e| add_stack_frame(e, self.global))?;
+            *slot = FrameData::Raw(bytes, layout);
+            let k = self.global;
+            self.local += 1;
+            self.global += 1;
+            return Ok(Some(k));
+        }
+        let mut values = match std::mem::replace(slot, FrameData::Values(Vec::new())) {
+            FrameData::Values(v) => v,
+            FrameData::Raw(..) => Vec::new(),
+        };
+        values.resize(self.stack.pixels(), 0.0);
+        let r = self.next_frame(&mut values);
+        *slot = FrameData::Values(values);
+        r
+    }
+
+    fn skip_finished_files(&mut self) {
+        while self.file_index < self.stack.sources.len()
+            && self.local >= self.stack.sources[self.file_index].frames
+        {
+            self.file_index += 1;
+            self.local = 0;
+            self.open = None;
+        }
+    }
+
     /// Read the next frame into `out` (rows*cols f64, row-major). Returns the stack frame
     /// index, or None at the end. Non-finite samples are an error naming file and frame.
     pub fn next_frame(&mut self, out: &mut [f64]) -> Result<Option<usize>> {
