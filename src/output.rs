@@ -129,48 +129,6 @@ fn csv_field(s: &str) -> String {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[derive(Serialize)]
-    struct Rec {
-        spot: String,
-        r_px: f64,
-        n: u32,
-        levels: Vec<f64>,
-    }
-
-    #[test]
-    fn csv_quotes_commas_and_drops_arrays() {
-        let recs = [Rec {
-            spot: "gauss:1,2".into(),
-            r_px: 0.1234567891,
-            n: 3,
-            levels: vec![1.0],
-        }];
-        assert_eq!(
-            render(&recs, Format::Csv).unwrap(),
-            "spot,r_px,n\n\"gauss:1,2\",0.123457,3\n"
-        );
-        let json: Value = serde_json::from_str(&render(&recs, Format::Json).unwrap()).unwrap();
-        assert_eq!(json[0]["levels"][0], 1.0);
-        assert!(render(&recs, Format::Table)
-            .unwrap()
-            .starts_with("     spot"));
-    }
-
-    #[test]
-    fn atomic_write_replaces_whole_file() {
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("a.txt");
-        write_atomic(&p, b"one").unwrap();
-        write_atomic(&p, b"two").unwrap();
-        assert_eq!(std::fs::read(&p).unwrap(), b"two");
-        assert!(write_atomic(&dir.path().join("missing/a.txt"), b"x").is_err());
-    }
-}
-
 /// An output directory built in a temporary sibling and moved into place only on success,
 /// so a failed run leaves neither a half-written directory nor a damaged earlier one.
 pub struct OutputDir {
@@ -215,5 +173,47 @@ impl OutputDir {
         let tmp = self.tmp.keep();
         std::fs::rename(&tmp, &self.target).map_err(|e| Error::io(&self.target, e))?;
         Ok(self.target)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[derive(Serialize)]
+    struct Rec {
+        spot: String,
+        r_px: f64,
+        n: u32,
+        levels: Vec<f64>,
+    }
+
+    #[test]
+    fn csv_quotes_commas_and_drops_arrays() {
+        let recs = [Rec {
+            spot: "gauss:1,2".into(),
+            r_px: 0.1234567891,
+            n: 3,
+            levels: vec![1.0],
+        }];
+        assert_eq!(
+            render(&recs, Format::Csv).unwrap(),
+            "spot,r_px,n\n\"gauss:1,2\",0.123457,3\n"
+        );
+        let json: Value = serde_json::from_str(&render(&recs, Format::Json).unwrap()).unwrap();
+        assert_eq!(json[0]["levels"][0], 1.0);
+        assert!(render(&recs, Format::Table)
+            .unwrap()
+            .starts_with("     spot"));
+    }
+
+    #[test]
+    fn atomic_write_replaces_whole_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("a.txt");
+        write_atomic(&p, b"one").unwrap();
+        write_atomic(&p, b"two").unwrap();
+        assert_eq!(std::fs::read(&p).unwrap(), b"two");
+        assert!(write_atomic(&dir.path().join("missing/a.txt"), b"x").is_err());
     }
 }

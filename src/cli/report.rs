@@ -170,7 +170,7 @@ fn grid(args: &ReportArgs) -> Result<Grid> {
 /// Entry point of `detnoise report`.
 pub fn run_cli(args: &ReportArgs) -> Result<()> {
     let grid = grid(args)?;
-    if grid.subaps.iter().any(|&n| n == 0) || grid.signals.iter().any(|&s| !(s > 0.0)) {
+    if grid.subaps.contains(&0) || grid.signals.iter().any(|s| s.is_nan() || *s <= 0.0) {
         return Err(Error::usage(
             "--subap/--signal",
             "sizes and signals must be positive",
