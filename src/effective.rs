@@ -88,23 +88,17 @@ pub fn effective_sigma(
         }
     }
     let wide = grid_of(&WIDE_FACTORS, scale.max(guess));
-    match solve_on_grid(cfg, detector, wide.clone(), on_progress) {
+    let (det, consts) = run_grid(cfg, detector, &wide, on_progress)?;
+    match interpolate(&det, &consts, &wide) {
         Ok(e) => Ok(e),
-        Err(Outside::Below) => bound(cfg, detector, &wide, Status::LowerBound, on_progress),
-        Err(Outside::Above) => bound(cfg, detector, &wide, Status::Unreachable, on_progress),
+        Err(Outside::Below) => Ok(bound(&det, &consts, &wide, Status::LowerBound)),
+        Err(Outside::Above) => Ok(bound(&det, &consts, &wide, Status::Unreachable)),
         Err(Outside::Failed(e)) => Err(e),
     }
 }
 
 /// The result when the detector's R lies outside R of the whole wide `grid` (`grid[0]` = 0).
-fn bound(
-    cfg: &SimConfig,
-    detector: &dyn Readout,
-    grid: &[f64],
-    status: Status,
-    on_progress: &(dyn Fn(u64) + Sync),
-) -> Result<Effective> {
-    let (det, consts) = run_grid(cfg, detector, grid, on_progress)?;
+fn bound(det: &SimResult, consts: &[SimResult], grid: &[f64], status: Status) -> Effective {
     let slope = (consts[1].r_px - consts[0].r_px) / (grid[1] - grid[0]);
     let (sigma, se) = match status {
         Status::LowerBound if slope > 0.0 => (
@@ -114,7 +108,18 @@ fn bound(
         Status::LowerBound => (0.0, f64::INFINITY),
         _ => (f64::NAN, f64::NAN),
     };
-    Ok(Effective {
+    effective(det, consts, grid, (sigma, se), status)
+}
+
+/// Assemble a result from the runs on `grid` and the solved (sigma, SE) in e-.
+fn effective(
+    det: &SimResult,
+    consts: &[SimResult],
+    grid: &[f64],
+    (sigma, se): (f64, f64),
+    status: Status,
+) -> Effective {
+    Effective {
         sigma_eff_e: sigma,
         sigma_eff_se_e: se,
         r_px: det.r_px,
@@ -123,7 +128,7 @@ fn bound(
         sigma_grid_e: grid.to_vec(),
         r_const_px: consts.iter().map(|c| c.r_px).collect(),
         status,
-    })
+    }
 }
 
 /// Run the detector beside constant-sigma models on `grid` (common random numbers).
@@ -203,16 +208,7 @@ fn interpolate(
     } else {
         f64::INFINITY
     };
-    Ok(Effective {
-        sigma_eff_e: sigma,
-        sigma_eff_se_e: se,
-        r_px: det.r_px,
-        r_se_px: det.r_se_px,
-        b_opt_e: det.b_opt_e,
-        sigma_grid_e: grid.to_vec(),
-        r_const_px: consts.iter().map(|c| c.r_px).collect(),
-        status: Status::Ok,
-    })
+    Ok(effective(det, consts, grid, (sigma, se), Status::Ok))
 }
 
 #[cfg(test)]

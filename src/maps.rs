@@ -4,7 +4,7 @@
 //! Every output file is written to a temporary file in the destination directory and
 //! renamed into place, so a failure never leaves a partial file.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use fitsio::images::{ImageDescription, ImageType};
 use fitsio::FitsFile;
@@ -69,39 +69,7 @@ pub fn key(name: &str, value: KeyValue, comment: &str) -> Keyword {
     (name.to_string(), value, comment.to_string())
 }
 
-/// Run `write` on a temporary path beside `path`, then rename it to `path`.
-pub fn write_atomic(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| Error::io(&dir, e))?;
-    let tmp_path = tmp.path().to_path_buf();
-    write(&tmp_path)?;
-    // tempfile creates 0600 files; outputs are ordinary shared results.
-    {
-        use std::os::unix::fs::PermissionsExt;
-        std::fs::set_permissions(&tmp_path, std::fs::Permissions::from_mode(0o644))
-            .map_err(|e| Error::io(&tmp_path, e))?;
-    }
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
-}
-
-/// Write bytes atomically.
-pub fn write_bytes_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    write_atomic(path, |tmp| {
-        std::fs::write(tmp, bytes).map_err(|e| Error::io(tmp, e))
-    })
-}
+pub use crate::output::{write_atomic as write_bytes_atomic, write_atomic_with as write_atomic};
 
 fn fits_err(path: &Path, e: fitsio::errors::Error) -> Error {
     Error::io(path, std::io::Error::other(e.to_string()))

@@ -3,20 +3,43 @@
 use crate::{Error, Result};
 use serde::Serialize;
 use serde_json::Value;
-use std::io::Write;
 use std::path::Path;
 
 /// Write `bytes` to `path` atomically: a temporary file beside it, then a rename, so a
 /// failure never leaves a partial or overwritten output.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
+    write_atomic_with(path, |tmp| {
+        std::fs::write(tmp, bytes).map_err(|e| Error::io(tmp, e))
+    })
+}
+
+/// Run `write` on a temporary path beside `path`, then rename it to `path`.
+pub fn write_atomic_with(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let dir = match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => std::path::PathBuf::from("."),
     };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| Error::io(path, e))?;
-    tmp.write_all(bytes).map_err(|e| Error::io(path, e))?;
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = tempfile::Builder::new()
+        .prefix(&format!(".{name}."))
+        .suffix(".tmp")
+        .tempfile_in(&dir)
+        .map_err(|e| Error::io(&dir, e))?;
+    let tmp_path = tmp.path().to_path_buf();
+    write(&tmp_path)?;
+    // tempfile creates 0600 files; outputs are ordinary shared results.
+    set_mode(&tmp_path, 0o644)?;
     tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
     Ok(())
+}
+
+fn set_mode(path: &Path, mode: u32) -> Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode))
+        .map_err(|e| Error::io(path, e))
 }
 
 /// Output format of a table of records.
@@ -171,6 +194,7 @@ impl OutputDir {
             return Err(Error::input(&self.target, "exists and is not a directory"));
         }
         let tmp = self.tmp.keep();
+        set_mode(&tmp, 0o755)?;
         std::fs::rename(&tmp, &self.target).map_err(|e| Error::io(&self.target, e))?;
         Ok(self.target)
     }

@@ -196,6 +196,30 @@ pub fn generate(
     Ok(out)
 }
 
+/// A figure of R (px, log scale) against `x_label`.
+fn r_figure(
+    number: u32,
+    slug: &'static str,
+    title: impl Into<String>,
+    caption: impl Into<String>,
+    x_label: &str,
+    log_x: bool,
+    curves: Vec<Curve>,
+) -> LineFigure {
+    LineFigure {
+        number,
+        slug,
+        title: title.into(),
+        caption: caption.into(),
+        x_label: x_label.into(),
+        y_label: "R, mean radial error (px)".into(),
+        log_x,
+        log_y: true,
+        reference: None,
+        curves,
+    }
+}
+
 /// Draw a line figure (PNG, SVG) and write its CSV.
 fn save_line(ctx: &Ctx, fig: LineFigure) -> Result<FigureInfo> {
     let stem = format!("fig{:02}-{}", fig.number, fig.slug);
@@ -356,18 +380,7 @@ fn fig_emccd_models(ctx: &Ctx, number: u32, d: f64) -> Result<FigureInfo> {
             ..c
         }));
     }
-    save_line(ctx, LineFigure {
-        number,
-        slug: if d < 5.0 { "emccd-models-d2" } else { "emccd-models-d10" },
-        title: format!("EMCCD readout models, Airy spot D = {d} px"),
-        caption: format!("Mean radial centroid error R against signal for the three EMCCD models (g = 500, 520 stages, 50 e- read noise) and several sub-aperture sizes, spot diameter {d} px."),
-        x_label: "signal (photons per sub-aperture)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: true,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(number, if d < 5.0 { "emccd-models-d2" } else { "emccd-models-d10" }, format!("EMCCD readout models, Airy spot D = {d} px"), format!("Mean radial centroid error R against signal for the three EMCCD models (g = 500, 520 stages, 50 e- read noise) and several sub-aperture sizes, spot diameter {d} px."), "signal (photons per sub-aperture)", true, curves))
 }
 
 fn fig05_gain(ctx: &Ctx) -> Result<FigureInfo> {
@@ -395,18 +408,7 @@ fn fig05_gain(ctx: &Ctx) -> Result<FigureInfo> {
             &labels,
         )?);
     }
-    save_line(ctx, LineFigure {
-        number: 5,
-        slug: "r-vs-em-gain",
-        title: "R against EM gain, 8x8 px, D = 4 px".into(),
-        caption: "Mean radial error against the EMCCD mean gain (read noise 50 e- before division by the gain) at several signal levels (photons per sub-aperture).".into(),
-        x_label: "EM gain (e-/e-)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: true,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(5, "r-vs-em-gain", "R against EM gain, 8x8 px, D = 4 px", "Mean radial error against the EMCCD mean gain (read noise 50 e- before division by the gain) at several signal levels (photons per sub-aperture).", "EM gain (e-/e-)", true, curves))
 }
 
 fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
@@ -492,18 +494,7 @@ fn fig_all_models(ctx: &Ctx, number: u32, n: usize) -> Result<FigureInfo> {
         |c, _| build(&specs, &ctx.params, c.subap_px),
         &strings(&ALL_MODELS),
     )?;
-    save_line(ctx, LineFigure {
-        number,
-        slug: if n == 16 { "all-models-16x16" } else { "all-models-4x4" },
-        title: format!("All readout models, {n}x{n} px, D = 2 px"),
-        caption: format!("Mean radial error against signal for every readout model, {n}x{n} px sub-aperture, Airy spot D = 2 px."),
-        x_label: "signal (photons per sub-aperture)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: true,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(number, if n == 16 { "all-models-16x16" } else { "all-models-4x4" }, format!("All readout models, {n}x{n} px, D = 2 px"), format!("Mean radial error against signal for every readout model, {n}x{n} px sub-aperture, Airy spot D = 2 px."), "signal (photons per sub-aperture)", true, curves))
 }
 
 fn fig09_subap(ctx: &Ctx) -> Result<FigureInfo> {
@@ -522,18 +513,7 @@ fn fig09_subap(ctx: &Ctx) -> Result<FigureInfo> {
         |c, _| build(&specs, &ctx.params, c.subap_px),
         &strings(&names),
     )?;
-    save_line(ctx, LineFigure {
-        number: 9,
-        slug: "r-vs-subaperture",
-        title: "R against sub-aperture size, S = 50 photons, D = 2 px".into(),
-        caption: "Mean radial error against the linear sub-aperture size (pixels per side) for EMCCD and sCMOS models at 50 photons per sub-aperture.".into(),
-        x_label: "sub-aperture size (px per side)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: false,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(9, "r-vs-subaperture", "R against sub-aperture size, S = 50 photons, D = 2 px", "Mean radial error against the linear sub-aperture size (pixels per side) for EMCCD and sCMOS models at 50 photons per sub-aperture.", "sub-aperture size (px per side)", false, curves))
 }
 
 fn fig10_diameter(ctx: &Ctx) -> Result<FigureInfo> {
@@ -555,18 +535,7 @@ fn fig10_diameter(ctx: &Ctx) -> Result<FigureInfo> {
             &labels,
         )?);
     }
-    save_line(ctx, LineFigure {
-        number: 10,
-        slug: "r-vs-spot-diameter",
-        title: "R against spot diameter, S = 50 photons".into(),
-        caption: "Mean radial error against the Airy first-minimum diameter for 4x4 and 16x16 px sub-apertures at 50 photons.".into(),
-        x_label: "spot diameter, first Airy minimum (px)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: false,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(10, "r-vs-spot-diameter", "R against spot diameter, S = 50 photons", "Mean radial error against the Airy first-minimum diameter for 4x4 and 16x16 px sub-apertures at 50 photons.", "spot diameter, first Airy minimum (px)", false, curves))
 }
 
 fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
@@ -589,18 +558,7 @@ fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
             &labels,
         )?);
     }
-    save_line(ctx, LineFigure {
-        number: 11,
-        slug: "constant-sigmas",
-        title: "sCMOS: constant read noise, fixed patterns and the random model".into(),
-        caption: "Mean radial error against signal, 4x4 and 16x16 px, D = 2 px: constant sigmas (e-), the ten fixed patterns (spread of real detectors) and the random model (the expected detector).".into(),
-        x_label: "signal (photons per sub-aperture)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: true,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(11, "constant-sigmas", "sCMOS: constant read noise, fixed patterns and the random model", "Mean radial error against signal, 4x4 and 16x16 px, D = 2 px: constant sigmas (e-), the ten fixed patterns (spread of real detectors) and the random model (the expected detector).", "signal (photons per sub-aperture)", true, curves))
 }
 
 fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
@@ -677,18 +635,7 @@ fn fig13_lgs(ctx: &Ctx) -> Result<FigureInfo> {
         |c, _| build(&specs, &ctx.params, c.subap_px),
         &strings(&names),
     )?;
-    save_line(ctx, LineFigure {
-        number: 13,
-        slug: "lgs-elongation",
-        title: "Laser guide star elongation, 16x16 px, S = 50 photons".into(),
-        caption: "Mean radial error against the standard deviation of the elongated axis of a 2-D Gaussian spot (the other axis 1 px, comparable with an Airy spot of D = 6 px).".into(),
-        x_label: "elongated-axis standard deviation (px)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: false,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(13, "lgs-elongation", "Laser guide star elongation, 16x16 px, S = 50 photons", "Mean radial error against the standard deviation of the elongated axis of a 2-D Gaussian spot (the other axis 1 px, comparable with an Airy spot of D = 6 px).", "elongated-axis standard deviation (px)", false, curves))
 }
 
 fn fig14_qe(ctx: &Ctx) -> Result<FigureInfo> {
@@ -713,18 +660,7 @@ fn fig14_qe(ctx: &Ctx) -> Result<FigureInfo> {
             &labels,
         )?);
     }
-    save_line(ctx, LineFigure {
-        number: 14,
-        slug: "qe-scaling-4x4",
-        title: "QE included: EMCCD 95 %, sCMOS 70 %, 4x4 px".into(),
-        caption: "Mean radial error against incident signal for a 4x4 px sub-aperture, D = 2 px, with QE 0.95 for the EMCCD models and 0.70 for the sCMOS models.".into(),
-        x_label: "incident signal (photons per sub-aperture)".into(),
-        y_label: "R, mean radial error (px)".into(),
-        log_x: true,
-        log_y: true,
-        reference: None,
-        curves,
-    })
+    save_line(ctx, r_figure(14, "qe-scaling-4x4", "QE included: EMCCD 95 %, sCMOS 70 %, 4x4 px", "Mean radial error against incident signal for a 4x4 px sub-aperture, D = 2 px, with QE 0.95 for the EMCCD models and 0.70 for the sCMOS models.", "incident signal (photons per sub-aperture)", true, curves))
 }
 
 /// Write `index.html` and `README.md` listing every figure with its caption.

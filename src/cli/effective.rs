@@ -88,22 +88,29 @@ pub fn effective_table(
 
 fn solve(cfg: &SimConfig, model: &dyn Readout, progress: &Progress) -> Result<EffectiveRecord> {
     let e = effective_sigma(cfg, model, &|k| progress.inc(k))?;
-    Ok(EffectiveRecord {
-        model: model.name(),
-        subap_px: cfg.subap_px,
-        spot: cfg.spot.label(),
-        sampling: cfg.sampling.label().into(),
-        signal_photons: cfg.signal_photons,
-        qe: cfg.qe,
-        iters: cfg.iters,
-        seed: cfg.seed,
-        sigma_eff_e: e.sigma_eff_e,
-        sigma_eff_se_e: e.sigma_eff_se_e,
-        r_px: e.r_px,
-        r_se_px: e.r_se_px,
-        b_opt_e: e.b_opt_e,
-        status: e.status,
-    })
+    Ok(EffectiveRecord::new(model.name(), cfg, &e))
+}
+
+impl EffectiveRecord {
+    /// The record of `model` (a label) in configuration `cfg`.
+    pub fn new(model: String, cfg: &SimConfig, e: &crate::effective::Effective) -> Self {
+        EffectiveRecord {
+            model,
+            subap_px: cfg.subap_px,
+            spot: cfg.spot.label(),
+            sampling: cfg.sampling.label().into(),
+            signal_photons: cfg.signal_photons,
+            qe: cfg.qe,
+            iters: cfg.iters,
+            seed: cfg.seed,
+            sigma_eff_e: e.sigma_eff_e,
+            sigma_eff_se_e: e.sigma_eff_se_e,
+            r_px: e.r_px,
+            r_se_px: e.r_se_px,
+            b_opt_e: e.b_opt_e,
+            status: e.status,
+        }
+    }
 }
 
 /// Write the table (CSV, JSON) and the heatmaps into `dir`.

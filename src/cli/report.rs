@@ -244,26 +244,12 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
         for cfg in &configs {
             let model = spec.build(&params, cfg.subap_px)?;
             let e = effective_sigma(cfg, model.as_ref(), &|k| progress.inc(k))?;
-            effective.push(EffectiveRecord {
-                model: if spec == ModelSpec::ScmosRandom {
-                    "scmos-random (fitted pdf)".into()
-                } else {
-                    "scmos-map (measured map)".into()
-                },
-                subap_px: cfg.subap_px,
-                spot: cfg.spot.label(),
-                sampling: cfg.sampling.label().into(),
-                signal_photons: cfg.signal_photons,
-                qe: cfg.qe,
-                iters: cfg.iters,
-                seed: cfg.seed,
-                sigma_eff_e: e.sigma_eff_e,
-                sigma_eff_se_e: e.sigma_eff_se_e,
-                r_px: e.r_px,
-                r_se_px: e.r_se_px,
-                b_opt_e: e.b_opt_e,
-                status: e.status,
-            });
+            let label = if spec == ModelSpec::ScmosRandom {
+                "scmos-random (fitted pdf)"
+            } else {
+                "scmos-map (measured map)"
+            };
+            effective.push(EffectiveRecord::new(label.into(), cfg, &e));
         }
     }
     progress.finish();

@@ -35,7 +35,6 @@ pub use images::{Image, ImageGrid};
 pub use line::{LegendPos, LineChart, Point, RefLine, Series, SeriesStyle};
 pub use scatter::ScatterFit;
 
-use std::io::Write;
 use std::path::Path;
 use std::sync::OnceLock;
 
@@ -137,7 +136,7 @@ fn save_chart<C: Chart>(chart: &C, path: &Path) -> Result<()> {
             encode_png(buf, w, h)?
         }
     };
-    write_atomic(path, &bytes)
+    crate::output::write_atomic(path, &bytes)
 }
 
 fn encode_png(rgb: Vec<u8>, w: u32, h: u32) -> Result<Vec<u8>> {
@@ -147,27 +146,6 @@ fn encode_png(rgb: Vec<u8>, w: u32, h: u32) -> Result<Vec<u8>> {
         .write_image(&rgb, w, h, image::ExtendedColorType::Rgb8)
         .map_err(|e| Error::Numeric(format!("PNG encoding failed: {e}")))?;
     Ok(out)
-}
-
-/// Writes `bytes` to `path` through a temporary file in the same directory and a rename.
-fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut builder = tempfile::Builder::new();
-    builder.prefix(".detnoise-chart-").suffix(".tmp");
-    // tempfile creates 0600 files; a chart is an ordinary output file (0644 before umask).
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        builder.permissions(std::fs::Permissions::from_mode(0o644));
-    }
-    let mut tmp = builder.tempfile_in(dir).map_err(|e| Error::io(path, e))?;
-    tmp.write_all(bytes).map_err(|e| Error::io(path, e))?;
-    tmp.as_file().sync_all().map_err(|e| Error::io(path, e))?;
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
 }
 
 #[cfg(test)]
