@@ -26,15 +26,6 @@ pub struct BackgroundSweep {
     order: Vec<(f64, u32)>,
 }
 
-/// Position error of one frame at one background level.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LevelError {
-    /// Distance between the estimated and the true position (px).
-    pub distance_px: f64,
-    /// True when no pixel exceeded the level (the estimate is then the centre).
-    pub empty: bool,
-}
-
 impl BackgroundSweep {
     /// Sweep over `levels` (e-, any order; sorted here) for n x n images.
     pub fn new(mut levels: Vec<f64>, n: usize) -> Self {
@@ -52,26 +43,33 @@ impl BackgroundSweep {
         &self.levels
     }
 
-    /// For each level, the error of the centre of gravity of max(img - b, 0) against `truth`.
+    /// Add, for each level, the error of the centre of gravity of max(img - b, 0) against `truth`.
     ///
     /// Pixels are sorted by value once; walking the levels from the top adds each pixel once,
     /// so a frame costs O(n^2 log n + levels) instead of O(n^2 x levels). The sums are
-    /// S(b) = sum(v) - b C, Sx(b) = sum(v j) - b sum(j), over the C pixels with v > b.
-    pub fn errors(&mut self, img: &[f64], truth: (f64, f64), out: &mut [LevelError]) {
+    /// S(b) = sum(v) - b C, Sx(b) = sum(v j) - b sum(j), over the C pixels with v > b. An empty
+    /// frame's estimate is the centre, so its error is the distance of the truth from the centre.
+    pub fn accumulate(&mut self, img: &[f64], truth: (f64, f64), acc: &mut LevelSums) {
         let n = self.n;
         let c = (n as f64 - 1.0) / 2.0;
         self.order.clear();
         self.order
             .extend(img.iter().enumerate().map(|(k, &v)| (v, k as u32)));
         self.order.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
-        let (mut sv, mut svx, mut svy, mut cnt, mut sj, mut si) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-        let mut next = 0;
         // Distances are O(1) px: plain sqrt is exact enough and much cheaper than hypot.
         let centre_error = (truth.0 * truth.0 + truth.1 * truth.1).sqrt();
-        for (level, o) in self.levels.iter().zip(out.iter_mut()).rev() {
-            while next < self.order.len() && self.order[next].0 > *level {
-                let (v, k) = self.order[next];
-                let (i, j) = ((k as usize / n) as f64, (k as usize % n) as f64);
+        let brightest = self.order.first().map_or(f64::NEG_INFINITY, |p| p.0);
+        let first_empty = self.levels.partition_point(|l| *l < brightest);
+        acc.tail_sum[first_empty] += centre_error;
+        acc.tail_sum_sq[first_empty] += centre_error * centre_error;
+        acc.tail_count[first_empty] += 1;
+        let (mut sv, mut svx, mut svy, mut cnt, mut sj, mut si) = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+        let mut next = 0;
+        for k in (0..first_empty).rev() {
+            let level = self.levels[k];
+            while next < self.order.len() && self.order[next].0 > level {
+                let (v, idx) = self.order[next];
+                let (i, j) = ((idx as usize / n) as f64, (idx as usize % n) as f64);
                 sv += v;
                 svx += v * j;
                 svy += v * i;
@@ -81,20 +79,76 @@ impl BackgroundSweep {
                 next += 1;
             }
             let s = sv - level * cnt;
-            *o = if cnt > 0.0 && s > 0.0 {
-                let x = (svx - level * sj) / s - c;
-                let y = (svy - level * si) / s - c;
-                LevelError {
-                    distance_px: (x - truth.0).hypot(y - truth.1),
-                    empty: false,
-                }
+            if s > 0.0 {
+                let inv = 1.0 / s;
+                let ex = (svx - level * sj) * inv - c - truth.0;
+                let ey = (svy - level * si) * inv - c - truth.1;
+                let d2 = ex * ex + ey * ey;
+                acc.sum[k] += d2.sqrt();
+                acc.sum_sq[k] += d2;
             } else {
-                LevelError {
-                    distance_px: centre_error,
-                    empty: true,
-                }
-            };
+                // Round-off can leave a vanishing sum just below the brightest pixel.
+                acc.sum[k] += centre_error;
+                acc.sum_sq[k] += centre_error * centre_error;
+                acc.empty[k] += 1;
+            }
         }
+    }
+}
+
+/// Per-level sums of the position error over frames: the sufficient statistics of R(b).
+#[derive(Debug, Clone)]
+pub struct LevelSums {
+    sum: Vec<f64>,
+    sum_sq: Vec<f64>,
+    empty: Vec<u64>,
+    // Levels at and above a frame's brightest pixel all see an empty frame with the same error;
+    // they are recorded once at the first such level and spread by `finish` (prefix sums).
+    tail_sum: Vec<f64>,
+    tail_sum_sq: Vec<f64>,
+    tail_count: Vec<u64>,
+}
+
+/// Finished per-level statistics: (sum of distances px, sum of squares px^2, empty frames).
+pub type LevelTotals = Vec<(f64, f64, u64)>;
+
+impl LevelSums {
+    /// Zeroed sums for `levels` levels.
+    pub fn new(levels: usize) -> Self {
+        LevelSums {
+            sum: vec![0.0; levels],
+            sum_sq: vec![0.0; levels],
+            empty: vec![0; levels],
+            tail_sum: vec![0.0; levels + 1],
+            tail_sum_sq: vec![0.0; levels + 1],
+            tail_count: vec![0; levels + 1],
+        }
+    }
+
+    /// Add another set of sums (same levels).
+    pub fn merge(&mut self, other: &LevelSums) {
+        fn add<T: Copy + std::ops::AddAssign>(a: &mut [T], b: &[T]) {
+            a.iter_mut().zip(b).for_each(|(x, y)| *x += *y);
+        }
+        add(&mut self.sum, &other.sum);
+        add(&mut self.sum_sq, &other.sum_sq);
+        add(&mut self.empty, &other.empty);
+        add(&mut self.tail_sum, &other.tail_sum);
+        add(&mut self.tail_sum_sq, &other.tail_sum_sq);
+        add(&mut self.tail_count, &other.tail_count);
+    }
+
+    /// Per-level totals with the empty tails spread over their levels.
+    pub fn finish(&self) -> LevelTotals {
+        let (mut ts, mut tq, mut tc) = (0.0, 0.0, 0u64);
+        (0..self.sum.len())
+            .map(|k| {
+                ts += self.tail_sum[k];
+                tq += self.tail_sum_sq[k];
+                tc += self.tail_count[k];
+                (self.sum[k] + ts, self.sum_sq[k] + tq, self.empty[k] + tc)
+            })
+            .collect()
     }
 }
 
@@ -120,29 +174,33 @@ mod tests {
         let img: Vec<f64> = (0..25)
             .map(|k| ((k * 37 % 11) as f64 - 3.0) * 0.7)
             .collect();
-        let levels = vec![0.0, 0.5, 1.0, 2.2, 4.0, 100.0];
+        let levels = vec![0.0, 0.5, 1.0, 2.2, 4.0, 4.9, 100.0];
         let mut sweep = BackgroundSweep::new(levels.clone(), n);
         let truth = (0.1, -0.2);
-        let mut out = vec![
-            LevelError {
-                distance_px: 0.0,
-                empty: false
-            };
-            levels.len()
-        ];
-        sweep.errors(&img, truth, &mut out);
-        for (b, e) in levels.iter().zip(&out) {
+        let mut acc = LevelSums::new(levels.len());
+        sweep.accumulate(&img, truth, &mut acc);
+        // A second, merged copy doubles every sum.
+        let mut twice = acc.clone();
+        twice.merge(&acc);
+        for ((b, (d, d2, empty)), (d_2, _, e_2)) in
+            levels.iter().zip(acc.finish()).zip(twice.finish())
+        {
             let v: Vec<f64> = img.iter().map(|x| (x - b).max(0.0)).collect();
-            match cog(&v, n) {
+            let want = match cog(&v, n) {
                 Some((x, y)) => {
-                    assert!(!e.empty);
-                    assert!((e.distance_px - (x - truth.0).hypot(y - truth.1)).abs() < 1e-12);
+                    assert_eq!(empty, 0, "level {b}");
+                    (x - truth.0).hypot(y - truth.1)
                 }
                 None => {
-                    assert!(e.empty, "level {b}");
-                    assert!((e.distance_px - truth.0.hypot(truth.1)).abs() < 1e-15);
+                    assert_eq!(empty, 1, "level {b}");
+                    truth.0.hypot(truth.1)
                 }
-            }
+            };
+            assert!(
+                (d - want).abs() < 1e-12 && (d2 - want * want).abs() < 1e-12,
+                "level {b}"
+            );
+            assert!((d_2 - 2.0 * d).abs() < 1e-12 && e_2 == 2 * empty);
         }
     }
 }

@@ -6,7 +6,7 @@
 //! positions, the photon draws and the read-noise deviates (common random numbers), and every
 //! iteration has its own seeded streams, so results do not depend on the thread count.
 
-use crate::centroid::{cog, BackgroundSweep, LevelError};
+use crate::centroid::{cog, BackgroundSweep, LevelSums};
 use crate::detector::{FrameInput, Readout};
 use crate::rng::stream;
 use crate::spot::{Sampling, Spot, SpotRenderer};
@@ -225,40 +225,6 @@ pub struct SimResult {
     pub levels: Vec<LevelStats>,
 }
 
-/// Running sums of one model at every level.
-#[derive(Clone)]
-struct Acc {
-    sum: Vec<f64>,
-    sum_sq: Vec<f64>,
-    empty: Vec<u64>,
-}
-
-impl Acc {
-    fn new(levels: usize) -> Self {
-        Acc {
-            sum: vec![0.0; levels],
-            sum_sq: vec![0.0; levels],
-            empty: vec![0; levels],
-        }
-    }
-
-    fn add(&mut self, errors: &[LevelError]) {
-        for (k, e) in errors.iter().enumerate() {
-            self.sum[k] += e.distance_px;
-            self.sum_sq[k] += e.distance_px * e.distance_px;
-            self.empty[k] += e.empty as u64;
-        }
-    }
-
-    fn merge(&mut self, other: &Acc) {
-        for k in 0..self.sum.len() {
-            self.sum[k] += other.sum[k];
-            self.sum_sq[k] += other.sum_sq[k];
-            self.empty[k] += other.empty[k];
-        }
-    }
-}
-
 /// Run the Monte-Carlo for every model; `on_progress` receives iteration counts as chunks finish.
 pub fn run(
     cfg: &SimConfig,
@@ -270,7 +236,7 @@ pub fn run(
     let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, n, cfg.position_half_range_px);
     let levels = cfg.bg_grid.levels(peak_expected_e(cfg, &renderer));
     let chunks = cfg.iters.div_ceil(CHUNK);
-    let partials: Vec<Vec<Acc>> = (0..chunks)
+    let partials: Vec<Vec<LevelSums>> = (0..chunks)
         .into_par_iter()
         .map(|c| {
             let first = c * CHUNK;
@@ -280,7 +246,7 @@ pub fn run(
             accs
         })
         .collect();
-    let mut total = vec![Acc::new(levels.len()); models.len()];
+    let mut total = vec![LevelSums::new(levels.len()); models.len()];
     for part in &partials {
         for (t, p) in total.iter_mut().zip(part) {
             t.merge(p);
@@ -312,21 +278,14 @@ fn run_chunk(
     levels: &[f64],
     models: &[&dyn Readout],
     iters: std::ops::Range<u64>,
-) -> Vec<Acc> {
+) -> Vec<LevelSums> {
     let n = cfg.subap_px;
     let npix = n * n;
-    let mut accs = vec![Acc::new(levels.len()); models.len()];
+    let mut accs = vec![LevelSums::new(levels.len()); models.len()];
     let mut sweep = BackgroundSweep::new(levels.to_vec(), n);
     let mut expected = vec![0.0; npix];
     let mut photons = vec![0u32; npix];
     let mut image = vec![0.0; npix];
-    let mut errors = vec![
-        LevelError {
-            distance_px: 0.0,
-            empty: false
-        };
-        levels.len()
-    ];
     let h = cfg.position_half_range_px;
     for it in iters {
         let mut pos = stream(cfg.seed, it, POSITION);
@@ -354,26 +313,25 @@ fn run_chunk(
             let mut noise = stream(cfg.seed, it, NOISE);
             let mut aux = stream(cfg.seed, it, AUX);
             model.read(&input, &mut noise, &mut aux, &mut image);
-            sweep.errors(&image, truth, &mut errors);
-            acc.add(&errors);
+            sweep.accumulate(&image, truth, acc);
         }
     }
     accs
 }
 
-fn summarise(model: String, acc: &Acc, levels: &[f64], cfg: &SimConfig) -> SimResult {
+fn summarise(model: String, acc: &LevelSums, levels: &[f64], cfg: &SimConfig) -> SimResult {
     let n = cfg.iters as f64;
     let stats: Vec<LevelStats> = levels
         .iter()
-        .enumerate()
-        .map(|(k, &b)| {
-            let mean = acc.sum[k] / n;
-            let var = ((acc.sum_sq[k] / n - mean * mean) * n / (n - 1.0)).max(0.0);
+        .zip(acc.finish())
+        .map(|(&b, (sum, sum_sq, empty))| {
+            let mean = sum / n;
+            let var = ((sum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
             LevelStats {
                 b_e: b,
                 r_px: mean,
                 r_se_px: (var / n).sqrt(),
-                empty_frames: acc.empty[k],
+                empty_frames: empty,
             }
         })
         .collect();
