@@ -283,13 +283,11 @@ fn fig01_pdf(ctx: &Ctx) -> Result<FigureInfo> {
     );
     h.sample_label = format!("{n} pixels drawn from the pdf");
     h.norm = HistNorm::Density;
-    h.range = Some((0.0, 4.0));
-    h.bins = crate::plot::Bins::Count(160);
-    h.curves = vec![Series::new(
-        "paper pdf, Eq. 3",
-        curve.iter().copied().filter(|(x, _)| *x <= 4.0),
-    )
-    .styled(crate::plot::SeriesStyle::Line)];
+    // The whole support, so that the log inset shows the 1/x^2 tail up to the 10 e- cut.
+    h.range = Some((0.0, 10.0));
+    h.bins = crate::plot::Bins::Count(500);
+    h.curves = vec![Series::new("paper pdf, Eq. 3", curve.iter().copied())
+        .styled(crate::plot::SeriesStyle::Line)];
     h.inset = Some(Inset {
         title: "log scale, 0-10 e-".into(),
         x_range: Some((0.0, 10.0)),
@@ -334,7 +332,7 @@ fn fig02_patterns(ctx: &Ctx) -> Result<FigureInfo> {
         let max = s.iter().cloned().fold(0.0, f64::max);
         let mean = s.iter().sum::<f64>() / s.len() as f64;
         images.push(Image {
-            title: format!("scmos-fixed:{k} (max {max:.2}, mean {mean:.2})"),
+            title: format!("#{k}: max {max:.1}, mean {mean:.2}"),
             width: 16,
             height: 16,
             data: s.to_vec(),
@@ -539,6 +537,7 @@ fn fig10_diameter(ctx: &Ctx) -> Result<FigureInfo> {
 }
 
 fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
+    use crate::plot::SeriesStyle;
     let sigmas = ctx.pick(&[0.5, 0.8, 1.0, 1.5, 2.0, 3.0, 4.0], &[0.8, 2.0]);
     let patterns = if ctx.opts.quick { 2 } else { 10 };
     let mut names: Vec<String> = vec!["scmos-random".into()];
@@ -548,17 +547,55 @@ fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
         .iter()
         .map(|n| ModelSpec::parse(n).expect("known"))
         .collect();
-    let mut curves = Vec::new();
-    for n in [4usize, 16] {
-        let labels: Vec<String> = names.iter().map(|m| format!("{m}, {n}x{n}")).collect();
-        curves.extend(sweep(
+    let labels: Vec<String> = std::iter::once("random (expected detector)".to_string())
+        .chain((0..patterns).map(|k| format!("fixed pattern #{k}")))
+        .chain(sigmas.iter().map(|s| format!("constant {s} e-")))
+        .collect();
+    // The paper's panels: left 4x4, right 16x16; random solid, fixed patterns as markers, constants as lines.
+    let mut info: Option<FigureInfo> = None;
+    for (n, slug) in [
+        (4usize, "constant-sigmas-4x4"),
+        (16, "constant-sigmas-16x16"),
+    ] {
+        let curves = sweep(
             &ctx.signals(),
             |s| ctx.cfg(n, airy(2.0), s),
             |c, _| build(&specs, &ctx.params, c.subap_px),
             &labels,
-        )?);
+        )?;
+        let styled = curves
+            .into_iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let look = match k {
+                    0 => (0, SeriesStyle::LineMarkers),
+                    k if k <= patterns => (7, SeriesStyle::Markers),
+                    k => (k - patterns, SeriesStyle::Line),
+                };
+                Curve {
+                    look: Some(look),
+                    ..c
+                }
+            })
+            .collect();
+        let part = save_line(ctx, r_figure(
+            11,
+            slug,
+            format!("sCMOS noise models, {n}x{n} px, D = 2 px"),
+            "Mean radial error against signal, 4x4 and 16x16 px (one panel each), D = 2 px: constant sigmas (e-), the ten fixed patterns (the spread of real detectors) and the random model (the expected detector).",
+            "signal (photons per sub-aperture)",
+            true,
+            styled,
+        ))?;
+        info = Some(match info {
+            None => part,
+            Some(mut first) => {
+                first.files.extend(part.files);
+                first
+            }
+        });
     }
-    save_line(ctx, r_figure(11, "constant-sigmas", "sCMOS: constant read noise, fixed patterns and the random model", "Mean radial error against signal, 4x4 and 16x16 px, D = 2 px: constant sigmas (e-), the ten fixed patterns (spread of real detectors) and the random model (the expected detector).", "signal (photons per sub-aperture)", true, curves))
+    Ok(info.expect("two panels"))
 }
 
 fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {

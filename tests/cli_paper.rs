@@ -49,8 +49,8 @@ fn quick_paper_run_writes_every_figure() {
             }
         }
     }
-    // 13 single figures plus six Fig. 12 panels.
-    assert_eq!(pngs, 13 + 6);
+    // 12 single figures, two Fig. 11 panels and six Fig. 12 panels.
+    assert_eq!(pngs, 12 + 2 + 6);
     // No partial directory is left beside the output.
     let siblings: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
