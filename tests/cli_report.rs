@@ -177,3 +177,49 @@ fn bad_input_stops_the_report_and_leaves_no_directory() {
         .collect();
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
+
+#[test]
+fn emccd_report_recovers_the_bundled_cameras_gain_and_read_noise() {
+    // data-synthetic/emccd-lowlight-32x48: exact 520-stage register, gain 300, read noise 50 e-,
+    // 10 e-/adu, 0.2 e- light + 0.005 e- CIC per pixel and frame (its manifest).
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let stack =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("data-synthetic/emccd-lowlight-32x48.fits");
+    detnoise()
+        .args([
+            "report",
+            "--detector",
+            "emccd",
+            "--gain-e-per-adu",
+            "10",
+            "--quick",
+            "--darks",
+        ])
+        .arg(&stack)
+        .args([
+            "--subap", "8", "--spot", "airy:2", "--signal", "50", "--out",
+        ])
+        .arg(&out)
+        .assert()
+        .success();
+    let s = json(&out.join("summary.json"));
+    let (g, g_se) = (
+        s["emgain"]["em_gain"].as_f64().unwrap(),
+        s["emgain"]["em_gain_se"].as_f64().unwrap(),
+    );
+    assert!(
+        (g - 300.0).abs() < 3.0 * g_se + 0.01 * 300.0,
+        "gain {g} +- {g_se}"
+    );
+    assert!((s["read_noise_output_e"].as_f64().unwrap() - 50.0).abs() < 1.0);
+    assert!((s["emgain"]["lambda_e"].as_f64().unwrap() - 0.205).abs() < 0.01);
+    for f in [
+        "index.html",
+        "emgain.png",
+        "r_vs_signal.png",
+        "r_vs_signal.csv",
+    ] {
+        assert!(out.join(f).exists(), "missing {f}");
+    }
+}

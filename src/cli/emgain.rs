@@ -199,7 +199,7 @@ fn median_of_map(path: &Path) -> Result<f64> {
 
 /// Histogram of every pixel-sample (adu), bias-map subtracted if given, one frame at a
 /// time; also the mean value (adu).
-fn accumulate(
+pub(crate) fn accumulate(
     stack: &FrameStack,
     offset: Option<&Path>,
     width: Option<f64>,
@@ -242,7 +242,7 @@ fn accumulate(
 }
 
 /// Histogram (log y) with the fitted model and its components.
-fn chart(h: &ValueHistogram, fit: &EmGainFit, path: &Path) -> Result<()> {
+pub(crate) fn chart(h: &ValueHistogram, fit: &EmGainFit, path: &Path) -> Result<()> {
     let curve = model_curve(h, fit, 160);
     let width = curve.get(1).map_or(h.width(), |c| c.x_adu - curve[0].x_adu);
     let mut c = LineChart::new(

@@ -20,9 +20,22 @@ use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
+/// The kind of camera a report is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum DetectorKind {
+    /// sCMOS: per-pixel read noise, fitted distribution, effective read noise.
+    Scmos,
+    /// EMCCD: EM gain, read noise and mean electrons fitted to the frames' histogram.
+    Emccd,
+}
+
 /// Options of `detnoise report`.
 #[derive(clap::Args, Debug)]
 pub struct ReportArgs {
+    /// The camera type: scmos (effective read noise from the per-pixel noise) or emccd (EM gain
+    /// fit with the exact register, then the comparison with the fitted gain and read noise).
+    #[arg(long = "detector", id = "detector_kind", value_enum, default_value_t = DetectorKind::Scmos)]
+    pub kind: DetectorKind,
     /// Dark frames: files, a directory or a glob (FITS, TIFF, OpenEXR).
     #[arg(long, num_args = 1.., required = true)]
     pub darks: Vec<PathBuf>,
@@ -179,6 +192,9 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
     let dir = OutputDir::new(&args.out)?;
     let stack = FrameStack::open(&args.darks)?;
     stack.require_frames(2, "a read-noise map")?;
+    if args.kind == DetectorKind::Emccd {
+        return run_emccd(args, &grid, &stack, dir);
+    }
     eprintln!(
         "report: {} dark frames of {}x{} px",
         stack.frames, stack.shape.0, stack.shape.1
@@ -273,8 +289,8 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
         &dir.path("r_vs_signal.csv"),
         render(&comparison, Format::Csv)?.as_bytes(),
     )?;
-    comparison_chart(&comparison, &dir.path("r_vs_signal.png"))?;
-    comparison_chart(&comparison, &dir.path("r_vs_signal.svg"))?;
+    comparison_chart(&comparison, &dir.path("r_vs_signal.png"), &SCMOS_LABELS)?;
+    comparison_chart(&comparison, &dir.path("r_vs_signal.svg"), &SCMOS_LABELS)?;
     if let Some(p) = &ptc {
         super::ptc::chart(p, &dir.path("ptc.png"))?;
     }
@@ -334,6 +350,101 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
         ptc.is_some(),
     );
     write_atomic(&dir.path("index.html"), page.as_bytes())?;
+    let path = dir.commit()?;
+    eprintln!("report written to {} (open index.html)", path.display());
+    Ok(())
+}
+
+/// The key numbers of an EMCCD report, written to `summary.json`.
+#[derive(Debug, serde::Serialize)]
+pub struct EmccdSummary {
+    /// Tool and version.
+    pub tool: String,
+    /// Inputs with SHA-256.
+    pub inputs: Vec<crate::calib::summary::InputFile>,
+    /// Frames used.
+    pub frames: usize,
+    /// Frame shape [rows, cols].
+    pub shape: [usize; 2],
+    /// Conversion gain used (e-/adu).
+    pub gain_e_per_adu: f64,
+    /// Read noise before the EM gain divides it (output e-).
+    pub read_noise_output_e: f64,
+    /// The EM-gain fit (gain in e-/e-, bias and read noise in adu, lambda in e-).
+    pub emgain: crate::fit::emgain::EmGainFit,
+    /// Operating point of the comparison: sub-aperture (px).
+    pub subap_px: usize,
+    /// Operating point: spot.
+    pub spot: String,
+    /// Monte-Carlo iterations.
+    pub iters: u64,
+    /// Seed.
+    pub seed: u64,
+    /// True for the reduced `--quick` grid.
+    pub quick: bool,
+}
+
+/// The EMCCD report: EM-gain fit on the frames, then R against signal for an EMCCD with the
+/// fitted gain and read noise beside the sCMOS models (the paper's pdf, median and mean).
+fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir) -> Result<()> {
+    use crate::fit::emgain::{fit_emgain, EmGainOptions, EmShape};
+    let conv = match args.gain_e_per_adu {
+        Some(g) if g.is_finite() && g > 0.0 => g,
+        _ => {
+            return Err(Error::usage(
+                "--gain-e-per-adu",
+                "an EMCCD report needs the conversion gain in e- per adu (photon transfer at unity EM gain, or the data sheet)",
+            ))
+        }
+    };
+    let (hist, _) = super::emgain::accumulate(stack, None, None)?;
+    let opts = EmGainOptions {
+        shape: EmShape::Register {
+            stages: args.detector.stages,
+        },
+        gain_e_per_adu: Some(conv),
+        ..EmGainOptions::default()
+    };
+    let fit = fit_emgain(&hist, &opts).map_err(|e| match e {
+        Error::Numeric(m) => Error::input(&stack.sources[0].path, m),
+        other => other,
+    })?;
+    super::emgain::chart(&hist, &fit, &dir.path("emgain.png"))?;
+    let mut params = args.detector.params()?;
+    params.gain = fit.em_gain.max(1.0);
+    params.emccd_read_noise_e = fit.read_noise_adu * conv;
+    let op = operating_point(grid);
+    let groups: [(&[&str], f64); 2] = [
+        (&["scmos-random", "scmos-median", "scmos-mean"], args.qe),
+        (&["emccd-stochastic"], args.qe_emccd),
+    ];
+    let comparison = compare_models(args, &params, grid, op, &groups)?;
+    write_atomic(
+        &dir.path("r_vs_signal.csv"),
+        render(&comparison, Format::Csv)?.as_bytes(),
+    )?;
+    comparison_chart(&comparison, &dir.path("r_vs_signal.png"), &EMCCD_LABELS)?;
+    comparison_chart(&comparison, &dir.path("r_vs_signal.svg"), &EMCCD_LABELS)?;
+    let summary = EmccdSummary {
+        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
+        inputs: inputs(stack)?,
+        frames: stack.frames,
+        shape: [stack.shape.0, stack.shape.1],
+        gain_e_per_adu: conv,
+        read_noise_output_e: params.emccd_read_noise_e,
+        emgain: fit,
+        subap_px: op.0,
+        spot: op.1.label(),
+        iters: grid.iters,
+        seed: args.seed,
+        quick: args.quick,
+    };
+    let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::Numeric(e.to_string()))?;
+    write_atomic(&dir.path("summary.json"), json.as_bytes())?;
+    write_atomic(
+        &dir.path("index.html"),
+        super::report_page::emccd_html(&summary, &comparison).as_bytes(),
+    )?;
     let path = dir.commit()?;
     eprintln!("report written to {} (open index.html)", path.display());
     Ok(())
@@ -419,9 +530,20 @@ fn compare(
         ),
         (&["emccd-stochastic"], args.qe_emccd),
     ];
+    compare_models(args, params, grid, op, &groups)
+}
+
+/// R against signal for groups of models, each group at its own QE.
+fn compare_models(
+    args: &ReportArgs,
+    params: &ModelParams,
+    grid: &Grid,
+    op: (usize, Spot, f64),
+    groups: &[(&[&str], f64)],
+) -> Result<Vec<SimRecord>> {
     let mut out = Vec::new();
     for &signal_photons in &grid.signals {
-        for (names, qe) in groups {
+        for &(names, qe) in groups {
             let cfg = SimConfig {
                 spot: op.1,
                 sampling: args.sampling,
@@ -444,11 +566,30 @@ fn compare(
     Ok(out)
 }
 
-fn comparison_chart(records: &[SimRecord], path: &Path) -> Result<()> {
+/// Legend labels of the comparison chart for an sCMOS camera.
+const SCMOS_LABELS: [(&str, &str); 5] = [
+    ("scmos-random", "this camera (fitted pdf)"),
+    ("scmos-map", "this camera (measured map)"),
+    ("scmos-median", "one number: median"),
+    ("scmos-mean", "one number: mean"),
+    ("emccd-stochastic", "EMCCD (g = 500, 50 e- read noise)"),
+];
+/// Legend labels of the comparison chart for an EMCCD camera.
+const EMCCD_LABELS: [(&str, &str); 4] = [
+    (
+        "emccd-stochastic",
+        "this EMCCD (fitted gain and read noise)",
+    ),
+    ("scmos-random", "sCMOS, the paper's pdf"),
+    ("scmos-median", "sCMOS, one number: median"),
+    ("scmos-mean", "sCMOS, one number: mean"),
+];
+
+fn comparison_chart(records: &[SimRecord], path: &Path, labels: &[(&str, &str)]) -> Result<()> {
     let first = &records[0];
     let mut chart = LineChart::new(
         format!(
-            "This camera against an EMCCD, {}x{} px, {}",
+            "R against signal, {}x{} px, {}",
             first.subap_px, first.subap_px, first.spot
         ),
         "signal (photons per sub-aperture)",
@@ -465,14 +606,10 @@ fn comparison_chart(records: &[SimRecord], path: &Path) -> Result<()> {
     chart.series = names
         .iter()
         .map(|n| {
-            let label = match n.as_str() {
-                "scmos-random" => "this camera (fitted pdf)",
-                "scmos-map" => "this camera (measured map)",
-                "scmos-median" => "one number: median",
-                "scmos-mean" => "one number: mean",
-                "emccd-stochastic" => "EMCCD (g, 50 e- read noise)",
-                other => other,
-            };
+            let label = labels
+                .iter()
+                .find(|(m, _)| m == n)
+                .map_or(n.as_str(), |(_, l)| l);
             Series::with_errors(
                 label,
                 records

@@ -21,8 +21,12 @@ fn fmt_sigma(v: f64, se: f64) -> String {
     }
 }
 
-/// Which detector gives the smaller R at each signal (this camera's measured map against the EMCCD).
-fn verdicts(comparison: &[SimRecord]) -> Vec<(f64, String)> {
+/// Which detector gives the smaller R at each signal: `mine` (this camera's model) against `other`.
+fn verdicts(
+    comparison: &[SimRecord],
+    (mine, mine_name): (&str, &str),
+    (other, other_name): (&str, &str),
+) -> Vec<(f64, String)> {
     let mut signals: Vec<f64> = comparison.iter().map(|r| r.signal_photons).collect();
     signals.dedup();
     signals
@@ -33,16 +37,16 @@ fn verdicts(comparison: &[SimRecord]) -> Vec<(f64, String)> {
                     .iter()
                     .find(|r| r.model == m && r.signal_photons == s)
             };
-            let (c, e) = (get("scmos-map")?, get("emccd-stochastic")?);
+            let (c, e) = (get(mine)?, get(other)?);
             let ratio = c.r_px / e.r_px;
             let se = ratio * ((c.r_se_px / c.r_px).powi(2) + (e.r_se_px / e.r_px).powi(2)).sqrt();
             let verdict = if (ratio - 1.0).abs() < 2.0 * se {
                 "no significant difference".to_string()
             } else if ratio < 1.0 {
-                format!("this camera wins (R {:.1} % lower)", 100.0 * (1.0 - ratio))
+                format!("{mine_name} wins (R {:.1} % lower)", 100.0 * (1.0 - ratio))
             } else {
                 format!(
-                    "the EMCCD wins (R {:.1} % lower)",
+                    "{other_name} wins (R {:.1} % lower)",
                     100.0 * (1.0 - 1.0 / ratio)
                 )
             };
@@ -51,16 +55,8 @@ fn verdicts(comparison: &[SimRecord]) -> Vec<(f64, String)> {
         .collect()
 }
 
-/// Build the page.
-pub fn index_html(
-    s: &ReportSummary,
-    fit: &PdfFitReport,
-    effective: &[EffectiveRecord],
-    comparison: &[SimRecord],
-    heatmaps: &[PathBuf],
-    has_ptc: bool,
-) -> String {
-    let op = &s.operating_point;
+/// The page's head and style sheet, shared by both kinds of report.
+fn page_head() -> String {
     let mut h = String::new();
     let _ = write!(
         h,
@@ -73,6 +69,67 @@ figure{{margin:1.5em 0}}figure img{{max-width:100%;border:1px solid #e3e3e3}}fig
 table{{border-collapse:collapse;font-size:.88em;margin:.8em 0}}td,th{{border:1px solid #ccc;padding:.25em .55em;text-align:right}}th{{background:#f0f0f0}}\
 .note{{color:#555;font-size:.9em}}</style></head><body>"
     );
+    h
+}
+
+/// The EMCCD report page: the EM-gain fit, then the comparison with sCMOS models.
+pub fn emccd_html(s: &super::report::EmccdSummary, comparison: &[SimRecord]) -> String {
+    let f = &s.emgain;
+    let mut h = page_head();
+    let _ = write!(h, "<h1>EMCCD report</h1><p class=\"note\">{} · {} frames of {}×{} px · conversion gain {:.4} e⁻/adu · exact register fit · {} iterations per point, seed {}{}</p>",
+        esc(&s.tool), s.frames, s.shape[0], s.shape[1], s.gain_e_per_adu, s.iters, s.seed,
+        if s.quick { " · <b>quick preview: reduced grid and iterations</b>" } else { "" });
+    h.push_str("<h2>Key numbers</h2><div class=\"keys\">");
+    let key = |h: &mut String, label: &str, value: String| {
+        let _ = write!(h, "<div class=\"key\">{label}<b>{value}</b></div>");
+    };
+    key(
+        &mut h,
+        &format!("EM gain ({})", esc(&f.em_gain_units)),
+        format!("{:.2} ± {:.2}", f.em_gain, f.em_gain_se),
+    );
+    key(
+        &mut h,
+        "Read noise (output e⁻)",
+        format!("{:.1} e⁻", s.read_noise_output_e),
+    );
+    key(
+        &mut h,
+        "Read noise / EM gain (input e⁻)",
+        format!("{:.3} e⁻", s.read_noise_output_e / f.em_gain),
+    );
+    key(
+        &mut h,
+        "Mean input electrons per pixel",
+        format!("{:.4} ± {:.4}", f.lambda_e, f.lambda_e_se),
+    );
+    key(&mut h, "Bias", format!("{:.2} adu", f.bias_adu));
+    h.push_str("</div><p><b>Against sCMOS</b> (an EMCCD with this gain and read noise against an sCMOS with the paper's pdf, R at the operating sub-aperture and spot):</p><ul>");
+    for (sig, v) in verdicts(
+        comparison,
+        ("emccd-stochastic", "this EMCCD"),
+        ("scmos-random", "the sCMOS"),
+    ) {
+        let _ = write!(h, "<li>{sig} photons: {}</li>", esc(&v));
+    }
+    h.push_str("</ul><h2>Charts</h2>");
+    let _ = write!(h, "<figure><img src=\"emgain.png\" alt=\"EM-gain fit\"><figcaption>Histogram of all pixel-samples (log counts) with the fitted Poisson-register-Gaussian model and its zero- and one-or-more-electron parts.</figcaption></figure>");
+    let _ = write!(h, "<figure><img src=\"r_vs_signal.png\" alt=\"R against signal\"><figcaption>Mean radial centroid error R against signal, {}×{} px, {}: this EMCCD (fitted gain and read noise) against sCMOS models. Lower is better; error bars are one standard error.</figcaption></figure>", s.subap_px, s.subap_px, esc(&s.spot));
+    h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, inputs with SHA-256), r_vs_signal.csv/.svg, emgain.png.</p></body></html>\n");
+    h
+}
+
+/// Build the page.
+pub fn index_html(
+    s: &ReportSummary,
+    fit: &PdfFitReport,
+    effective: &[EffectiveRecord],
+    comparison: &[SimRecord],
+    heatmaps: &[PathBuf],
+    has_ptc: bool,
+) -> String {
+    let op = &s.operating_point;
+    let mut h = page_head();
     let _ = write!(h, "<h1>Read-noise report</h1><p class=\"note\">{} · {} dark frames of {}×{} px · gain {:.4} e⁻/adu ({}) · {} iterations per configuration, seed {}, {} sampling{}</p>",
         esc(&s.tool), s.frames, s.shape[0], s.shape[1], s.gain_e_per_adu, esc(&s.gain_source), s.iters, s.seed, esc(&s.sampling),
         if s.quick { " · <b>quick preview: reduced grid and iterations; run without --quick for full accuracy</b>" } else { "" });
@@ -115,7 +172,11 @@ table{{border-collapse:collapse;font-size:.88em;margin:.8em 0}}td,th{{border:1px
     h.push_str("</div>");
     let _ = write!(h, "<p>Use the effective read noise, not the median, as the Gaussian read noise of this camera in an AO simulation of a {}×{} px sub-aperture. The full table below gives it for every sub-aperture size, spot and signal.</p>", op.subap_px, op.subap_px);
     h.push_str("<p><b>Which detector wins</b> (this camera's measured map against an EMCCD, R at the operating sub-aperture and spot):</p><ul>");
-    for (sig, v) in verdicts(comparison) {
+    for (sig, v) in verdicts(
+        comparison,
+        ("scmos-map", "this camera"),
+        ("emccd-stochastic", "the EMCCD"),
+    ) {
         let _ = write!(h, "<li>{sig} photons: {}</li>", esc(&v));
     }
     h.push_str("</ul><h2>Charts</h2>");
