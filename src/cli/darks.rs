@@ -269,31 +269,19 @@ pub fn write_outputs(
         write_fits_map(&out.join("rms_e.fits"), m, "electron", &k)?;
     }
     let mut fk = keys.clone();
-    fk.push(key(
-        "FLAGHOT",
-        KeyValue::I64(FLAG_HOT as i64),
-        "bit: hot pixel",
-    ));
-    fk.push(key(
-        "FLAGDEAD",
-        KeyValue::I64(FLAG_DEAD as i64),
-        "bit: dead pixel",
-    ));
-    fk.push(key(
-        "FLAGRTS",
-        KeyValue::I64(FLAG_RTS as i64),
-        "bit: random-telegraph pixel",
-    ));
-    fk.push(key(
-        "FLAGSAT",
-        KeyValue::I64(FLAG_SATURATED as i64),
-        "bit: saturated pixel",
-    ));
-    fk.push(key(
-        "FLAGNONE",
-        KeyValue::I64(FLAG_NO_DATA as i64),
-        "bit: too few samples",
-    ));
+    for (name, bit, what) in [
+        ("FLAGHOT", FLAG_HOT, "hot pixel"),
+        ("FLAGDEAD", FLAG_DEAD, "dead pixel"),
+        ("FLAGRTS", FLAG_RTS, "random-telegraph pixel"),
+        ("FLAGSAT", FLAG_SATURATED, "saturated pixel"),
+        ("FLAGNONE", FLAG_NO_DATA, "too few samples"),
+    ] {
+        fk.push(key(
+            name,
+            KeyValue::I64(bit as i64),
+            &format!("bit: {what}"),
+        ));
+    }
     write_fits_flags(
         &out.join("flags.fits"),
         stack.shape.0,
