@@ -59,6 +59,8 @@ struct LineFigure {
     caption: String,
     x_label: String,
     y_label: String,
+    /// CSV column names of x, y and y's standard error, with their units.
+    columns: (&'static str, &'static str, &'static str),
     log_x: bool,
     log_y: bool,
     reference: Option<(f64, String)>,
@@ -202,7 +204,7 @@ fn r_figure(
     slug: &'static str,
     title: impl Into<String>,
     caption: impl Into<String>,
-    x_label: &str,
+    (x_label, x_col): (&str, &'static str),
     log_x: bool,
     curves: Vec<Curve>,
 ) -> LineFigure {
@@ -213,6 +215,7 @@ fn r_figure(
         caption: caption.into(),
         x_label: x_label.into(),
         y_label: "R, mean radial error (px)".into(),
+        columns: (x_col, "r_px", "r_se_px"),
         log_x,
         log_y: true,
         reference: None,
@@ -243,7 +246,8 @@ fn save_line(ctx: &Ctx, fig: LineFigure) -> Result<FigureInfo> {
             label: label.clone(),
         });
     }
-    let mut csv = String::from("series,x,y,y_se\n");
+    let (x_col, y_col, se_col) = fig.columns;
+    let mut csv = format!("series,{x_col},{y_col},{se_col}\n");
     for c in &fig.curves {
         for (x, y, se) in &c.points {
             let _ = writeln!(csv, "\"{}\",{x},{y},{se}", c.name);
@@ -378,7 +382,7 @@ fn fig_emccd_models(ctx: &Ctx, number: u32, d: f64) -> Result<FigureInfo> {
             ..c
         }));
     }
-    save_line(ctx, r_figure(number, if d < 5.0 { "emccd-models-d2" } else { "emccd-models-d10" }, format!("EMCCD readout models, Airy spot D = {d} px"), format!("Mean radial centroid error R against signal for the three EMCCD models (g = 500, 520 stages, 50 e- read noise) and several sub-aperture sizes, spot diameter {d} px."), "signal (photons per sub-aperture)", true, curves))
+    save_line(ctx, r_figure(number, if d < 5.0 { "emccd-models-d2" } else { "emccd-models-d10" }, format!("EMCCD readout models, Airy spot D = {d} px"), format!("Mean radial centroid error R against signal for the three EMCCD models (g = 500, 520 stages, 50 e- read noise) and several sub-aperture sizes, spot diameter {d} px."), ("signal (photons per sub-aperture)", "signal_photons"), true, curves))
 }
 
 fn fig05_gain(ctx: &Ctx) -> Result<FigureInfo> {
@@ -406,7 +410,7 @@ fn fig05_gain(ctx: &Ctx) -> Result<FigureInfo> {
             &labels,
         )?);
     }
-    save_line(ctx, r_figure(5, "r-vs-em-gain", "R against EM gain, 8x8 px, D = 4 px", "Mean radial error against the EMCCD mean gain (read noise 50 e- before division by the gain) at several signal levels (photons per sub-aperture).", "EM gain (e-/e-)", true, curves))
+    save_line(ctx, r_figure(5, "r-vs-em-gain", "R against EM gain, 8x8 px, D = 4 px", "Mean radial error against the EMCCD mean gain (read noise 50 e- before division by the gain) at several signal levels (photons per sub-aperture).", ("EM gain (e-/e-)", "em_gain_e_per_e"), true, curves))
 }
 
 fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
@@ -465,6 +469,7 @@ fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
         caption: "Ratio R(emccd-stochastic) / R(thresholded) against EM gain, 8x8 px, D = 4 px, with and without the photometric correction; above 1 is an improvement. The thresholds are a reconstruction of Basden, Haniff & Mackay (2003): boundaries n(n+1)/lambda in units of g for the sub-aperture mean lambda, the 0|1 boundary at equal zero- and one-electron likelihood. Error bars treat the two R as independent (conservative).".into(),
         x_label: "EM gain (e-/e-)".into(),
         y_label: "improvement ratio R(stochastic) / R(PP)".into(),
+        columns: ("em_gain_e_per_e", "improvement_ratio", "improvement_ratio_se"),
         log_x: true,
         log_y: false,
         reference: Some((1.0, "no improvement".into())),
@@ -492,7 +497,7 @@ fn fig_all_models(ctx: &Ctx, number: u32, n: usize) -> Result<FigureInfo> {
         |c, _| build(&specs, &ctx.params, c.subap_px),
         &strings(&ALL_MODELS),
     )?;
-    save_line(ctx, r_figure(number, if n == 16 { "all-models-16x16" } else { "all-models-4x4" }, format!("All readout models, {n}x{n} px, D = 2 px"), format!("Mean radial error against signal for every readout model, {n}x{n} px sub-aperture, Airy spot D = 2 px."), "signal (photons per sub-aperture)", true, curves))
+    save_line(ctx, r_figure(number, if n == 16 { "all-models-16x16" } else { "all-models-4x4" }, format!("All readout models, {n}x{n} px, D = 2 px"), format!("Mean radial error against signal for every readout model, {n}x{n} px sub-aperture, Airy spot D = 2 px."), ("signal (photons per sub-aperture)", "signal_photons"), true, curves))
 }
 
 fn fig09_subap(ctx: &Ctx) -> Result<FigureInfo> {
@@ -511,7 +516,7 @@ fn fig09_subap(ctx: &Ctx) -> Result<FigureInfo> {
         |c, _| build(&specs, &ctx.params, c.subap_px),
         &strings(&names),
     )?;
-    save_line(ctx, r_figure(9, "r-vs-subaperture", "R against sub-aperture size, S = 50 photons, D = 2 px", "Mean radial error against the linear sub-aperture size (pixels per side) for EMCCD and sCMOS models at 50 photons per sub-aperture.", "sub-aperture size (px per side)", false, curves))
+    save_line(ctx, r_figure(9, "r-vs-subaperture", "R against sub-aperture size, S = 50 photons, D = 2 px", "Mean radial error against the linear sub-aperture size (pixels per side) for EMCCD and sCMOS models at 50 photons per sub-aperture.", ("sub-aperture size (px per side)", "subap_px"), false, curves))
 }
 
 fn fig10_diameter(ctx: &Ctx) -> Result<FigureInfo> {
@@ -533,7 +538,7 @@ fn fig10_diameter(ctx: &Ctx) -> Result<FigureInfo> {
             &labels,
         )?);
     }
-    save_line(ctx, r_figure(10, "r-vs-spot-diameter", "R against spot diameter, S = 50 photons", "Mean radial error against the Airy first-minimum diameter for 4x4 and 16x16 px sub-apertures at 50 photons.", "spot diameter, first Airy minimum (px)", false, curves))
+    save_line(ctx, r_figure(10, "r-vs-spot-diameter", "R against spot diameter, S = 50 photons", "Mean radial error against the Airy first-minimum diameter for 4x4 and 16x16 px sub-apertures at 50 photons.", ("spot diameter, first Airy minimum (px)", "spot_diameter_px"), false, curves))
 }
 
 fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
@@ -583,7 +588,7 @@ fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
             slug,
             format!("sCMOS noise models, {n}x{n} px, D = 2 px"),
             "Mean radial error against signal, 4x4 and 16x16 px (one panel each), D = 2 px: constant sigmas (e-), the ten fixed patterns (the spread of real detectors) and the random model (the expected detector).",
-            "signal (photons per sub-aperture)",
+            ("signal (photons per sub-aperture)", "signal_photons"),
             true,
             styled,
         ))?;
@@ -672,7 +677,7 @@ fn fig13_lgs(ctx: &Ctx) -> Result<FigureInfo> {
         |c, _| build(&specs, &ctx.params, c.subap_px),
         &strings(&names),
     )?;
-    save_line(ctx, r_figure(13, "lgs-elongation", "Laser guide star elongation, 16x16 px, S = 50 photons", "Mean radial error against the standard deviation of the elongated axis of a 2-D Gaussian spot (the other axis 1 px, comparable with an Airy spot of D = 6 px).", "elongated-axis standard deviation (px)", false, curves))
+    save_line(ctx, r_figure(13, "lgs-elongation", "Laser guide star elongation, 16x16 px, S = 50 photons", "Mean radial error against the standard deviation of the elongated axis of a 2-D Gaussian spot (the other axis 1 px, comparable with an Airy spot of D = 6 px).", ("elongated-axis standard deviation (px)", "sigma_y_px"), false, curves))
 }
 
 fn fig14_qe(ctx: &Ctx) -> Result<FigureInfo> {
@@ -697,7 +702,7 @@ fn fig14_qe(ctx: &Ctx) -> Result<FigureInfo> {
             &labels,
         )?);
     }
-    save_line(ctx, r_figure(14, "qe-scaling-4x4", "QE included: EMCCD 95 %, sCMOS 70 %, 4x4 px", "Mean radial error against incident signal for a 4x4 px sub-aperture, D = 2 px, with QE 0.95 for the EMCCD models and 0.70 for the sCMOS models.", "incident signal (photons per sub-aperture)", true, curves))
+    save_line(ctx, r_figure(14, "qe-scaling-4x4", "QE included: EMCCD 95 %, sCMOS 70 %, 4x4 px", "Mean radial error against incident signal for a 4x4 px sub-aperture, D = 2 px, with QE 0.95 for the EMCCD models and 0.70 for the sCMOS models.", ("incident signal (photons per sub-aperture)", "signal_photons"), true, curves))
 }
 
 /// Write `index.html` and `README.md` listing every figure with its caption.
