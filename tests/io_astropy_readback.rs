@@ -47,7 +47,16 @@ fn astropy_reads_our_maps() {
     let maps = dark_maps(&stack, &opts).unwrap();
     let out = d.path().join("out");
     let inputs = detnoise::calib::summary::inputs(&stack).unwrap();
-    detnoise::cli::darks::write_outputs(&out, &stack, &maps, &opts, Some(0.25), inputs).unwrap();
+    detnoise::cli::darks::write_outputs(
+        &out,
+        &stack,
+        &maps,
+        &opts,
+        Some(0.25),
+        inputs,
+        "summary.json",
+    )
+    .unwrap();
     let files: Vec<String> = [
         "offset_adu.fits",
         "rms_adu.fits",

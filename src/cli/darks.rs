@@ -167,7 +167,8 @@ fn keywords(maps: &DarkMaps, stack: &FrameStack, opts: &DarkOptions) -> Vec<Keyw
     k
 }
 
-/// Write the outputs of a dark calibration to `out` (all computed before the first write).
+/// Write the outputs of a dark calibration to `out`, the summary as `summary_name` (all computed
+/// before the first write).
 pub fn write_outputs(
     out: &Path,
     stack: &FrameStack,
@@ -175,6 +176,7 @@ pub fn write_outputs(
     opts: &DarkOptions,
     gain: Option<f64>,
     inputs: Vec<InputFile>,
+    summary_name: &str,
 ) -> Result<DarkSummary> {
     std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
     let rms_e = gain.map(|g| {
@@ -223,7 +225,7 @@ pub fn write_outputs(
         "rms_adu.fits",
         "flags.fits",
         "rms_hist.png",
-        "summary.json",
+        summary_name,
     ];
     if rms_e.is_some() {
         outputs.insert(2, "rms_e.fits");
@@ -289,7 +291,7 @@ pub fn write_outputs(
         &maps.flags,
         &fk,
     )?;
-    write_json(&out.join("summary.json"), &summary)?;
+    write_json(&out.join(summary_name), &summary)?;
     Ok(summary)
 }
 
@@ -310,7 +312,15 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         "read {mb:.1} MB of samples in {secs:.2} s ({:.0} MB/s)",
         mb / secs
     );
-    let s = write_outputs(&args.out, &stack, &maps, &opts, args.gain_e_per_adu, inputs)?;
+    let s = write_outputs(
+        &args.out,
+        &stack,
+        &maps,
+        &opts,
+        args.gain_e_per_adu,
+        inputs,
+        "summary.json",
+    )?;
     eprintln!(
         "{} frames of {}x{}: median read noise {:.4} adu{}, split-half correlation {:.4}, {} flagged pixels; wrote {}",
         s.frames,

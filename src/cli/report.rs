@@ -209,6 +209,7 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
         &dark_opts,
         Some(gain),
         inputs(&stack)?,
+        "darks_summary.json",
     )?;
     // Noise map in e-, flagged pixels excluded (NaN) from the statistics and the windows.
     let rms_e: Vec<f64> = maps
@@ -337,9 +338,6 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
         quick: args.quick,
     };
     let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::Numeric(e.to_string()))?;
-    // The dark step wrote its own summary; the report's supersedes it and keeps it inside.
-    std::fs::rename(dir.path("summary.json"), dir.path("darks_summary.json"))
-        .map_err(|e| Error::io(dir.path("summary.json"), e))?;
     write_atomic(&dir.path("summary.json"), json.as_bytes())?;
     let page = super::report_page::index_html(
         &summary,
