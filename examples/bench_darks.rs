@@ -98,6 +98,7 @@ fn main() {
         &opts,
         None,
         inputs,
+        "summary.json",
     )
     .unwrap();
     let t_all = t.elapsed().as_secs_f64();
