@@ -90,7 +90,9 @@ fn constant_noise_camera_has_that_effective_noise_and_every_output() {
         image::open(out.join(png)).unwrap();
     }
     let summary = json(&out.join("summary.json"));
-    assert!((summary["median_rms_e"].as_f64().unwrap() - 1.5).abs() < 0.02);
+    // Each pixel's rms from 400 frames scatters by 3.5 %; the median of 2304 such values has
+    // SE ~ 1.2533 x 0.035 x 1.5 / 48 = 0.0014 e-, and uint16 rounding adds +0.1 %: 4 SE + bias.
+    assert!((summary["median_rms_e"].as_f64().unwrap() - 1.5).abs() < 4.0 * 0.0014 + 0.0015);
     let eff = json(&out.join("effective_noise.json"));
     for r in eff.as_array().unwrap() {
         let (s, se) = (
@@ -208,12 +210,14 @@ fn emccd_report_recovers_the_bundled_cameras_gain_and_read_noise() {
         s["emgain"]["em_gain"].as_f64().unwrap(),
         s["emgain"]["em_gain_se"].as_f64().unwrap(),
     );
-    assert!(
-        (g - 300.0).abs() < 3.0 * g_se + 0.01 * 300.0,
-        "gain {g} +- {g_se}"
-    );
-    assert!((s["read_noise_output_e"].as_f64().unwrap() - 50.0).abs() < 1.0);
-    assert!((s["emgain"]["lambda_e"].as_f64().unwrap() - 0.205).abs() < 0.01);
+    assert!((g - 300.0).abs() < 4.0 * g_se, "gain {g} +- {g_se}");
+    // The fit is the exact register model of the synthesis, so every parameter is within 4 of
+    // its own standard errors (Hessian) of the truth; read noise is fitted in adu (10 e-/adu).
+    let f = &s["emgain"];
+    let rn_se_e = 10.0 * f["read_noise_adu_se"].as_f64().unwrap();
+    assert!((s["read_noise_output_e"].as_f64().unwrap() - 50.0).abs() < 4.0 * rn_se_e);
+    let lambda_se = f["lambda_e_se"].as_f64().unwrap();
+    assert!((f["lambda_e"].as_f64().unwrap() - 0.205).abs() < 4.0 * lambda_se);
     for f in [
         "index.html",
         "emgain.png",
