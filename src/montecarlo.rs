@@ -388,14 +388,34 @@ mod tests {
     }
 
     #[test]
-    fn noiseless_readout_with_huge_signal_has_tiny_error() {
-        // sigma = 0 and 1e7 photons: shot noise alone moves the CoG by ~ spot width / sqrt(S).
+    fn noiseless_readout_error_is_the_shot_noise_limit() {
+        // sigma = 0, b = 0: the centre of gravity of Poisson counts has per-axis variance
+        // var_x / S (var_x the spot's second moment in the sub-aperture), so
+        // R(0) = sqrt(pi/2) sqrt((var_x + var_y) / 2 / S) for this nearly isotropic error.
         let mut cfg = SimConfig::paper(8);
-        cfg.signal_photons = 1e7;
-        cfg.iters = 200;
+        cfg.signal_photons = 1e6;
+        cfg.iters = 4000;
+        cfg.position_half_range_px = 0.0;
         let m = ScmosConstant::new(0.0, "none".into());
         let r = &run(&cfg, &[&m], &|_| {}).unwrap()[0];
-        assert!(r.r_px < 1e-3, "R = {}", r.r_px);
+        let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, 8, 0.0);
+        let mut img = vec![0.0; 64];
+        renderer.render(0.0, 0.0, &mut img);
+        let total: f64 = img.iter().sum();
+        let var: f64 = img
+            .iter()
+            .enumerate()
+            .map(|(k, v)| {
+                v / total * (((k % 8) as f64 - 3.5).powi(2) + ((k / 8) as f64 - 3.5).powi(2)) / 2.0
+            })
+            .sum();
+        let expected = (std::f64::consts::PI / 2.0).sqrt() * (var / cfg.signal_photons).sqrt();
+        assert!(
+            (r.r0_px - expected).abs() < 4.0 * r.r0_se_px,
+            "R(0) = {} +- {}, expected {expected}",
+            r.r0_px,
+            r.r0_se_px
+        );
         assert_eq!(r.zero_frames, 0);
     }
 
