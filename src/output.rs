@@ -1,9 +1,20 @@
-//! Writing results: atomic files, and records as text tables, CSV or JSON.
+//! Writing results: output directories and files under the `--out` rule, atomic files, and
+//! records as text tables, CSV or JSON.
+
+mod dir;
+mod file;
+pub mod manifest;
+mod paths;
+pub mod temps;
+
+pub use dir::{DirPlan, OutputDir};
+pub use file::{check_file, FileOut, StagedFiles};
 
 use crate::{Error, Result};
 use serde::Serialize;
 use serde_json::Value;
 use std::path::Path;
+use temps::{plain, Kind, Temp};
 
 /// Write `bytes` to `path` atomically: a temporary file beside it, then a rename, so a
 /// failure never leaves a partial or overwritten output.
@@ -13,7 +24,8 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<()> {
     })
 }
 
-/// Run `write` on a temporary path beside `path`, then rename it to `path`.
+/// Run `write` on a temporary path beside `path`, then rename it to `path`. The temporary is
+/// registered: an interruption removes it, and errors that name it name `path` instead.
 pub fn write_atomic_with(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -> Result<()> {
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
@@ -23,20 +35,23 @@ pub fn write_atomic_with(path: &Path, write: impl FnOnce(&Path) -> Result<()>) -
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let tmp = tempfile::Builder::new()
-        .prefix(&format!(".{name}."))
-        .suffix(".tmp")
-        .tempfile_in(&dir)
-        .map_err(|e| Error::io(&dir, e))?;
-    let tmp_path = tmp.path().to_path_buf();
-    write(&tmp_path)?;
+    let tmp = Temp::create(Kind::File, Some(path), || {
+        tempfile::Builder::new()
+            .prefix(&format!(".{name}."))
+            .suffix(".tmp")
+            .tempfile_in(&dir)?
+            .into_temp_path()
+            .keep()
+            .map_err(|e| e.error)
+    })
+    .map_err(|e| Error::io(path, plain(e)))?;
+    write(tmp.path())?;
     // tempfile creates 0600 files; outputs are ordinary shared results.
-    set_mode(&tmp_path, 0o644)?;
-    tmp.persist(path).map_err(|e| Error::io(path, e.error))?;
-    Ok(())
+    set_mode(tmp.path(), 0o644)?;
+    tmp.rename_to(path).map_err(|e| Error::io(path, e))
 }
 
-fn set_mode(path: &Path, mode: u32) -> Result<()> {
+pub(crate) fn set_mode(path: &Path, mode: u32) -> Result<()> {
     use std::os::unix::fs::PermissionsExt;
     std::fs::set_permissions(path, std::fs::Permissions::from_mode(mode))
         .map_err(|e| Error::io(path, e))
@@ -149,54 +164,6 @@ fn csv_field(s: &str) -> String {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
         s.to_string()
-    }
-}
-
-/// An output directory built in a temporary sibling and moved into place only on success,
-/// so a failed run leaves neither a half-written directory nor a damaged earlier one.
-pub struct OutputDir {
-    target: std::path::PathBuf,
-    tmp: tempfile::TempDir,
-}
-
-impl OutputDir {
-    /// Start building the directory `target`.
-    pub fn new(target: &Path) -> Result<Self> {
-        let parent = match target.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => std::path::PathBuf::from("."),
-        };
-        std::fs::create_dir_all(&parent).map_err(|e| Error::io(&parent, e))?;
-        let name = target
-            .file_name()
-            .map(|n| n.to_string_lossy().to_string())
-            .unwrap_or_else(|| "out".into());
-        let tmp = tempfile::Builder::new()
-            .prefix(&format!(".{name}.partial-"))
-            .tempdir_in(&parent)
-            .map_err(|e| Error::io(&parent, e))?;
-        Ok(OutputDir {
-            target: target.to_path_buf(),
-            tmp,
-        })
-    }
-
-    /// Path of `file` inside the directory being built.
-    pub fn path(&self, file: &str) -> std::path::PathBuf {
-        self.tmp.path().join(file)
-    }
-
-    /// Move the finished directory into place, replacing an earlier one of the same name.
-    pub fn commit(self) -> Result<std::path::PathBuf> {
-        if self.target.is_dir() {
-            std::fs::remove_dir_all(&self.target).map_err(|e| Error::io(&self.target, e))?;
-        } else if self.target.exists() {
-            return Err(Error::input(&self.target, "exists and is not a directory"));
-        }
-        let tmp = self.tmp.keep();
-        set_mode(&tmp, 0o755)?;
-        std::fs::rename(&tmp, &self.target).map_err(|e| Error::io(&self.target, e))?;
-        Ok(self.target)
     }
 }
 

@@ -56,6 +56,9 @@ pub enum Command {
 /// Parse the command line, run it, and return the process exit code.
 pub fn main() -> i32 {
     let cli = Cli::parse();
+    if let Err(e) = crate::output::temps::install_interrupt_handler() {
+        eprintln!("detnoise: warning: {e}");
+    }
     if let Some(t) = cli.threads {
         if let Err(e) = rayon::ThreadPoolBuilder::new()
             .num_threads(t.max(1))
@@ -76,9 +79,12 @@ pub fn main() -> i32 {
         Command::Ptc(a) => ptc::run(a),
         Command::Synth(a) => synth::run(a),
     };
+    // An interruption being handled ends the process with its own code: wait for it.
+    crate::output::temps::settle();
     match result {
         Ok(()) => 0,
         Err(e) => {
+            let e = crate::output::temps::hide_temporaries(e);
             eprintln!("detnoise: error: {e}");
             e.exit_code()
         }
