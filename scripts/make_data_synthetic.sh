@@ -1,6 +1,7 @@
 #!/bin/sh
 # Regenerate data-synthetic/ (small committed stacks with known truth) from a built detnoise.
 # Usage (repository root): cargo build --release && sh scripts/make_data_synthetic.sh [path/to/detnoise]
+# (--force: the stacks and truth files already exist and are replaced.)
 set -eu
 DN=${1:-target/release/detnoise}
 OUT=data-synthetic
@@ -10,16 +11,16 @@ mkdir -p "$OUT"
 # the same data in FITS, TIFF and EXR.
 for fmt in fits tiff exr; do
   ext=$fmt; [ "$fmt" = tiff ] && ext=tif
-  "$DN" synth --detector scmos --shape 64x64 --frames 100 --format "$fmt" --seed 2015 --out "$OUT/scmos-darks-64x64.$ext"
+  "$DN" synth --force --detector scmos --shape 64x64 --frames 100 --format "$fmt" --seed 2015 --out "$OUT/scmos-darks-64x64.$ext"
 done
 
 # sCMOS flats of the same camera (same seed = same pixels) at four light levels (e-/pixel/frame).
 for light in 100 400 1600 6400; do
-  "$DN" synth --detector scmos --shape 64x64 --frames 50 --format fits --seed 2015 --light-e "$light" \
+  "$DN" synth --force --detector scmos --shape 64x64 --frames 50 --format fits --seed 2015 --light-e "$light" \
     --out "$OUT/scmos-flat-64x64-${light}e.fits"
 done
 
 # EMCCD: darks (CIC only) and low light (0.2 e-/pixel/frame), EM gain 300, 50 e- read noise,
 # 10 e/adu, non-square 32x48.
-"$DN" synth --detector emccd --shape 32x48 --frames 200 --format fits --seed 2015 --out "$OUT/emccd-darks-32x48.fits"
-"$DN" synth --detector emccd --shape 32x48 --frames 200 --format fits --seed 2015 --light-e 0.2 --out "$OUT/emccd-lowlight-32x48.fits"
+"$DN" synth --force --detector emccd --shape 32x48 --frames 200 --format fits --seed 2015 --out "$OUT/emccd-darks-32x48.fits"
+"$DN" synth --force --detector emccd --shape 32x48 --frames 200 --format fits --seed 2015 --light-e 0.2 --out "$OUT/emccd-lowlight-32x48.fits"

@@ -230,6 +230,39 @@ pub fn write_synthetic(
     format: StackFormat,
     out: &Path,
 ) -> Result<Manifest> {
+    let here = out.parent().unwrap_or(Path::new(""));
+    write_synthetic_in(spec, pdf, format, out, here)
+}
+
+/// Quantities of the truth maps written beside a synthetic stack.
+const TRUTH_MAPS: [&str; 4] = ["offset_adu", "rms_e", "rms_adu", "gain_e_per_adu"];
+
+/// Every file [`write_synthetic`] writes for the stack `out`: the stack, its truth maps and
+/// its manifest.
+pub fn output_files(out: &Path) -> Vec<PathBuf> {
+    let stem = stack_stem(out);
+    let beside = |suffix: &str| stem.with_file_name(format!("{}.{suffix}", file_name(&stem)));
+    std::iter::once(out.to_path_buf())
+        .chain(
+            TRUTH_MAPS
+                .iter()
+                .map(|q| beside(&format!("truth-{q}.fits"))),
+        )
+        .chain([beside("manifest.json")])
+        .collect()
+}
+
+/// [`write_synthetic`] with every file written into the directory `dir` under its final name
+/// (a staging directory moved into place by the caller); the manifest names the final paths.
+pub fn write_synthetic_in(
+    spec: &SynthSpec,
+    pdf: &dyn RmsPdf,
+    format: StackFormat,
+    out: &Path,
+    dir: &Path,
+) -> Result<Manifest> {
+    let staged = |p: &Path| dir.join(p.file_name().unwrap_or_default());
+    let files = output_files(out);
     if spec.frames == 0 || spec.shape.0 == 0 || spec.shape.1 == 0 {
         return Err(Error::usage(
             "--shape/--frames",
@@ -287,34 +320,42 @@ pub fn write_synthetic(
             "simulated detector",
         ),
     ];
+    let stack_file = staged(out);
     match format {
         StackFormat::Fits => crate::io::fits::write_cube(
-            out,
+            &stack_file,
             spec.shape,
             spec.frames,
             spec.u16_samples,
             &mut next,
             &keys,
         )?,
-        StackFormat::Tiff => {
-            crate::io::tiff::write_pages(out, spec.shape, spec.frames, spec.u16_samples, &mut next)?
-        }
-        StackFormat::Exr => {
-            crate::io::exr::write_layers(out, spec.shape, spec.frames, spec.u16_samples, &mut next)?
-        }
+        StackFormat::Tiff => crate::io::tiff::write_pages(
+            &stack_file,
+            spec.shape,
+            spec.frames,
+            spec.u16_samples,
+            &mut next,
+        )?,
+        StackFormat::Exr => crate::io::exr::write_layers(
+            &stack_file,
+            spec.shape,
+            spec.frames,
+            spec.u16_samples,
+            &mut next,
+        )?,
     }
-    let stem = stack_stem(out);
     let mut truth_maps = std::collections::BTreeMap::new();
     let rms_adu = truth.rms_adu();
-    for (name, map, unit) in [
-        ("offset_adu", &truth.offset_adu, "adu"),
-        ("rms_e", &truth.rms_e, "electron"),
-        ("rms_adu", &rms_adu, "adu"),
-        ("gain_e_per_adu", &truth.gain_e_per_adu, "electron/adu"),
-    ] {
-        let p = stem.with_file_name(format!("{}.truth-{name}.fits", file_name(&stem)));
-        write_fits_map(&p, map, unit, &keys)?;
-        truth_maps.insert(name.to_string(), p);
+    let maps = [
+        (&truth.offset_adu, "adu"),
+        (&truth.rms_e, "electron"),
+        (&rms_adu, "adu"),
+        (&truth.gain_e_per_adu, "electron/adu"),
+    ];
+    for ((name, (map, unit)), p) in TRUTH_MAPS.iter().zip(maps).zip(&files[1..]) {
+        write_fits_map(&staged(p), map, unit, &keys)?;
+        truth_maps.insert(name.to_string(), p.clone());
     }
     let manifest = Manifest {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
@@ -328,10 +369,7 @@ pub fn write_synthetic(
         excess_noise_factor_sq: register.as_ref().map(|r| r.excess_noise_factor_sq()),
         note: "Integer storage rounds each sample: the measured variance in adu is about rms_adu^2 + 1/12 (quantisation) for rms_adu above ~0.5 adu.".into(),
     };
-    write_json(
-        &stem.with_file_name(format!("{}.manifest.json", file_name(&stem))),
-        &manifest,
-    )?;
+    write_json(&staged(&files[5]), &manifest)?;
     Ok(manifest)
 }
 

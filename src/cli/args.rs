@@ -176,6 +176,12 @@ impl DetectorArgs {
         }
     }
 
+    /// The files these options read (`--map`, a `--pdf` file), for the output-path checks.
+    pub fn input_files(&self) -> Vec<std::path::PathBuf> {
+        let pdf = (self.pdf != "paper").then(|| std::path::PathBuf::from(&self.pdf));
+        self.map.iter().cloned().chain(pdf).collect()
+    }
+
     /// The measured noise map named by `--map`, if any.
     fn noise_map(&self) -> Result<Option<Arc<crate::detector::NoiseMap>>> {
         let Some(path) = &self.map else {

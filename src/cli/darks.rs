@@ -12,6 +12,7 @@ use crate::calib::summary::{with_inputs_hashed, Distribution, InputFile};
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 use crate::maps::{key, write_fits_flags, write_fits_map, write_json, KeyValue, Keyword, Map};
+use crate::output::{DirPlan, OutputDir};
 use crate::plot::{Bins, HistNorm, Histogram};
 
 /// Options of `detnoise darks`.
@@ -20,9 +21,13 @@ pub struct DarksArgs {
     /// Dark frames: FITS/TIFF/EXR files, directories or glob patterns (in stack order).
     #[arg(required = true)]
     pub stack: Vec<PathBuf>,
-    /// Output directory (created if missing).
+    /// Output directory, written only when the run succeeds; an existing directory is replaced
+    /// only if detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into an existing --out that holds other files (they are never replaced or deleted).
+    #[arg(long)]
+    pub force: bool,
     /// Conversion gain (e per adu); when given, rms_e.fits is written too. Default: none.
     #[arg(long)]
     pub gain_e_per_adu: Option<f64>,
@@ -48,6 +53,16 @@ pub struct DarksArgs {
     #[arg(long, default_value_t = 5.0)]
     pub rts_sigma: f64,
 }
+
+/// Files `darks` writes into its directory.
+const OUTPUT_NAMES: [&str; 6] = [
+    "offset_adu.fits",
+    "rms_adu.fits",
+    "rms_e.fits",
+    "flags.fits",
+    "rms_hist.png",
+    "summary.json",
+];
 
 /// Flag counts per kind.
 #[derive(Debug, Serialize)]
@@ -298,6 +313,15 @@ pub fn write_outputs(
 /// Run `detnoise darks`.
 pub fn run(args: &DarksArgs) -> Result<()> {
     let opts = options(args)?;
+    let dir = OutputDir::prepare(
+        &args.out,
+        DirPlan {
+            command: "darks",
+            force: args.force,
+            inputs: &args.stack,
+            names: &OUTPUT_NAMES,
+        },
+    )?;
     let stack = FrameStack::open(&args.stack)?;
     let t = std::time::Instant::now();
     let (maps, inputs) = if args.no_checksums {
@@ -313,7 +337,7 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         mb / secs
     );
     let s = write_outputs(
-        &args.out,
+        &dir.path(""),
         &stack,
         &maps,
         &opts,
@@ -321,6 +345,7 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         inputs,
         "summary.json",
     )?;
+    let out = dir.commit()?;
     eprintln!(
         "{} frames of {}x{}: median read noise {:.4} adu{}, split-half correlation {:.4}, {} flagged pixels; wrote {}",
         s.frames,
@@ -330,7 +355,7 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         s.rms_e.as_ref().map(|d| format!(" ({:.4} e-)", d.median)).unwrap_or_default(),
         s.split_half_correlation,
         s.flags.any,
-        args.out.display()
+        out.display()
     );
     Ok(())
 }

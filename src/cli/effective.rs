@@ -5,7 +5,7 @@ use super::progress::Progress;
 use crate::detector::{ModelSpec, Readout};
 use crate::effective::effective_sigma;
 use crate::montecarlo::SimConfig;
-use crate::output::{render, write_atomic, Format, OutputDir};
+use crate::output::{render, write_atomic, DirPlan, Format, OutputDir};
 use crate::Result;
 use std::path::PathBuf;
 
@@ -24,10 +24,22 @@ pub struct EffectiveArgs {
     #[command(flatten)]
     pub detector: DetectorArgs,
     /// Output directory: effective_noise.csv, effective_noise.json and one heatmap per signal
-    /// (effective_noise_S<signal>.png and .svg). Replaced only when the run succeeds.
+    /// (effective_noise_S<signal>.png and .svg). Written only when the run succeeds; an existing
+    /// directory is replaced only if detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into an existing --out that holds other files (they are never replaced or deleted).
+    #[arg(long)]
+    pub force: bool,
 }
+
+/// Files `effective` writes into its directory (glob patterns).
+pub const OUTPUT_NAMES: [&str; 4] = [
+    "effective_noise.csv",
+    "effective_noise.json",
+    "effective_noise_S*.png",
+    "effective_noise_S*.svg",
+];
 
 /// One configuration's effective read noise.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -128,9 +140,17 @@ pub fn write_outputs(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec
 
 /// Entry point of `detnoise effective`.
 pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
+    let dir = OutputDir::prepare(
+        &args.out,
+        DirPlan {
+            command: "effective",
+            force: args.force,
+            inputs: &args.detector.input_files(),
+            names: &OUTPUT_NAMES,
+        },
+    )?;
     let spec = ModelSpec::parse(&args.model)?;
     let records = effective_table(&spec, &args.sweep, &args.detector, "effective")?;
-    let dir = OutputDir::new(&args.out)?;
     write_outputs(&records, &dir)?;
     print!("{}", render(&records, Format::Table)?);
     let path = dir.commit()?;

@@ -11,6 +11,7 @@ use crate::fit::emgain::{
 };
 use crate::io::FrameStack;
 use crate::maps::{read_map, write_json, Map};
+use crate::output::{DirPlan, OutputDir};
 use crate::plot::{LineChart, Series, SeriesStyle};
 
 /// Options of `detnoise emgain`.
@@ -19,9 +20,13 @@ pub struct EmgainArgs {
     /// EMCCD dark or low-light frames: FITS/TIFF/EXR files, directories or glob patterns.
     #[arg(required = true)]
     pub stack: Vec<PathBuf>,
-    /// Output directory (created if missing): emgain.json and emgain.png.
+    /// Output directory: emgain.json and emgain.png, written only when the fit succeeds; an
+    /// existing directory is replaced only if detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into an existing --out that holds other files (they are never replaced or deleted).
+    #[arg(long)]
+    pub force: bool,
     /// Conversion gain (e per adu): the EM gain is then reported in e-/e-. Default: none (adu/e-).
     #[arg(long, conflicts_with = "gain_map")]
     pub gain_e_per_adu: Option<f64>,
@@ -94,6 +99,25 @@ pub struct EmgainReport {
 
 /// Run `detnoise emgain`.
 pub fn run(args: &EmgainArgs) -> Result<()> {
+    let inputs: Vec<PathBuf> = args
+        .stack
+        .iter()
+        .chain(&args.reference_stack)
+        .chain(&args.gain_map)
+        .chain(&args.offset)
+        .chain(&args.read_noise)
+        .chain(&args.reference_offset)
+        .cloned()
+        .collect();
+    let dir = OutputDir::prepare(
+        &args.out,
+        DirPlan {
+            command: "emgain",
+            force: args.force,
+            inputs: &inputs,
+            names: &["emgain.json", "emgain.png"],
+        },
+    )?;
     let conv = match (&args.gain_map, args.gain_e_per_adu) {
         (Some(p), _) => Some(median_of_map(p)?),
         (None, Some(g)) if g > 0.0 && g.is_finite() => Some(g),
@@ -151,8 +175,7 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
             em_gain_ratio: gain_from_mean_ratio(signal, rmean - rbias),
         })
     };
-    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
-    chart(&hist, &fit, &args.out.join("emgain.png"))?;
+    chart(&hist, &fit, &dir.path("emgain.png"))?;
     let report = EmgainReport {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         stack: paths(&stack),
@@ -162,7 +185,8 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
         fit,
         ratio_check,
     };
-    write_json(&args.out.join("emgain.json"), &report)?;
+    write_json(&dir.path("emgain.json"), &report)?;
+    dir.commit()?;
     print_summary(&report);
     Ok(())
 }

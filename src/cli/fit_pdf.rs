@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::fit::{fit_pdf, PdfFitOptions, PdfFitReport, PdfModel};
 use crate::maps::read_map;
+use crate::output::{DirPlan, OutputDir};
 use crate::plot::{Bins, HistNorm, Histogram, Inset, Series, SeriesStyle};
 
 /// Unit of the map's values.
@@ -21,9 +22,13 @@ pub enum MapUnit {
 pub struct FitPdfArgs {
     /// Per-pixel read-noise map (FITS/TIFF/EXR, first frame), e.g. rms_e.fits from `darks`.
     pub map: PathBuf,
-    /// Output directory (created if missing): pdf_fit.json and pdf_fit.png.
+    /// Output directory: pdf_fit.json and pdf_fit.png, written only when the fit succeeds; an
+    /// existing directory is replaced only if detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into an existing --out that holds other files (they are never replaced or deleted).
+    #[arg(long)]
+    pub force: bool,
     /// Unit of the map values. Default: e.
     #[arg(long, value_enum, default_value = "e")]
     pub unit: MapUnit,
@@ -46,6 +51,19 @@ pub struct FitPdfArgs {
 
 /// Run `detnoise fit-pdf`.
 pub fn run(args: &FitPdfArgs) -> Result<()> {
+    let inputs: Vec<PathBuf> = [Some(args.map.clone()), flags_path(args)]
+        .into_iter()
+        .flatten()
+        .collect();
+    let dir = OutputDir::prepare(
+        &args.out,
+        DirPlan {
+            command: "fit-pdf",
+            force: args.force,
+            inputs: &inputs,
+            names: &["pdf_fit.json", "pdf_fit.png"],
+        },
+    )?;
     let values = map_values_e(args)?;
     let models = if args.models.is_empty() {
         PdfModel::ALL.to_vec()
@@ -67,9 +85,9 @@ pub fn run(args: &FitPdfArgs) -> Result<()> {
         upper_cut_e: args.upper_cut_e,
     };
     let report = fit_pdf(&values, &opts)?;
-    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
-    report.write_json(&args.out.join("pdf_fit.json"))?;
-    chart(&report, &values, &args.out.join("pdf_fit.png"))?;
+    report.write_json(&dir.path("pdf_fit.json"))?;
+    chart(&report, &values, &dir.path("pdf_fit.png"))?;
+    dir.commit()?;
     print!("{}", table(&report));
     Ok(())
 }
@@ -93,15 +111,7 @@ fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
             ))
         }
     };
-    let flags_path = args.flags.clone().or_else(|| {
-        let p = args
-            .map
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join("flags.fits");
-        p.exists().then_some(p)
-    });
-    let flags = match (&flags_path, args.keep_flagged) {
+    let flags = match (&flags_path(args), args.keep_flagged) {
         (Some(p), false) => {
             let f = read_map(p)?;
             if (f.rows, f.cols) != (map.rows, map.cols) {
@@ -124,6 +134,18 @@ fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
         .filter(|(i, _)| flags.as_ref().is_none_or(|f| f[*i] == 0.0))
         .map(|(_, v)| v * scale)
         .collect())
+}
+
+/// The flag map: --flags, else flags.fits beside the map if present.
+fn flags_path(args: &FitPdfArgs) -> Option<PathBuf> {
+    args.flags.clone().or_else(|| {
+        let p = args
+            .map
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join("flags.fits");
+        p.exists().then_some(p)
+    })
 }
 
 /// Histogram of the map with each fitted pdf, linear with a log-scale inset (paper Fig. 1).

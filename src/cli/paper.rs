@@ -1,6 +1,6 @@
 //! `detnoise paper`: regenerate every figure of Basden (2015).
 
-use crate::output::OutputDir;
+use crate::output::{DirPlan, OutputDir};
 use crate::paper::{generate, write_index, PaperOptions};
 use crate::spot::Sampling;
 use crate::Result;
@@ -11,9 +11,13 @@ use std::path::PathBuf;
 #[derive(clap::Args, Debug)]
 pub struct PaperArgs {
     /// Output directory: figNN-*.png/.svg/.csv for the 14 figures, index.html and README.md.
-    /// Replaced only when every figure succeeded.
+    /// Written only when every figure succeeded; an existing directory is replaced only if
+    /// detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into an existing --out that holds other files (they are never replaced or deleted).
+    #[arg(long)]
+    pub force: bool,
     /// Monte-Carlo iterations per point (the paper used 10,000).
     #[arg(long, default_value_t = 10_000)]
     pub iters: u64,
@@ -36,6 +40,15 @@ pub fn run_cli(args: &PaperArgs) -> Result<()> {
             "at least 2 iterations are needed",
         ));
     }
+    let dir = OutputDir::prepare(
+        &args.out,
+        DirPlan {
+            command: "paper",
+            force: args.force,
+            inputs: &[],
+            names: &["fig[0-9][0-9]-*", "index.html", "README.md"],
+        },
+    )?;
     let opts = PaperOptions {
         iters: if args.quick {
             args.iters.min(200)
@@ -46,7 +59,6 @@ pub fn run_cli(args: &PaperArgs) -> Result<()> {
         sampling: args.sampling,
         quick: args.quick,
     };
-    let dir = OutputDir::new(&args.out)?;
     let bar = ProgressBar::with_draw_target(Some(14), ProgressDrawTarget::stderr());
     bar.set_style(
         ProgressStyle::with_template("[{elapsed_precise}] {bar:30} {pos}/{len} {msg}")

@@ -10,6 +10,7 @@ use crate::calib::summary::{inputs, Distribution, InputFile};
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 use crate::maps::{key, read_map, write_fits_map, write_json, KeyValue};
+use crate::output::{DirPlan, OutputDir};
 use crate::plot::ScatterFit;
 
 /// Options of `detnoise ptc`.
@@ -27,9 +28,13 @@ pub struct PtcArgs {
     /// Flat stacks, one per light level (each a file, directory or glob).
     #[arg(long, required = true, num_args = 1..)]
     pub flats: Vec<PathBuf>,
-    /// Output directory (created if missing).
+    /// Output directory, written only when the run succeeds; an existing directory is replaced
+    /// only if detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into an existing --out that holds other files (they are never replaced or deleted).
+    #[arg(long)]
+    pub force: bool,
     /// Keep lamp flicker in the variances (default: remove it by normalising each frame's mean).
     #[arg(long)]
     pub no_flicker_removal: bool,
@@ -43,6 +48,15 @@ pub struct PtcArgs {
     #[arg(long, default_value_t = 1.0)]
     pub excess_noise_factor_sq: f64,
 }
+
+/// Files `ptc` writes into its directory.
+const OUTPUTS: [&str; 5] = [
+    "gain_e_per_adu.fits",
+    "gain_err_e_per_adu.fits",
+    "read_noise_e.fits",
+    "ptc.png",
+    "ptc.json",
+];
 
 /// Contents of ptc.json.
 #[derive(Debug, Serialize)]
@@ -92,6 +106,23 @@ pub fn run(args: &PtcArgs) -> Result<()> {
             return Err(Error::usage(name, "must be finite and > 0"));
         }
     }
+    let input_paths: Vec<PathBuf> = args
+        .darks
+        .iter()
+        .chain(&args.dark_offset)
+        .chain(&args.dark_rms)
+        .chain(&args.flats)
+        .cloned()
+        .collect();
+    let dir = OutputDir::prepare(
+        &args.out,
+        DirPlan {
+            command: "ptc",
+            force: args.force,
+            inputs: &input_paths,
+            names: &OUTPUTS,
+        },
+    )?;
     let opts = PtcOptions {
         flicker: !args.no_flicker_removal,
         saturation_adu: args.saturation_adu,
@@ -134,13 +165,6 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         .collect::<Result<_>>()?;
     let r = photon_transfer(&flats, &dark, &opts)?;
     let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
-    let outputs = [
-        "gain_e_per_adu.fits",
-        "gain_err_e_per_adu.fits",
-        "read_noise_e.fits",
-        "ptc.png",
-        "ptc.json",
-    ];
     let summary = PtcSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         command: "ptc",
@@ -155,11 +179,9 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         levels: r.levels.clone(),
         dark_inputs,
         flat_inputs,
-        outputs: outputs.iter().map(|s| s.to_string()).collect(),
+        outputs: OUTPUTS.iter().map(|s| s.to_string()).collect(),
     };
-    std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
-    // The chart goes first: if it fails, nothing has been written.
-    chart(&r, &args.out.join("ptc.png"))?;
+    chart(&r, &dir.path("ptc.png"))?;
     let keys = vec![
         key(
             "NLEVELS",
@@ -183,24 +205,25 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         ),
     ];
     write_fits_map(
-        &args.out.join("gain_e_per_adu.fits"),
+        &dir.path("gain_e_per_adu.fits"),
         &r.gain_map,
         "electron/adu",
         &keys,
     )?;
     write_fits_map(
-        &args.out.join("gain_err_e_per_adu.fits"),
+        &dir.path("gain_err_e_per_adu.fits"),
         &r.gain_err_map,
         "electron/adu",
         &keys,
     )?;
     write_fits_map(
-        &args.out.join("read_noise_e.fits"),
+        &dir.path("read_noise_e.fits"),
         &r.read_noise_e_map,
         "electron",
         &keys,
     )?;
-    write_json(&args.out.join("ptc.json"), &summary)?;
+    write_json(&dir.path("ptc.json"), &summary)?;
+    let out = dir.commit()?;
     eprintln!(
         "conversion gain {:.5} +/- {:.5} e/adu over {} levels (reduced chi2 {:.2}); median read noise {:.3} e-; wrote {}",
         r.gain_e_per_adu,
@@ -208,7 +231,7 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         r.levels.len(),
         r.reduced_chi2,
         r.read_noise_e_median,
-        args.out.display()
+        out.display()
     );
     Ok(())
 }

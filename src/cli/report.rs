@@ -13,7 +13,7 @@ use crate::effective::effective_sigma;
 use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
 use crate::io::FrameStack;
 use crate::montecarlo::{run, BgGrid, SimConfig};
-use crate::output::{render, write_atomic, Format, OutputDir};
+use crate::output::{render, write_atomic, DirPlan, Format, OutputDir};
 use crate::plot::{LineChart, Series};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
@@ -76,10 +76,37 @@ pub struct ReportArgs {
     pub quick: bool,
     #[command(flatten)]
     pub detector: DetectorArgs,
-    /// Output directory; replaced only when the whole report succeeded.
+    /// Output directory, written only when the whole report succeeded; an existing directory is
+    /// replaced only if detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
+    /// Write into an existing --out that holds other files (they are never replaced or deleted).
+    #[arg(long)]
+    pub force: bool,
 }
+
+/// Files a report writes into its directory (glob patterns).
+const OUTPUT_NAMES: [&str; 19] = [
+    "offset_adu.fits",
+    "rms_adu.fits",
+    "rms_e.fits",
+    "flags.fits",
+    "rms_hist.png",
+    "darks_summary.json",
+    "pdf_fit.json",
+    "pdf_fit.png",
+    "effective_noise.csv",
+    "effective_noise.json",
+    "effective_noise_S*.png",
+    "effective_noise_S*.svg",
+    "r_vs_signal.csv",
+    "r_vs_signal.png",
+    "r_vs_signal.svg",
+    "ptc.png",
+    "emgain.png",
+    "summary.json",
+    "index.html",
+];
 
 /// The key numbers of a report, written to `summary.json`.
 #[derive(Debug, serde::Serialize)]
@@ -189,7 +216,22 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
             "sizes and signals must be positive",
         ));
     }
-    let dir = OutputDir::new(&args.out)?;
+    let input_paths: Vec<PathBuf> = args
+        .darks
+        .iter()
+        .chain(&args.flats)
+        .cloned()
+        .chain(args.detector.input_files())
+        .collect();
+    let dir = OutputDir::prepare(
+        &args.out,
+        DirPlan {
+            command: "report",
+            force: args.force,
+            inputs: &input_paths,
+            names: &OUTPUT_NAMES,
+        },
+    )?;
     let stack = FrameStack::open(&args.darks)?;
     stack.require_frames(2, "a read-noise map")?;
     if args.kind == DetectorKind::Emccd {

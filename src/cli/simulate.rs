@@ -4,7 +4,7 @@ use super::args::{parse_models, DetectorArgs, SweepArgs};
 use super::progress::Progress;
 use crate::detector::Readout;
 use crate::montecarlo::{run, SimConfig, SimResult};
-use crate::output::{render, write_atomic, Format};
+use crate::output::{check_file, render, write_atomic, FileOut, Format};
 use crate::Result;
 use std::path::PathBuf;
 
@@ -25,12 +25,16 @@ pub struct SimulateArgs {
     /// Output format: table (text), csv, or json (an array of records, with R at every level).
     #[arg(long, value_enum, default_value_t = Format::Table)]
     pub format: Format,
-    /// Write the results to this file instead of standard output.
+    /// Write the results to this file instead of standard output (.txt for --format table,
+    /// .csv or .json for the others).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Also draw R against the swept axis, one line per model, to this .png or .svg file.
     #[arg(long)]
     pub plot: Option<PathBuf>,
+    /// Replace existing --out and --plot files (never an input file).
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// One row of simulation output: a configuration and its result.
@@ -133,6 +137,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<Vec<SimRecord>> {
 
 /// Entry point of `detnoise simulate`.
 pub fn run_cli(args: &SimulateArgs) -> Result<()> {
+    check_outputs(args)?;
     let records = simulate(args)?;
     let text = render(&records, args.format)?;
     match &args.out {
@@ -141,6 +146,35 @@ pub fn run_cli(args: &SimulateArgs) -> Result<()> {
     }
     if let Some(path) = &args.plot {
         super::charts::r_against_sweep(&records, path)?;
+    }
+    Ok(())
+}
+
+/// Check `--out` and `--plot` before any work.
+fn check_outputs(args: &SimulateArgs) -> Result<()> {
+    let inputs = args.detector.input_files();
+    if let Some(path) = &args.out {
+        let (exts, what): (&[&str], &str) = match args.format {
+            Format::Table => (&["txt"], "a text table (--format table)"),
+            Format::Csv => (&["csv"], "CSV (--format csv)"),
+            Format::Json => (&["json"], "JSON (--format json)"),
+        };
+        let out = FileOut {
+            path,
+            option: "--out",
+            exts,
+            what,
+        };
+        check_file(&out, args.force, &inputs)?;
+    }
+    if let Some(path) = &args.plot {
+        let plot = FileOut {
+            path,
+            option: "--plot",
+            exts: &["png", "svg"],
+            what: "a chart (PNG or SVG)",
+        };
+        check_file(&plot, args.force, &inputs)?;
     }
     Ok(())
 }

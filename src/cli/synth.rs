@@ -3,8 +3,11 @@
 use std::path::PathBuf;
 
 use crate::error::{Error, Result};
+use crate::output::{FileOut, StagedFiles};
 use crate::pdf::RmsPdf;
-use crate::synth::{write_synthetic, Camera, EmccdParams, ScmosParams, StackFormat, SynthSpec};
+use crate::synth::{
+    output_files, write_synthetic_in, Camera, EmccdParams, ScmosParams, StackFormat, SynthSpec,
+};
 
 /// Detector family to simulate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
@@ -30,9 +33,13 @@ pub struct SynthArgs {
     /// Output file format.
     #[arg(long, value_enum, default_value = "fits")]
     pub format: StackFormat,
-    /// Output stack path; the manifest and truth maps go beside it.
+    /// Output stack path (.fits/.fit, .tif/.tiff or .exr as --format); the manifest and truth
+    /// maps go beside it. All are written only when the run succeeds.
     #[arg(long)]
     pub out: PathBuf,
+    /// Replace existing output files (the stack, its truth maps and manifest; never an input).
+    #[arg(long)]
+    pub force: bool,
     /// Seed of all random draws (same seed = same pixels at every light level).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -157,9 +164,11 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
 
 /// Run `detnoise synth`.
 pub fn run(args: &SynthArgs) -> Result<()> {
+    let staged = prepare_outputs(args)?;
     let spec = spec(args)?;
     let pdf = rms_pdf(&args.rms_pdf)?;
-    let m = write_synthetic(&spec, pdf.as_ref(), args.format, &args.out)?;
+    let m = write_synthetic_in(&spec, pdf.as_ref(), args.format, &args.out, staged.dir())?;
+    staged.commit()?;
     eprintln!(
         "wrote {} ({} frames of {}x{}), median read noise {:.3} e-, truth maps and manifest beside it",
         args.out.display(),
@@ -169,4 +178,30 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         m.rms_e_median
     );
     Ok(())
+}
+
+/// Check the stack path and the files beside it before any work, and stage them.
+fn prepare_outputs(args: &SynthArgs) -> Result<StagedFiles> {
+    let (exts, what): (&[&str], &str) = match args.format {
+        StackFormat::Fits => (&["fits", "fit"], "a FITS stack (--format fits)"),
+        StackFormat::Tiff => (&["tif", "tiff"], "a TIFF stack (--format tiff)"),
+        StackFormat::Exr => (&["exr"], "an OpenEXR stack (--format exr)"),
+    };
+    let files = output_files(&args.out);
+    let outs: Vec<FileOut> = files
+        .iter()
+        .enumerate()
+        .map(|(i, path)| FileOut {
+            path,
+            option: "--out",
+            exts: if i == 0 { exts } else { &[] },
+            what,
+        })
+        .collect();
+    let inputs: Vec<PathBuf> = std::fs::symlink_metadata(&args.rms_pdf)
+        .is_ok()
+        .then(|| PathBuf::from(&args.rms_pdf))
+        .into_iter()
+        .collect();
+    StagedFiles::prepare(&outs, args.force, &inputs)
 }
