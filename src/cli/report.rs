@@ -402,6 +402,7 @@ fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir)
             ))
         }
     };
+    crate::fit::em_signature::require_em_signature(stack)?;
     let (hist, _) = super::emgain::accumulate(stack, None, None)?;
     let opts = EmGainOptions {
         shape: EmShape::Register {
