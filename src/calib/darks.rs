@@ -361,13 +361,15 @@ fn stream_batches(
     })
 }
 
-/// Accumulate one pass over `stack`. `window` (per-pixel lo, hi) restricts the samples used.
+/// Accumulate one pass over `stack`. `window` (per-pixel lo, hi) restricts the samples used;
+/// `select` (one flag per stack frame) the frames, which are then numbered among themselves.
 fn pass(
     stack: &FrameStack,
     hook: Option<FrameHook>,
     extremes: usize,
     window: Option<(&[f64], &[f64])>,
     shift: Option<&[f64]>,
+    select: Option<&[bool]>,
 ) -> Result<(Vec<Tile>, Vec<f64>, usize)> {
     let npix = stack.pixels();
     let mut tiles: Vec<Tile> = (0..npix.div_ceil(TILE))
@@ -391,7 +393,26 @@ fn pass(
     } else {
         Vec::new()
     };
-    stream_batches(stack, |batch, first| {
+    let mut read = 0usize;
+    stream_batches(stack, |batch, first_read| {
+        read = first_read + batch.len();
+        // Selected frames move to the front of the batch and take the next indices.
+        let (batch, first) = match select {
+            None => (batch, first_read),
+            Some(sel) => {
+                let mut n = 0;
+                for j in 0..batch.len() {
+                    if sel[first_read + j] {
+                        batch.swap(n, j);
+                        n += 1;
+                    }
+                }
+                (&mut batch[..n], frames)
+            }
+        };
+        if batch.is_empty() {
+            return Ok(());
+        }
         if let Some(h) = hook {
             batch.par_iter_mut().for_each(|f| f.decode_in_place());
             raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
@@ -458,11 +479,11 @@ fn pass(
             t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);
         }
     });
-    if frames != stack.frames {
+    if read != stack.frames {
         return Err(Error::input(
             &stack.sources[0].path,
             format!(
-                "frame {frames}: stack ended after {frames} of {} frames",
+                "frame {read}: stack ended after {read} of {} frames",
                 stack.frames
             ),
         ));
@@ -472,14 +493,38 @@ fn pass(
 
 /// Per-pixel statistics of `stack` (needs >= 2 frames). `hook` transforms each frame first.
 pub fn pixel_stats(stack: &FrameStack, clip: Clip, hook: Option<FrameHook>) -> Result<PixelStats> {
+    pixel_stats_of(stack, clip, hook, None)
+}
+
+/// Per-pixel statistics of the frames of `stack` flagged in `select` (one flag per frame; all
+/// frames when None), as if they were a stack of their own (needs >= 2 of them).
+pub fn pixel_stats_of(
+    stack: &FrameStack,
+    clip: Clip,
+    hook: Option<FrameHook>,
+    select: Option<&[bool]>,
+) -> Result<PixelStats> {
     stack.require_frames(2, "a variance")?;
+    let used = match select {
+        Some(sel) => {
+            assert_eq!(sel.len(), stack.frames, "one selection flag per frame");
+            let n = sel.iter().filter(|s| **s).count();
+            if n < 2 {
+                return Err(Error::input(
+                    &stack.sources[0].path,
+                    format!("{n} frame(s) selected: a variance needs at least 2"),
+                ));
+            }
+            n
+        }
+        None => stack.frames,
+    };
     if let Clip::Extremes(n) = clip {
-        if 2 * n + 2 > stack.frames {
+        if 2 * n + 2 > used {
             return Err(Error::usage(
                 "--clip",
                 format!(
-                    "rejecting {n} high and {n} low samples leaves fewer than 2 of {} frames",
-                    stack.frames
+                    "rejecting {n} high and {n} low samples leaves fewer than 2 of {used} frames"
                 ),
             ));
         }
@@ -488,7 +533,7 @@ pub fn pixel_stats(stack: &FrameStack, clip: Clip, hook: Option<FrameHook>) -> R
         Clip::Extremes(n) => n,
         _ => 0,
     };
-    let (mut tiles, per_frame, frames) = pass(stack, hook, extremes, None, None)?;
+    let (mut tiles, per_frame, frames) = pass(stack, hook, extremes, None, None, select)?;
     let (rows, cols) = stack.shape;
     let npix = stack.pixels();
     let mut vn_ratio = vec![f64::NAN; npix];
@@ -535,7 +580,7 @@ pub fn pixel_stats(stack: &FrameStack, clip: Clip, hook: Option<FrameHook>) -> R
             }
         }
         // The second pass replays the hook so frames are transformed identically.
-        tiles = pass(stack, hook, 0, Some((&lo, &hi)), Some(&centre))?.0;
+        tiles = pass(stack, hook, 0, Some((&lo, &hi)), Some(&centre), select)?.0;
     }
     let mut mean = vec![f64::NAN; npix];
     let mut rms = vec![f64::NAN; npix];

@@ -473,6 +473,7 @@ fn conversion_gain(
             let flats: Vec<FrameStack> = args.flats.iter().map(|f| FrameStack::open(std::slice::from_ref(f))).collect::<Result<_>>()?;
             let dark = DarkReference::from_stats(&maps.stats);
             let p = photon_transfer(&flats, &dark, &PtcOptions::default())?;
+            p.notes.iter().for_each(|n| eprintln!("{n}"));
             Ok((p.gain_e_per_adu, "ptc".into(), Some(p.gain_err_e_per_adu), Some(p)))
         }
     }
