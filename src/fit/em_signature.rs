@@ -249,14 +249,14 @@ mod tests {
 
     #[test]
     fn persistent_pixels_are_left_out_of_the_tails() {
-        // 4 pixels, 10 frames: pixel 0 always hot, pixel 1 twice high, pixel 2 once low.
-        let mut s = vec![0.0; 40];
-        for f in 0..10 {
-            s[f * 4] = 100.0;
+        // 100 pixels, 20 frames: pixel 0 always hot, pixel 1 twice high, pixel 2 once low.
+        let mut s = vec![0.0; 2000];
+        for f in 0..20 {
+            s[f * 100] = 100.0;
         }
-        s[4 + 1] = 50.0;
-        s[8 + 1] = 60.0;
-        s[12 + 2] = -70.0;
-        assert_eq!(tail_counts(&s, 4, 0.0, 10.0), (2, 1, 1));
+        s[100 + 1] = 50.0;
+        s[200 + 1] = 60.0;
+        s[300 + 2] = -70.0;
+        assert_eq!(tail_counts(&s, 100, 0.0, 10.0), (2, 1, 1));
     }
 }
