@@ -12,10 +12,14 @@
 //! rescaled to the stack's mean signal; this also removes 1/P of each pixel's own variance
 //! (P pixels), which is restored by the factor P/(P-1). Samples at the stored type's largest
 //! value (or `saturation_adu`) mask that pixel at that level.
+//!
+//! A stack whose frames' mean signals fall into several well-separated light levels (a glob
+//! over a whole series) is split into those levels ([`light_levels`]); levels that do not
+//! separate cleanly are an error listing them.
 
 use serde::Serialize;
 
-use super::darks::{median, pixel_stats, FrameHook, PixelStats};
+use super::darks::{median, pixel_stats_of, FrameHook, PixelStats};
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 use crate::maps::Map;
@@ -118,13 +122,26 @@ pub struct PtcResult {
     pub read_noise_e_map: Map,
     /// Median dark read noise (adu) x global gain (e-).
     pub read_noise_e_median: f64,
+    /// What was done to the input beyond the plain analysis (stacks split into light levels).
+    pub notes: Vec<String>,
 }
 
-/// Statistics of one flat stack with optional flicker removal, relative to `dark`.
+/// Statistics of one flat stack with optional flicker removal, relative to `dark`, with each
+/// frame's mean signal above the dark (adu).
 pub fn flat_stats(
     stack: &FrameStack,
     dark: &DarkReference,
     opts: &PtcOptions,
+) -> Result<(PixelStats, Vec<f64>)> {
+    flat_stats_of(stack, dark, opts, None)
+}
+
+/// As [`flat_stats`] for the frames flagged in `select` (one flag per frame; all when None).
+pub fn flat_stats_of(
+    stack: &FrameStack,
+    dark: &DarkReference,
+    opts: &PtcOptions,
+    select: Option<&[bool]>,
 ) -> Result<(PixelStats, Vec<f64>)> {
     if stack.shape != (dark.offset_adu.rows, dark.offset_adu.cols) {
         return Err(Error::input(
@@ -148,7 +165,7 @@ pub fn flat_stats(
     };
     let record = |_k: usize, f: &mut [f64]| mean_signal(f);
     let hook: FrameHook = if opts.flicker { &normalise } else { &record };
-    let mut stats = pixel_stats(stack, super::darks::Clip::None, Some(hook))?;
+    let mut stats = pixel_stats_of(stack, super::darks::Clip::None, Some(hook), select)?;
     let frame_means = stats.per_frame.clone();
     if opts.flicker {
         let big_m = frame_means.iter().sum::<f64>() / frame_means.len() as f64;
@@ -197,60 +214,44 @@ pub fn photon_transfer(
     let gain_factor = opts.em_gain * opts.excess_noise_factor_sq;
     let mut levels = Vec::new();
     // Per level: each pixel's dark-subtracted (mean, variance), NaN where masked; frames.
-    let mut points: Vec<(Vec<f64>, Vec<f64>, f64)> = Vec::new();
+    let mut points: Vec<LevelPoints> = Vec::new();
+    let mut notes = Vec::new();
     for stack in flats {
         stack.require_frames(2, "a flat variance")?;
         let (stats, frame_means) = flat_stats(stack, dark, opts)?;
-        let sat = opts.saturation_adu.or(stack.saturation_value());
-        let n = stats.frames as f64;
-        let (mut ms, mut vs, mut tot, mut used, mut saturated) = (0.0, 0.0, 0.0, 0usize, 0usize);
-        let (mut pm, mut pv) = (vec![f64::NAN; npix], vec![f64::NAN; npix]);
-        for i in 0..npix {
-            if sat.is_some_and(|s| stats.max[i] >= s) {
-                saturated += 1;
-                continue;
-            }
-            let m = stats.mean.data[i] - dark.offset_adu.data[i];
-            let vt = stats.rms.data[i].powi(2);
-            let v = vt - dark.var_adu2[i];
-            if !(m.is_finite() && v.is_finite()) {
-                continue;
-            }
-            ms += m;
-            vs += v;
-            tot += vt;
-            used += 1;
-            pm[i] = m;
-            pv[i] = v;
+        let groups = light_levels(&frame_means);
+        if groups.len() == 1 {
+            let (level, p) = level_of(stack, &stats, &frame_means, dark, opts)?;
+            levels.push(level);
+            points.push(p);
+            continue;
         }
-        points.push((pm, pv, n));
-        if used == 0 {
+        // Frames at several light levels in one stack: one level per group, when clean.
+        let path = &stack.sources[0].path;
+        let listing = describe_levels(stack, &groups);
+        if !clean(&groups) {
             return Err(Error::input(
-                &stack.sources[0].path,
-                "frame 0: every pixel is saturated or invalid at this level",
+                path,
+                format!(
+                    "the frames' mean signals fall into {} light levels that are not cleanly separated ({listing}): each level needs at least 2 frames, a mean signal above the dark, and a gap to its neighbours more than twice its own spread. Give one --flats per light level",
+                    groups.len()
+                ),
             ));
         }
-        let u = used as f64;
-        let (mean_adu, var_adu2) = (ms / u, vs / u);
-        // Averaging `used` independent sample variances divides their error by sqrt(used).
-        let var_err_adu2 = (tot / u) * (2.0 / (n - 1.0)).sqrt() / u.sqrt();
-        let big_m = frame_means.iter().sum::<f64>() / frame_means.len() as f64;
-        let expected = (tot / u) / npix as f64;
-        let excess = variance(&frame_means) - expected;
-        let flicker_fraction = if big_m > 0.0 && excess > 0.0 {
-            excess.sqrt() / big_m
-        } else {
-            0.0
-        };
-        levels.push(Level {
-            frames: stats.frames,
-            pixels: used,
-            mean_adu,
-            var_adu2,
-            var_err_adu2,
-            flicker_fraction,
-            saturated_pixels: saturated,
-        });
+        for g in &groups {
+            let mut select = vec![false; stack.frames];
+            g.frames.iter().for_each(|k| select[*k] = true);
+            let (stats, means) = flat_stats_of(stack, dark, opts, Some(&select))?;
+            let (level, p) = level_of(stack, &stats, &means, dark, opts)?;
+            levels.push(level);
+            points.push(p);
+        }
+        notes.push(format!(
+            "{}: split {} frames into {} light levels ({listing})",
+            path.display(),
+            stack.frames,
+            groups.len()
+        ));
     }
     let (slope, slope_err, intercept, chi2) = fit_line(&levels)?;
     if slope.is_nan() || slope <= 0.0 {
@@ -298,7 +299,188 @@ pub fn photon_transfer(
         gain_err_map: Map::new(rows, cols, gain_err_map),
         read_noise_e_map: Map::new(rows, cols, rn),
         read_noise_e_median: median(&dark_rms) * gain,
+        notes,
     })
+}
+
+/// One level's pixels: dark-subtracted mean (adu) and variance (adu^2), NaN where masked,
+/// and the frame count.
+type LevelPoints = (Vec<f64>, Vec<f64>, f64);
+
+/// The level summary and per-pixel points of one flat stack (or selection of its frames).
+fn level_of(
+    stack: &FrameStack,
+    stats: &PixelStats,
+    frame_means: &[f64],
+    dark: &DarkReference,
+    opts: &PtcOptions,
+) -> Result<(Level, LevelPoints)> {
+    let npix = dark.offset_adu.data.len();
+    let sat = opts.saturation_adu.or(stack.saturation_value());
+    let n = stats.frames as f64;
+    let (mut ms, mut vs, mut tot, mut used, mut saturated) = (0.0, 0.0, 0.0, 0usize, 0usize);
+    let (mut pm, mut pv) = (vec![f64::NAN; npix], vec![f64::NAN; npix]);
+    for i in 0..npix {
+        if sat.is_some_and(|s| stats.max[i] >= s) {
+            saturated += 1;
+            continue;
+        }
+        let m = stats.mean.data[i] - dark.offset_adu.data[i];
+        let vt = stats.rms.data[i].powi(2);
+        let v = vt - dark.var_adu2[i];
+        if !(m.is_finite() && v.is_finite()) {
+            continue;
+        }
+        ms += m;
+        vs += v;
+        tot += vt;
+        used += 1;
+        pm[i] = m;
+        pv[i] = v;
+    }
+    if used == 0 {
+        return Err(Error::input(
+            &stack.sources[0].path,
+            "frame 0: every pixel is saturated or invalid at this level",
+        ));
+    }
+    let u = used as f64;
+    let (mean_adu, var_adu2) = (ms / u, vs / u);
+    // Averaging `used` independent sample variances divides their error by sqrt(used).
+    let var_err_adu2 = (tot / u) * (2.0 / (n - 1.0)).sqrt() / u.sqrt();
+    let big_m = frame_means.iter().sum::<f64>() / frame_means.len() as f64;
+    let expected = (tot / u) / npix as f64;
+    let excess = variance(frame_means) - expected;
+    let flicker_fraction = if big_m > 0.0 && excess > 0.0 {
+        excess.sqrt() / big_m
+    } else {
+        0.0
+    };
+    let level = Level {
+        frames: stats.frames,
+        pixels: used,
+        mean_adu,
+        var_adu2,
+        var_err_adu2,
+        flicker_fraction,
+        saturated_pixels: saturated,
+    };
+    Ok((level, (pm, pv, n)))
+}
+
+/// Frames of one stack at one light level.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightLevel {
+    /// Stack frame indices, in order.
+    pub frames: Vec<usize>,
+    /// Mean of their mean signals above the dark (adu).
+    pub mean_adu: f64,
+    /// Smallest and largest frame mean signal (adu).
+    pub range_adu: (f64, f64),
+}
+
+/// Levels differ by more than this fraction of the brighter one (lamp flicker is ~1 %).
+const LEVEL_RELATIVE_GAP: f64 = 0.05;
+/// ... and by more than this many frame-to-frame standard deviations of the mean signal.
+const LEVEL_NOISE_GAP: f64 = 10.0;
+
+/// Group frames by their mean signal (adu above the dark) into light levels, dimmest first:
+/// sorted signals split wherever neighbours differ by more than `LEVEL_RELATIVE_GAP` of the
+/// brighter and `LEVEL_NOISE_GAP` frame-to-frame deviations. The deviation comes from
+/// successive frames (robust: 1.4826 x median |difference| / sqrt 2), so a few jumps between
+/// levels acquired one after the other do not inflate it.
+pub fn light_levels(frame_signal_adu: &[f64]) -> Vec<LightLevel> {
+    let diffs: Vec<f64> = frame_signal_adu
+        .windows(2)
+        .map(|w| (w[1] - w[0]).abs())
+        .collect();
+    let noise = 1.4826 * median(&diffs) / std::f64::consts::SQRT_2;
+    let noise = if noise.is_finite() { noise } else { 0.0 };
+    let mut order: Vec<usize> = (0..frame_signal_adu.len()).collect();
+    order.sort_by(|a, b| frame_signal_adu[*a].total_cmp(&frame_signal_adu[*b]));
+    let mut groups: Vec<Vec<usize>> = Vec::new();
+    for (j, &k) in order.iter().enumerate() {
+        let starts_new = j == 0 || {
+            let (lo, hi) = (frame_signal_adu[order[j - 1]], frame_signal_adu[k]);
+            hi - lo > (LEVEL_RELATIVE_GAP * hi.abs()).max(LEVEL_NOISE_GAP * noise)
+        };
+        if starts_new {
+            groups.push(Vec::new());
+        }
+        groups.last_mut().expect("pushed above").push(k);
+    }
+    groups
+        .into_iter()
+        .map(|mut frames| {
+            frames.sort_unstable();
+            let v: Vec<f64> = frames.iter().map(|k| frame_signal_adu[*k]).collect();
+            LightLevel {
+                mean_adu: v.iter().sum::<f64>() / v.len() as f64,
+                range_adu: (
+                    v.iter().copied().fold(f64::INFINITY, f64::min),
+                    v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                ),
+                frames,
+            }
+        })
+        .collect()
+}
+
+/// Levels are clean when each has at least 2 frames, a mean signal above the dark and a spread
+/// under half the gap to either neighbour.
+fn clean(levels: &[LightLevel]) -> bool {
+    levels.iter().enumerate().all(|(i, l)| {
+        let spread = l.range_adu.1 - l.range_adu.0;
+        let gap_below = i
+            .checked_sub(1)
+            .map_or(f64::INFINITY, |j| l.range_adu.0 - levels[j].range_adu.1);
+        let gap_above = levels
+            .get(i + 1)
+            .map_or(f64::INFINITY, |n| n.range_adu.0 - l.range_adu.1);
+        l.frames.len() >= 2 && l.mean_adu > 0.0 && spread < 0.5 * gap_below.min(gap_above)
+    })
+}
+
+/// "50 frame(s) at 400.1 adu above the dark (398.3 to 401.2) from a.fits; ..." for messages.
+fn describe_levels(stack: &FrameStack, levels: &[LightLevel]) -> String {
+    levels
+        .iter()
+        .map(|l| {
+            format!(
+                "{} frame(s) at {:.1} adu above the dark ({:.1} to {:.1}) from {}",
+                l.frames.len(),
+                l.mean_adu,
+                l.range_adu.0,
+                l.range_adu.1,
+                files_of(stack, &l.frames)
+            )
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
+/// Names of the files holding stack frames `frames` (ascending): up to three, then a count.
+fn files_of(stack: &FrameStack, frames: &[usize]) -> String {
+    let mut names: Vec<String> = Vec::new();
+    let (mut file, mut end) = (0, stack.sources[0].frames);
+    for &k in frames {
+        while k >= end && file + 1 < stack.sources.len() {
+            file += 1;
+            end += stack.sources[file].frames;
+        }
+        let p = &stack.sources[file].path;
+        let name = p.file_name().map_or_else(
+            || p.display().to_string(),
+            |n| n.to_string_lossy().into_owned(),
+        );
+        if names.last() != Some(&name) {
+            names.push(name);
+        }
+    }
+    match names.len() {
+        0..=3 => names.join(", "),
+        n => format!("{} and {} more", names[..3].join(", "), n - 3),
+    }
 }
 
 /// Weighted fit v = a + b m over levels: (b, se(b), a, reduced chi2). One level: a = 0.

@@ -5,8 +5,8 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::calib::darks::{
-    dark_maps, Clip, DarkMaps, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS,
-    FLAG_SATURATED,
+    dark_maps, require_dark, Clip, DarkMaps, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA,
+    FLAG_RTS, FLAG_SATURATED,
 };
 use crate::calib::summary::{with_inputs_hashed, Distribution, InputFile};
 use crate::error::{Error, Result};
@@ -52,6 +52,10 @@ pub struct DarksArgs {
     /// RTS threshold: von Neumann ratio below 1 - K/sqrt(frames) (K standard errors). Default: 5.
     #[arg(long, default_value_t = 5.0)]
     pub rts_sigma: f64,
+    /// Use frames that look illuminated (variance growing with the mean across pixels, or a
+    /// level near the top of the stored range) as darks. Default: refuse them.
+    #[arg(long)]
+    pub accept_illuminated: bool,
 }
 
 /// Files `darks` writes into its directory.
@@ -336,6 +340,9 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         "read {mb:.1} MB of samples in {secs:.2} s ({:.0} MB/s)",
         mb / secs
     );
+    if let Some(warning) = require_dark(&stack, &maps, args.accept_illuminated)? {
+        eprintln!("warning: {warning}");
+    }
     let s = write_outputs(
         &dir.path(""),
         &stack,

@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::fit::em_signature::require_em_signature;
 use crate::fit::emgain::{
     fit_emgain, gain_from_mean_ratio, model_curve, CurveBin, EmGainFit, EmGainOptions, EmShape,
     ValueHistogram,
@@ -130,6 +131,10 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
         None => EmShape::Gamma,
     };
     let stack = FrameStack::open(&args.stack)?;
+    if args.read_noise.is_none() {
+        // Without a known bias the fit needs the register's tail: refuse in seconds if absent.
+        require_em_signature(&stack)?;
+    }
     let (hist, mean) = accumulate(&stack, args.offset.as_deref(), args.bin_width_adu)?;
     let (fixed_bias_adu, fixed_read_noise_adu) = match (&args.read_noise, &args.offset) {
         (Some(rn), Some(off)) => {

@@ -164,6 +164,7 @@ pub fn run(args: &PtcArgs) -> Result<()> {
         .map(|f| FrameStack::open(std::slice::from_ref(f)))
         .collect::<Result<_>>()?;
     let r = photon_transfer(&flats, &dark, &opts)?;
+    r.notes.iter().for_each(|n| eprintln!("{n}"));
     let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
     let summary = PtcSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),

@@ -5,7 +5,7 @@ use super::args::DetectorArgs;
 use super::effective::{write_outputs as write_effective, EffectiveRecord};
 use super::progress::Progress;
 use super::simulate::SimRecord;
-use crate::calib::darks::{dark_maps, DarkOptions};
+use crate::calib::darks::{dark_maps, require_dark, DarkOptions};
 use crate::calib::ptc::{photon_transfer, DarkReference, PtcOptions, PtcResult};
 use crate::calib::summary::inputs;
 use crate::detector::{ModelParams, ModelSpec, NoiseMap, Readout};
@@ -69,6 +69,10 @@ pub struct ReportArgs {
     /// Quantum efficiency of the EMCCD it is compared with.
     #[arg(long, default_value_t = 1.0)]
     pub qe_emccd: f64,
+    /// Use dark frames that look illuminated (variance growing with the mean across pixels, or a
+    /// level near the top of the stored range); sCMOS reports only. Default: refuse them.
+    #[arg(long)]
+    pub accept_illuminated: bool,
     /// Fast preview (under a minute for a small camera): at most 2,000 iterations, and where left
     /// at their defaults, sub-apertures 4,8,16, spots airy:2,6 and signals 20,50,500 (stated in
     /// the report). The full grid takes several minutes.
@@ -243,6 +247,9 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
     );
     let dark_opts = DarkOptions::default();
     let maps = dark_maps(&stack, &dark_opts)?;
+    if let Some(warning) = require_dark(&stack, &maps, args.accept_illuminated)? {
+        eprintln!("warning: {warning}");
+    }
     let (gain, gain_source, gain_se, ptc) = conversion_gain(args, &maps)?;
     let dark_summary = super::darks::write_outputs(
         &dir.path(""),
@@ -437,6 +444,7 @@ fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir)
             ))
         }
     };
+    crate::fit::em_signature::require_em_signature(stack)?;
     let (hist, _) = super::emgain::accumulate(stack, None, None)?;
     let opts = EmGainOptions {
         shape: EmShape::Register {
@@ -507,6 +515,7 @@ fn conversion_gain(
             let flats: Vec<FrameStack> = args.flats.iter().map(|f| FrameStack::open(std::slice::from_ref(f))).collect::<Result<_>>()?;
             let dark = DarkReference::from_stats(&maps.stats);
             let p = photon_transfer(&flats, &dark, &PtcOptions::default())?;
+            p.notes.iter().for_each(|n| eprintln!("{n}"));
             Ok((p.gain_e_per_adu, "ptc".into(), Some(p.gain_err_e_per_adu), Some(p)))
         }
     }

@@ -1,6 +1,7 @@
 //! Calibration fits with argmin: the per-pixel read-noise pdf of a map (`pdf_fit`) and the
 //! gain of an EMCCD from the histogram of its frames (`emgain`).
 
+pub mod em_signature;
 pub mod emgain;
 mod optim;
 pub mod pdf_fit;
