@@ -17,6 +17,8 @@ use rayon::prelude::*;
 
 /// Iterations per parallel work item (fixed, so sums are added in the same order always).
 const CHUNK: u64 = 256;
+/// Work items held in memory at once (their per-level sums), whatever the iteration count.
+const BATCH_CHUNKS: u64 = 256;
 
 /// Stream roles of one iteration.
 const POSITION: u64 = 0;
@@ -41,30 +43,41 @@ pub enum BgGrid {
 }
 
 impl BgGrid {
+    /// Most levels a `start:stop:step` grid may have: every frame walks all of them.
+    pub const MAX_LEVELS: f64 = 100_000.0;
+
     /// Parse `auto` or `start:stop:step` (e-).
     pub fn parse(text: &str) -> Result<Self> {
         if text == "auto" {
             return Ok(BgGrid::Auto);
         }
-        let bad = || {
-            Error::usage("--bg-grid", format!("'{text}': expected auto or start:stop:step in e-, with 0 <= start <= stop and step > 0"))
+        let bad = |why: String| Error::usage("--bg-grid", format!("'{text}': {why}"));
+        let form = || {
+            bad(
+                "expected auto or start:stop:step in e-, with 0 <= start <= stop and step > 0"
+                    .into(),
+            )
         };
         let parts: Vec<f64> = text
             .split(':')
             .map(|p| p.trim().parse::<f64>())
             .collect::<std::result::Result<_, _>>()
-            .map_err(|_| bad())?;
-        match parts[..] {
-            [start, stop, step]
-                if start >= 0.0 && stop >= start && step > 0.0 && stop.is_finite() =>
-            {
-                if (stop - start) / step > 100_000.0 {
-                    return Err(bad());
-                }
-                Ok(BgGrid::Range { start, stop, step })
-            }
-            _ => Err(bad()),
+            .map_err(|_| form())?;
+        let [start, stop, step] = parts[..] else {
+            return Err(form());
+        };
+        if !(start >= 0.0 && stop >= start && step > 0.0 && stop.is_finite()) {
+            return Err(form());
         }
+        let levels = ((stop - start) / step + 1e-9).floor() + 1.0;
+        if levels > Self::MAX_LEVELS {
+            return Err(bad(format!(
+                "{levels:.0} levels; at most {:.0} are allowed (every frame is evaluated at each \
+                 level): use a larger step",
+                Self::MAX_LEVELS
+            )));
+        }
+        Ok(BgGrid::Range { start, stop, step })
     }
 
     /// The levels (e-) for a run whose brightest expected pixel holds `peak_e`; 0 is always included.
@@ -145,44 +158,93 @@ impl SimConfig {
         }
     }
 
-    /// Check every value; the error names the option.
+    /// Smallest sub-aperture side (px): a centroid inside one pixel carries no information.
+    pub const MIN_SUBAP_PX: usize = 2;
+    /// Largest sub-aperture side (px): the pixel-integrated spot table grows as the square of
+    /// the side (0.14 GB at 128 px), and Shack-Hartmann sub-apertures are far smaller.
+    pub const MAX_SUBAP_PX: usize = 128;
+    /// Largest signal x QE (photo-electrons per sub-aperture). Photo-electron counts are 32-bit
+    /// per pixel (at most 4.29e9) and the whole signal can fall into one pixel: the bound keeps a
+    /// 4x margin. At 1e9 photons R is at its shot-noise limit, near 1e-5 px.
+    pub const MAX_PHOTO_E: f64 = 1e9;
+    /// Most iterations per configuration (1e9 frames of a 16x16 sub-aperture take days).
+    pub const MAX_ITERS: u64 = 1_000_000_000;
+
+    /// Largest spot offset half-range (px) for `subap_px`: a quarter of the side, so the spot
+    /// centre stays in the central half of the sub-aperture and the spot mostly inside it.
+    pub fn max_position_half_range_px(subap_px: usize) -> f64 {
+        subap_px as f64 / 4.0
+    }
+
+    /// Check every value; the error names the option and its allowed range.
     pub fn validate(&self) -> Result<()> {
-        let check = |ok: bool, option: &str, msg: &str| {
+        let check = |ok: bool, option: &str, msg: String| {
             if ok {
                 Ok(())
             } else {
                 Err(Error::usage(option, msg))
             }
         };
+        let n = self.subap_px;
         check(
-            self.subap_px >= 1 && self.subap_px <= 256,
+            (Self::MIN_SUBAP_PX..=Self::MAX_SUBAP_PX).contains(&n),
             "--subap",
-            "sub-aperture size must be 1..256 px",
+            format!(
+                "{n} px: sub-aperture sizes must be {} to {} px per side (a centroid inside one \
+                 pixel carries no position information)",
+                Self::MIN_SUBAP_PX,
+                Self::MAX_SUBAP_PX
+            ),
         )?;
         check(
             self.signal_photons.is_finite() && self.signal_photons > 0.0,
             "--signal",
-            "signal must be > 0 photons",
+            format!("{}: signals must be > 0 photons", self.signal_photons),
         )?;
         check(
             self.qe.is_finite() && self.qe > 0.0 && self.qe <= 1.0,
             "--qe",
-            "QE must be in (0, 1]",
+            format!("{}: QE must be in (0, 1]", self.qe),
+        )?;
+        let photo_e = self.signal_photons * self.qe;
+        check(
+            photo_e <= Self::MAX_PHOTO_E,
+            "--signal",
+            format!(
+                "{} photons x QE {} = {photo_e:e} photo-electrons per sub-aperture; at most {:e} \
+                 are simulated: counts are 32-bit per pixel (4.29e9) and the whole signal can fall \
+                 in one pixel, so above this R would silently go wrong (at 1e9, R is already at its \
+                 shot-noise limit, about 1e-5 px)",
+                self.signal_photons,
+                self.qe,
+                Self::MAX_PHOTO_E
+            ),
         )?;
         check(
-            self.iters >= 2,
+            (2..=Self::MAX_ITERS).contains(&self.iters),
             "--iters",
-            "at least 2 iterations are needed for a standard error",
+            format!(
+                "{}: must be 2 to {:e} (a standard error needs two iterations)",
+                self.iters,
+                Self::MAX_ITERS as f64
+            ),
         )?;
+        let h_max = Self::max_position_half_range_px(n);
         check(
-            self.position_half_range_px.is_finite() && self.position_half_range_px >= 0.0,
+            self.position_half_range_px.is_finite()
+                && (0.0..=h_max).contains(&self.position_half_range_px),
             "--position-range",
-            "half-range must be >= 0 px",
+            format!(
+                "{} px: the half-range must be 0 to {h_max} px for {n}x{n} px sub-apertures (a \
+                 quarter of the side: the spot centre stays in the central half, so the spot stays \
+                 mostly inside the sub-aperture)",
+                self.position_half_range_px
+            ),
         )?;
         check(
             (0.0..=1.0).contains(&self.max_empty_frac),
             "--max-empty-frac",
-            "must be in [0, 1]",
+            format!("{}: must be in [0, 1]", self.max_empty_frac),
         )
     }
 }
@@ -236,20 +298,24 @@ pub fn run(
     let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, n, cfg.position_half_range_px);
     let levels = cfg.bg_grid.levels(peak_expected_e(cfg, &renderer));
     let chunks = cfg.iters.div_ceil(CHUNK);
-    let partials: Vec<Vec<LevelSums>> = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let first = c * CHUNK;
-            let last = (first + CHUNK).min(cfg.iters);
-            let accs = run_chunk(cfg, &renderer, &levels, models, first..last);
-            on_progress(last - first);
-            accs
-        })
-        .collect();
     let mut total = vec![LevelSums::new(levels.len()); models.len()];
-    for part in &partials {
-        for (t, p) in total.iter_mut().zip(part) {
-            t.merge(p);
+    // Chunks run in parallel a batch at a time and are merged in chunk order, so the sums do
+    // not depend on the thread count and memory does not grow with the iterations.
+    for batch in (0..chunks).step_by(BATCH_CHUNKS as usize) {
+        let partials: Vec<Vec<LevelSums>> = (batch..(batch + BATCH_CHUNKS).min(chunks))
+            .into_par_iter()
+            .map(|c| {
+                let first = c * CHUNK;
+                let last = (first + CHUNK).min(cfg.iters);
+                let accs = run_chunk(cfg, &renderer, &levels, models, first..last);
+                on_progress(last - first);
+                accs
+            })
+            .collect();
+        for part in &partials {
+            for (t, p) in total.iter_mut().zip(part) {
+                t.merge(p);
+            }
         }
     }
     Ok(models

@@ -29,6 +29,15 @@ pub struct EffectiveArgs {
     pub out: PathBuf,
 }
 
+impl EffectiveArgs {
+    /// Check every option (model, detector, sweep lists) before any file is read.
+    pub fn validate(&self) -> Result<()> {
+        let spec = ModelSpec::parse(&self.model)?;
+        self.detector.validate(std::slice::from_ref(&spec))?;
+        self.sweep.validate()
+    }
+}
+
 /// One configuration's effective read noise.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct EffectiveRecord {
@@ -128,6 +137,7 @@ pub fn write_outputs(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec
 
 /// Entry point of `detnoise effective`.
 pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
+    args.validate()?;
     let spec = ModelSpec::parse(&args.model)?;
     let records = effective_table(&spec, &args.sweep, &args.detector, "effective")?;
     let dir = OutputDir::new(&args.out)?;

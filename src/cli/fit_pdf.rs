@@ -1,7 +1,9 @@
 //! `detnoise fit-pdf`: fit models of the per-pixel read-noise pdf to a measured noise map.
 
+use std::ops::Bound::{Excluded, Unbounded};
 use std::path::{Path, PathBuf};
 
+use super::args::real;
 use crate::error::{Error, Result};
 use crate::fit::{fit_pdf, PdfFitOptions, PdfFitReport, PdfModel};
 use crate::maps::read_map;
@@ -28,7 +30,7 @@ pub struct FitPdfArgs {
     #[arg(long, value_enum, default_value = "e")]
     pub unit: MapUnit,
     /// Conversion gain (e per adu) for --unit adu. Default: none.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Flag map (non-zero = hot/dead/RTS pixel, excluded). Default: flags.fits beside MAP if present.
     #[arg(long)]
@@ -40,17 +42,23 @@ pub struct FitPdfArgs {
     #[arg(long, value_delimiter = ',')]
     pub models: Vec<String>,
     /// Upper cut of the support (e-); larger values are excluded. Default: the map's largest value.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e-"))]
     pub upper_cut_e: Option<f64>,
 }
 
-/// Run `detnoise fit-pdf`.
-pub fn run(args: &FitPdfArgs) -> Result<()> {
-    let values = map_values_e(args)?;
-    let models = if args.models.is_empty() {
-        PdfModel::ALL.to_vec()
-    } else {
-        args.models
+impl FitPdfArgs {
+    /// Check the options together (models, unit and gain) before the map is read.
+    pub fn validate(&self) -> Result<()> {
+        self.models()?;
+        self.scale().map(|_| ())
+    }
+
+    /// The models to fit (all by default).
+    fn models(&self) -> Result<Vec<PdfModel>> {
+        if self.models.is_empty() {
+            return Ok(PdfModel::ALL.to_vec());
+        }
+        self.models
             .iter()
             .map(|m| {
                 PdfModel::from_name(m.trim()).ok_or_else(|| {
@@ -60,8 +68,31 @@ pub fn run(args: &FitPdfArgs) -> Result<()> {
                     )
                 })
             })
-            .collect::<Result<Vec<_>>>()?
-    };
+            .collect()
+    }
+
+    /// Factor from the map's unit to electrons.
+    fn scale(&self) -> Result<f64> {
+        match (self.unit, self.gain_e_per_adu) {
+            (MapUnit::E, None) => Ok(1.0),
+            (MapUnit::E, Some(_)) => Err(Error::usage(
+                "--gain-e-per-adu",
+                "only applies with --unit adu (the map is already in electrons)",
+            )),
+            (MapUnit::Adu, Some(g)) => Ok(g),
+            (MapUnit::Adu, None) => Err(Error::usage(
+                "--unit adu",
+                "needs a positive --gain-e-per-adu to convert the map to electrons",
+            )),
+        }
+    }
+}
+
+/// Run `detnoise fit-pdf`.
+pub fn run(args: &FitPdfArgs) -> Result<()> {
+    args.validate()?;
+    let values = map_values_e(args)?;
+    let models = args.models()?;
     let opts = PdfFitOptions {
         models,
         upper_cut_e: args.upper_cut_e,
@@ -76,23 +107,8 @@ pub fn run(args: &FitPdfArgs) -> Result<()> {
 
 /// The map's values in e-, without flagged pixels (unless kept).
 fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
+    let scale = args.scale()?;
     let map = read_map(&args.map)?;
-    let scale = match (args.unit, args.gain_e_per_adu) {
-        (MapUnit::E, None) => 1.0,
-        (MapUnit::E, Some(_)) => {
-            return Err(Error::usage(
-                "--gain-e-per-adu",
-                "only applies with --unit adu (the map is already in electrons)",
-            ))
-        }
-        (MapUnit::Adu, Some(g)) if g > 0.0 && g.is_finite() => g,
-        (MapUnit::Adu, _) => {
-            return Err(Error::usage(
-                "--unit adu",
-                "needs a positive --gain-e-per-adu to convert the map to electrons",
-            ))
-        }
-    };
     let flags_path = args.flags.clone().or_else(|| {
         let p = args
             .map

@@ -33,6 +33,15 @@ pub struct SimulateArgs {
     pub plot: Option<PathBuf>,
 }
 
+impl SimulateArgs {
+    /// Check every option (models, detector, sweep lists) before any file is read.
+    pub fn validate(&self) -> Result<()> {
+        let specs = parse_models(&self.model)?;
+        self.detector.validate(&specs)?;
+        self.sweep.validate()
+    }
+}
+
 /// One row of simulation output: a configuration and its result.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct SimRecord {
@@ -133,6 +142,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<Vec<SimRecord>> {
 
 /// Entry point of `detnoise simulate`.
 pub fn run_cli(args: &SimulateArgs) -> Result<()> {
+    args.validate()?;
     let records = simulate(args)?;
     let text = render(&records, args.format)?;
     match &args.out {
