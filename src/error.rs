@@ -92,3 +92,20 @@ impl Error {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_codes_follow_the_documented_rule() {
+        let io = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "denied");
+        assert_eq!(Error::usage("--qe", "bad").exit_code(), EXIT_USAGE);
+        assert_eq!(Error::input("a.fits", "bad").exit_code(), EXIT_FAILURE);
+        assert_eq!(Error::io("a.fits", io).exit_code(), EXIT_FAILURE);
+        assert_eq!(Error::Numeric("no fit".into()).exit_code(), EXIT_FAILURE);
+        for code in [EXIT_OK, EXIT_FAILURE, EXIT_USAGE, EXIT_INTERRUPTED] {
+            assert!(EXIT_CODES_HELP.contains(&format!("  {code} ")), "{code}");
+        }
+    }
+}

@@ -453,14 +453,14 @@ mod tests {
         models.iter().map(|m| m.as_ref()).collect()
     }
 
-    #[test]
-    fn noiseless_readout_error_is_the_shot_noise_limit() {
-        // sigma = 0, b = 0: the centre of gravity of Poisson counts has per-axis variance
-        // var_x / S (var_x the spot's second moment in the sub-aperture), so
-        // R(0) = sqrt(pi/2) sqrt((var_x + var_y) / 2 / S) for this nearly isotropic error.
+    /// R(0) of a noiseless readout at `signal` photons, 8x8 px, against the shot-noise limit:
+    /// the centre of gravity of Poisson counts has per-axis variance var_x / S (var_x the
+    /// spot's second moment in the sub-aperture), so R(0) = sqrt(pi/2) sqrt((var_x + var_y) / 2 / S)
+    /// for this nearly isotropic error; within 4 SE.
+    fn check_shot_noise_limit(signal: f64, iters: u64) {
         let mut cfg = SimConfig::paper(8);
-        cfg.signal_photons = 1e6;
-        cfg.iters = 4000;
+        cfg.signal_photons = signal;
+        cfg.iters = iters;
         cfg.position_half_range_px = 0.0;
         let m = ScmosConstant::new(0.0, "none".into());
         let r = &run(&cfg, &[&m], &|_| {}).unwrap()[0];
@@ -478,11 +478,72 @@ mod tests {
         let expected = (std::f64::consts::PI / 2.0).sqrt() * (var / cfg.signal_photons).sqrt();
         assert!(
             (r.r0_px - expected).abs() < 4.0 * r.r0_se_px,
-            "R(0) = {} +- {}, expected {expected}",
+            "S = {signal}: R(0) = {} +- {}, expected {expected}",
             r.r0_px,
             r.r0_se_px
         );
         assert_eq!(r.zero_frames, 0);
+    }
+
+    #[test]
+    fn noiseless_readout_error_is_the_shot_noise_limit() {
+        check_shot_noise_limit(1e6, 4000);
+    }
+
+    #[test]
+    fn precision_holds_up_to_the_signal_limit() {
+        // At the largest accepted signal the counts still fit (32-bit per pixel) and R keeps
+        // falling as 1/sqrt(S); above it the run is refused, naming --signal and the limit.
+        check_shot_noise_limit(SimConfig::MAX_PHOTO_E, 1000);
+        let mut cfg = SimConfig::paper(8);
+        cfg.signal_photons = 2.0 * SimConfig::MAX_PHOTO_E;
+        let msg = cfg.validate().unwrap_err().to_string();
+        assert!(msg.contains("--signal") && msg.contains("1e9"), "{msg}");
+        // The limit applies to photo-electrons: QE 0.4 brings 2e9 photons under it.
+        cfg.qe = 0.4;
+        cfg.validate().unwrap();
+    }
+
+    #[test]
+    fn configurations_outside_the_engine_limits_are_refused() {
+        type Spoil = fn(&mut SimConfig);
+        let cases: [(&str, Spoil); 6] = [
+            ("--subap", |c| c.subap_px = 1),
+            ("--subap", |c| c.subap_px = SimConfig::MAX_SUBAP_PX + 1),
+            ("--position-range", |c| c.position_half_range_px = 2.01),
+            ("--position-range", |c| c.position_half_range_px = 1e9),
+            ("--iters", |c| c.iters = 1),
+            ("--max-empty-frac", |c| c.max_empty_frac = 1.5),
+        ];
+        for (option, spoil) in cases {
+            let mut cfg = SimConfig::paper(8);
+            spoil(&mut cfg);
+            let err = cfg.validate().unwrap_err();
+            assert_eq!(err.exit_code(), 2);
+            assert!(err.to_string().contains(option), "{err}");
+        }
+        let mut cfg = SimConfig::paper(8);
+        cfg.position_half_range_px = 2.0;
+        cfg.validate().unwrap();
+        SimConfig::paper(2).validate().unwrap();
+    }
+
+    #[test]
+    fn sums_over_several_batches_do_not_depend_on_thread_count() {
+        // More chunks than one batch holds: batches are merged in chunk order.
+        let mut cfg = SimConfig::paper(2);
+        cfg.iters = CHUNK * BATCH_CHUNKS + 300;
+        let m = ScmosConstant::new(1.0, "one".into());
+        let run_with = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| run(&cfg, &[&m], &|_| {}).unwrap().remove(0))
+        };
+        let (a, b) = (run_with(1), run_with(2));
+        assert_eq!(a.r_px.to_bits(), b.r_px.to_bits());
+        assert_eq!(a.r_se_px.to_bits(), b.r_se_px.to_bits());
     }
 
     #[test]
@@ -562,6 +623,16 @@ mod tests {
         for bad in ["1:0:1", "0:1:0", "a:b:c", "0:1", "-1:2:1"] {
             assert!(BgGrid::parse(bad).is_err(), "{bad}");
         }
+        // A well-formed grid with too many levels says so: the limit and its level count.
+        let msg = BgGrid::parse("0:1000:0.001").unwrap_err().to_string();
+        assert!(
+            msg.contains("1000001 levels") && msg.contains("100000"),
+            "{msg}"
+        );
+        assert_eq!(
+            BgGrid::parse("0:99999:1").unwrap().levels(1.0).len(),
+            100_000
+        );
         let auto = BgGrid::Auto.levels(500.0);
         assert!(auto[0] == 0.0 && *auto.last().unwrap() >= 500.0);
         assert!(auto.windows(2).all(|w| w[0] < w[1]));

@@ -443,8 +443,12 @@ mod tests {
             "gauss:1",
             "disc:2",
             "gauss:1,0",
+            "airy:0.05",
+            "airy:1e-9",
+            "gauss:1,0.01",
         ] {
             assert_eq!(Spot::parse(bad).unwrap_err().exit_code(), 2, "{bad}");
         }
+        assert!(Spot::parse("airy:0.1").is_ok());
     }
 }

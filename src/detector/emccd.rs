@@ -193,6 +193,25 @@ mod tests {
     }
 
     #[test]
+    fn simple_model_halves_bright_pixels_exactly() {
+        // Above BINOMIAL_ABOVE_E photo-electrons one Binomial(k, 1/2) draw replaces k coin
+        // flips: still Poisson(lambda / 2), mean and variance 0.5 lambda (+ 0.01); 4 SE.
+        let n = 20_000;
+        let lambda = 4.0 * BINOMIAL_ABOVE_E as f64;
+        let xs = pixel_samples(&EmccdSimple::paper(), lambda, n);
+        let (m, v) = mean_var(&xs);
+        let var = 0.5 * lambda + 0.01;
+        assert!(
+            (m - 0.5 * lambda).abs() < 4.0 * (var / n as f64).sqrt(),
+            "mean {m}"
+        );
+        assert!(
+            (v - var).abs() < 4.0 * var * (2.0 / n as f64).sqrt(),
+            "var {v}"
+        );
+    }
+
+    #[test]
     fn gamma_model_moments() {
         // k fixed: output/g has mean k and variance k + (50/500)^2.
         let model = EmccdDistribution::new(500.0, 50.0, None);

@@ -282,6 +282,92 @@ mod tests {
         assert!(d < 1.95 * (2.0 / n as f64).sqrt(), "KS distance {d}");
     }
 
+    #[test]
+    fn stage_count_must_let_each_stage_at_most_double_the_charge() {
+        // p = g^(1/N) - 1 <= 1 needs N >= log2 g: 500 needs 9 stages, 512 exactly 9, 513 ten.
+        assert_eq!(EmRegister::min_stages(500.0), 9);
+        assert_eq!(EmRegister::min_stages(512.0), 9);
+        assert_eq!(EmRegister::min_stages(513.0), 10);
+        assert_eq!(EmRegister::min_stages(1.0), 1);
+        assert_eq!(EmRegister::min_stages(2.0), 1);
+        for (gain, stages) in [(500.0, 1), (500.0, 8), (3.0, 1)] {
+            let err = EmRegister::new(gain, stages).unwrap_err();
+            assert_eq!(err.exit_code(), 2);
+            let msg = err.to_string();
+            let n = EmRegister::min_stages(gain);
+            assert!(
+                msg.contains("--stages")
+                    && msg.contains("--gain")
+                    && msg.contains(&format!("at least {n} stages")),
+                "{msg}"
+            );
+        }
+        for (gain, stages) in [
+            (1e9, 520),
+            (0.5, 520),
+            (f64::NAN, 520),
+            (500.0, 0),
+            (500.0, MAX_STAGES + 1),
+        ] {
+            assert_eq!(
+                EmRegister::new(gain, stages).unwrap_err().exit_code(),
+                2,
+                "{gain} {stages}"
+            );
+        }
+    }
+
+    #[test]
+    fn register_at_the_stage_limit_is_exact() {
+        // Gain 2^9 with 9 stages: p = 1, every stage doubles, so one electron gives exactly 512.
+        let r = EmRegister::new(512.0, 9).unwrap();
+        assert_eq!(r.p(), 1.0);
+        let mut rng = stream(5, 0, 0);
+        for k in [1, 3] {
+            assert_eq!(r.sample(k, &mut rng), 512.0 * k as f64);
+            assert_eq!(r.sample_cascade(k, &mut rng), 512.0 * k as f64);
+        }
+        // Gain 500 with 9 stages (p = 0.995): the table keeps the exact mean and variance (to
+        // 1e-6: FFT round-off clipped at 0 on the many near-empty outputs of a near-doubling
+        // register; the exact variance, 658.34186, agrees with a direct branching sum).
+        let r = EmRegister::new(500.0, 9).unwrap();
+        let pmf = single_electron_pmf(r.p(), 9, 500.0);
+        let mean: f64 = pmf.iter().enumerate().map(|(k, p)| k as f64 * p).sum();
+        let var: f64 = pmf
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k as f64 - mean).powi(2) * p)
+            .sum();
+        assert!((mean / 500.0 - 1.0).abs() < 1e-9, "mean {mean}");
+        assert!(
+            (var / r.single_electron_variance() - 1.0).abs() < 1e-6,
+            "var {var}"
+        );
+        assert!((r.single_electron_variance() - 658.341_861_5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bright_pixels_use_the_cascade_with_the_same_moments() {
+        // Above CASCADE_ABOVE_E input electrons the sampler switches to the cascade, whose cost
+        // does not grow with k. Mean k g and variance k var1 within 4 SE (kurtosis ~ 3 for a
+        // sum of this many electrons: SE(var) ~ var sqrt(2/N)).
+        let r = EmRegister::new(500.0, 520).unwrap();
+        let k = 4 * CASCADE_ABOVE_E;
+        let n = 4000;
+        let mut rng = stream(8, 0, 0);
+        let xs: Vec<f64> = (0..n).map(|_| r.sample(k, &mut rng)).collect();
+        let (m, v) = mean_var(&xs);
+        let var = k as f64 * r.single_electron_variance();
+        assert!(
+            (m - k as f64 * 500.0).abs() < 4.0 * (var / n as f64).sqrt(),
+            "mean {m}"
+        );
+        assert!(
+            (v - var).abs() < 4.0 * var * (2.5 / n as f64).sqrt(),
+            "var {v} vs {var}"
+        );
+    }
+
     fn mean_var(xs: &[f64]) -> (f64, f64) {
         let n = xs.len() as f64;
         let m = xs.iter().sum::<f64>() / n;
