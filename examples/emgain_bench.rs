@@ -12,7 +12,7 @@ use rand_distr::{Distribution, Normal};
 use std::time::Instant;
 
 fn main() -> detnoise::Result<()> {
-    let reg = EmRegister::new(300.0, 520);
+    let reg = EmRegister::new(300.0, 520)?;
     let noise = Normal::new(0.0, 50.0).expect("valid sigma");
     for (frames, side) in [(5000usize, 3usize), (100, 512)] {
         let t = Instant::now();

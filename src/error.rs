@@ -2,6 +2,27 @@
 
 use std::path::{Path, PathBuf};
 
+/// Exit code of a successful run.
+pub const EXIT_OK: i32 = 0;
+/// Exit code of bad data or a runtime failure: an unreadable or invalid input file, an I/O
+/// failure, a numerical failure.
+pub const EXIT_FAILURE: i32 = 1;
+/// Exit code of a usage error: a bad option value, a bad or refused output path (clap's own
+/// parse errors use it too).
+pub const EXIT_USAGE: i32 = 2;
+/// Exit code of a run interrupted by Ctrl-C or SIGTERM (128 + SIGINT, the shell convention).
+pub const EXIT_INTERRUPTED: i32 = 130;
+
+/// The exit codes as shown at the end of `detnoise --help` and of every subcommand's help.
+pub const EXIT_CODES_HELP: &str = "\
+Exit status:
+  0    success
+  1    bad data or runtime failure: an input file unreadable or invalid, an I/O error, a
+       numerical failure (e.g. a fit that does not converge)
+  2    usage error: a bad option value (the message names the option and its allowed range),
+       a bad or refused output path
+  130  interrupted by Ctrl-C or SIGTERM";
+
 /// Result alias used across the library.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
@@ -16,7 +37,7 @@ pub enum Error {
         /// What is wrong with it.
         message: String,
     },
-    /// An input file is unreadable or its content is invalid (exit code 2).
+    /// An input file is unreadable or its content is invalid (exit code 1: bad data).
     #[error("{}: {message}", path.display())]
     Input {
         /// The file at fault.
@@ -62,11 +83,29 @@ impl Error {
         }
     }
 
-    /// The process exit code for this error: 2 for bad options or input, 1 otherwise.
+    /// The process exit code for this error: 2 for a usage error (bad option value or output
+    /// path), 1 for bad data or a runtime failure (see [`EXIT_CODES_HELP`]).
     pub fn exit_code(&self) -> i32 {
         match self {
-            Error::Usage { .. } | Error::Input { .. } => 2,
-            Error::Io { .. } | Error::Numeric(_) => 1,
+            Error::Usage { .. } => EXIT_USAGE,
+            Error::Input { .. } | Error::Io { .. } | Error::Numeric(_) => EXIT_FAILURE,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exit_codes_follow_the_documented_rule() {
+        let io = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "denied");
+        assert_eq!(Error::usage("--qe", "bad").exit_code(), EXIT_USAGE);
+        assert_eq!(Error::input("a.fits", "bad").exit_code(), EXIT_FAILURE);
+        assert_eq!(Error::io("a.fits", io).exit_code(), EXIT_FAILURE);
+        assert_eq!(Error::Numeric("no fit".into()).exit_code(), EXIT_FAILURE);
+        for code in [EXIT_OK, EXIT_FAILURE, EXIT_USAGE, EXIT_INTERRUPTED] {
+            assert!(EXIT_CODES_HELP.contains(&format!("  {code} ")), "{code}");
         }
     }
 }

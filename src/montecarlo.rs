@@ -17,6 +17,8 @@ use rayon::prelude::*;
 
 /// Iterations per parallel work item (fixed, so sums are added in the same order always).
 const CHUNK: u64 = 256;
+/// Work items held in memory at once (their per-level sums), whatever the iteration count.
+const BATCH_CHUNKS: u64 = 256;
 
 /// Stream roles of one iteration.
 const POSITION: u64 = 0;
@@ -41,30 +43,41 @@ pub enum BgGrid {
 }
 
 impl BgGrid {
+    /// Most levels a `start:stop:step` grid may have: every frame walks all of them.
+    pub const MAX_LEVELS: f64 = 100_000.0;
+
     /// Parse `auto` or `start:stop:step` (e-).
     pub fn parse(text: &str) -> Result<Self> {
         if text == "auto" {
             return Ok(BgGrid::Auto);
         }
-        let bad = || {
-            Error::usage("--bg-grid", format!("'{text}': expected auto or start:stop:step in e-, with 0 <= start <= stop and step > 0"))
+        let bad = |why: String| Error::usage("--bg-grid", format!("'{text}': {why}"));
+        let form = || {
+            bad(
+                "expected auto or start:stop:step in e-, with 0 <= start <= stop and step > 0"
+                    .into(),
+            )
         };
         let parts: Vec<f64> = text
             .split(':')
             .map(|p| p.trim().parse::<f64>())
             .collect::<std::result::Result<_, _>>()
-            .map_err(|_| bad())?;
-        match parts[..] {
-            [start, stop, step]
-                if start >= 0.0 && stop >= start && step > 0.0 && stop.is_finite() =>
-            {
-                if (stop - start) / step > 100_000.0 {
-                    return Err(bad());
-                }
-                Ok(BgGrid::Range { start, stop, step })
-            }
-            _ => Err(bad()),
+            .map_err(|_| form())?;
+        let [start, stop, step] = parts[..] else {
+            return Err(form());
+        };
+        if !(start >= 0.0 && stop >= start && step > 0.0 && stop.is_finite()) {
+            return Err(form());
         }
+        let levels = ((stop - start) / step + 1e-9).floor() + 1.0;
+        if levels > Self::MAX_LEVELS {
+            return Err(bad(format!(
+                "{levels:.0} levels; at most {:.0} are allowed (every frame is evaluated at each \
+                 level): use a larger step",
+                Self::MAX_LEVELS
+            )));
+        }
+        Ok(BgGrid::Range { start, stop, step })
     }
 
     /// The levels (e-) for a run whose brightest expected pixel holds `peak_e`; 0 is always included.
@@ -145,44 +158,93 @@ impl SimConfig {
         }
     }
 
-    /// Check every value; the error names the option.
+    /// Smallest sub-aperture side (px): a centroid inside one pixel carries no information.
+    pub const MIN_SUBAP_PX: usize = 2;
+    /// Largest sub-aperture side (px): the pixel-integrated spot table grows as the square of
+    /// the side (0.14 GB at 128 px), and Shack-Hartmann sub-apertures are far smaller.
+    pub const MAX_SUBAP_PX: usize = 128;
+    /// Largest signal x QE (photo-electrons per sub-aperture). Photo-electron counts are 32-bit
+    /// per pixel (at most 4.29e9) and the whole signal can fall into one pixel: the bound keeps a
+    /// 4x margin. At 1e9 photons R is at its shot-noise limit, near 1e-5 px.
+    pub const MAX_PHOTO_E: f64 = 1e9;
+    /// Most iterations per configuration (1e9 frames of a 16x16 sub-aperture take days).
+    pub const MAX_ITERS: u64 = 1_000_000_000;
+
+    /// Largest spot offset half-range (px) for `subap_px`: a quarter of the side, so the spot
+    /// centre stays in the central half of the sub-aperture and the spot mostly inside it.
+    pub fn max_position_half_range_px(subap_px: usize) -> f64 {
+        subap_px as f64 / 4.0
+    }
+
+    /// Check every value; the error names the option and its allowed range.
     pub fn validate(&self) -> Result<()> {
-        let check = |ok: bool, option: &str, msg: &str| {
+        let check = |ok: bool, option: &str, msg: String| {
             if ok {
                 Ok(())
             } else {
                 Err(Error::usage(option, msg))
             }
         };
+        let n = self.subap_px;
         check(
-            self.subap_px >= 1 && self.subap_px <= 256,
+            (Self::MIN_SUBAP_PX..=Self::MAX_SUBAP_PX).contains(&n),
             "--subap",
-            "sub-aperture size must be 1..256 px",
+            format!(
+                "{n} px: sub-aperture sizes must be {} to {} px per side (a centroid inside one \
+                 pixel carries no position information)",
+                Self::MIN_SUBAP_PX,
+                Self::MAX_SUBAP_PX
+            ),
         )?;
         check(
             self.signal_photons.is_finite() && self.signal_photons > 0.0,
             "--signal",
-            "signal must be > 0 photons",
+            format!("{}: signals must be > 0 photons", self.signal_photons),
         )?;
         check(
             self.qe.is_finite() && self.qe > 0.0 && self.qe <= 1.0,
             "--qe",
-            "QE must be in (0, 1]",
+            format!("{}: QE must be in (0, 1]", self.qe),
+        )?;
+        let photo_e = self.signal_photons * self.qe;
+        check(
+            photo_e <= Self::MAX_PHOTO_E,
+            "--signal",
+            format!(
+                "{} photons x QE {} = {photo_e:e} photo-electrons per sub-aperture; at most {:e} \
+                 are simulated: counts are 32-bit per pixel (4.29e9) and the whole signal can fall \
+                 in one pixel, so above this R would silently go wrong (at 1e9, R is already at its \
+                 shot-noise limit, about 1e-5 px)",
+                self.signal_photons,
+                self.qe,
+                Self::MAX_PHOTO_E
+            ),
         )?;
         check(
-            self.iters >= 2,
+            (2..=Self::MAX_ITERS).contains(&self.iters),
             "--iters",
-            "at least 2 iterations are needed for a standard error",
+            format!(
+                "{}: must be 2 to {:e} (a standard error needs two iterations)",
+                self.iters,
+                Self::MAX_ITERS as f64
+            ),
         )?;
+        let h_max = Self::max_position_half_range_px(n);
         check(
-            self.position_half_range_px.is_finite() && self.position_half_range_px >= 0.0,
+            self.position_half_range_px.is_finite()
+                && (0.0..=h_max).contains(&self.position_half_range_px),
             "--position-range",
-            "half-range must be >= 0 px",
+            format!(
+                "{} px: the half-range must be 0 to {h_max} px for {n}x{n} px sub-apertures (a \
+                 quarter of the side: the spot centre stays in the central half, so the spot stays \
+                 mostly inside the sub-aperture)",
+                self.position_half_range_px
+            ),
         )?;
         check(
             (0.0..=1.0).contains(&self.max_empty_frac),
             "--max-empty-frac",
-            "must be in [0, 1]",
+            format!("{}: must be in [0, 1]", self.max_empty_frac),
         )
     }
 }
@@ -236,20 +298,24 @@ pub fn run(
     let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, n, cfg.position_half_range_px);
     let levels = cfg.bg_grid.levels(peak_expected_e(cfg, &renderer));
     let chunks = cfg.iters.div_ceil(CHUNK);
-    let partials: Vec<Vec<LevelSums>> = (0..chunks)
-        .into_par_iter()
-        .map(|c| {
-            let first = c * CHUNK;
-            let last = (first + CHUNK).min(cfg.iters);
-            let accs = run_chunk(cfg, &renderer, &levels, models, first..last);
-            on_progress(last - first);
-            accs
-        })
-        .collect();
     let mut total = vec![LevelSums::new(levels.len()); models.len()];
-    for part in &partials {
-        for (t, p) in total.iter_mut().zip(part) {
-            t.merge(p);
+    // Chunks run in parallel a batch at a time and are merged in chunk order, so the sums do
+    // not depend on the thread count and memory does not grow with the iterations.
+    for batch in (0..chunks).step_by(BATCH_CHUNKS as usize) {
+        let partials: Vec<Vec<LevelSums>> = (batch..(batch + BATCH_CHUNKS).min(chunks))
+            .into_par_iter()
+            .map(|c| {
+                let first = c * CHUNK;
+                let last = (first + CHUNK).min(cfg.iters);
+                let accs = run_chunk(cfg, &renderer, &levels, models, first..last);
+                on_progress(last - first);
+                accs
+            })
+            .collect();
+        for part in &partials {
+            for (t, p) in total.iter_mut().zip(part) {
+                t.merge(p);
+            }
         }
     }
     Ok(models
@@ -387,14 +453,14 @@ mod tests {
         models.iter().map(|m| m.as_ref()).collect()
     }
 
-    #[test]
-    fn noiseless_readout_error_is_the_shot_noise_limit() {
-        // sigma = 0, b = 0: the centre of gravity of Poisson counts has per-axis variance
-        // var_x / S (var_x the spot's second moment in the sub-aperture), so
-        // R(0) = sqrt(pi/2) sqrt((var_x + var_y) / 2 / S) for this nearly isotropic error.
+    /// R(0) of a noiseless readout at `signal` photons, 8x8 px, against the shot-noise limit:
+    /// the centre of gravity of Poisson counts has per-axis variance var_x / S (var_x the
+    /// spot's second moment in the sub-aperture), so R(0) = sqrt(pi/2) sqrt((var_x + var_y) / 2 / S)
+    /// for this nearly isotropic error; within 4 SE.
+    fn check_shot_noise_limit(signal: f64, iters: u64) {
         let mut cfg = SimConfig::paper(8);
-        cfg.signal_photons = 1e6;
-        cfg.iters = 4000;
+        cfg.signal_photons = signal;
+        cfg.iters = iters;
         cfg.position_half_range_px = 0.0;
         let m = ScmosConstant::new(0.0, "none".into());
         let r = &run(&cfg, &[&m], &|_| {}).unwrap()[0];
@@ -412,11 +478,72 @@ mod tests {
         let expected = (std::f64::consts::PI / 2.0).sqrt() * (var / cfg.signal_photons).sqrt();
         assert!(
             (r.r0_px - expected).abs() < 4.0 * r.r0_se_px,
-            "R(0) = {} +- {}, expected {expected}",
+            "S = {signal}: R(0) = {} +- {}, expected {expected}",
             r.r0_px,
             r.r0_se_px
         );
         assert_eq!(r.zero_frames, 0);
+    }
+
+    #[test]
+    fn noiseless_readout_error_is_the_shot_noise_limit() {
+        check_shot_noise_limit(1e6, 4000);
+    }
+
+    #[test]
+    fn precision_holds_up_to_the_signal_limit() {
+        // At the largest accepted signal the counts still fit (32-bit per pixel) and R keeps
+        // falling as 1/sqrt(S); above it the run is refused, naming --signal and the limit.
+        check_shot_noise_limit(SimConfig::MAX_PHOTO_E, 1000);
+        let mut cfg = SimConfig::paper(8);
+        cfg.signal_photons = 2.0 * SimConfig::MAX_PHOTO_E;
+        let msg = cfg.validate().unwrap_err().to_string();
+        assert!(msg.contains("--signal") && msg.contains("1e9"), "{msg}");
+        // The limit applies to photo-electrons: QE 0.4 brings 2e9 photons under it.
+        cfg.qe = 0.4;
+        cfg.validate().unwrap();
+    }
+
+    #[test]
+    fn configurations_outside_the_engine_limits_are_refused() {
+        type Spoil = fn(&mut SimConfig);
+        let cases: [(&str, Spoil); 6] = [
+            ("--subap", |c| c.subap_px = 1),
+            ("--subap", |c| c.subap_px = SimConfig::MAX_SUBAP_PX + 1),
+            ("--position-range", |c| c.position_half_range_px = 2.01),
+            ("--position-range", |c| c.position_half_range_px = 1e9),
+            ("--iters", |c| c.iters = 1),
+            ("--max-empty-frac", |c| c.max_empty_frac = 1.5),
+        ];
+        for (option, spoil) in cases {
+            let mut cfg = SimConfig::paper(8);
+            spoil(&mut cfg);
+            let err = cfg.validate().unwrap_err();
+            assert_eq!(err.exit_code(), 2);
+            assert!(err.to_string().contains(option), "{err}");
+        }
+        let mut cfg = SimConfig::paper(8);
+        cfg.position_half_range_px = 2.0;
+        cfg.validate().unwrap();
+        SimConfig::paper(2).validate().unwrap();
+    }
+
+    #[test]
+    fn sums_over_several_batches_do_not_depend_on_thread_count() {
+        // More chunks than one batch holds: batches are merged in chunk order.
+        let mut cfg = SimConfig::paper(2);
+        cfg.iters = CHUNK * BATCH_CHUNKS + 300;
+        let m = ScmosConstant::new(1.0, "one".into());
+        let run_with = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| run(&cfg, &[&m], &|_| {}).unwrap().remove(0))
+        };
+        let (a, b) = (run_with(1), run_with(2));
+        assert_eq!(a.r_px.to_bits(), b.r_px.to_bits());
+        assert_eq!(a.r_se_px.to_bits(), b.r_se_px.to_bits());
     }
 
     #[test]
@@ -496,6 +623,16 @@ mod tests {
         for bad in ["1:0:1", "0:1:0", "a:b:c", "0:1", "-1:2:1"] {
             assert!(BgGrid::parse(bad).is_err(), "{bad}");
         }
+        // A well-formed grid with too many levels says so: the limit and its level count.
+        let msg = BgGrid::parse("0:1000:0.001").unwrap_err().to_string();
+        assert!(
+            msg.contains("1000001 levels") && msg.contains("100000"),
+            "{msg}"
+        );
+        assert_eq!(
+            BgGrid::parse("0:99999:1").unwrap().levels(1.0).len(),
+            100_000
+        );
         let auto = BgGrid::Auto.levels(500.0);
         assert!(auto[0] == 0.0 && *auto.last().unwrap() >= 500.0);
         assert!(auto.windows(2).all(|w| w[0] < w[1]));

@@ -115,7 +115,7 @@ impl PpConfig {
         }
         if !(self.read_noise_e.is_finite() && self.read_noise_e >= 0.0) {
             return Err(Error::usage(
-                "--read-noise",
+                "--emccd-read-noise",
                 format!("read noise must be >= 0 e-, got {}", self.read_noise_e),
             ));
         }

@@ -9,6 +9,9 @@ use rayon::prelude::*;
 /// First zero of J1: the Airy intensity (2 J1(v)/v)^2 vanishes first at v = 3.8317.
 pub const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
 
+/// Smallest spot size accepted (Airy diameter or Gaussian sigma, px).
+pub const MIN_SIZE_PX: f64 = 0.1;
+
 /// A spot shape.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Spot {
@@ -37,8 +40,11 @@ impl Spot {
         };
         let positive = |s: &str| -> Result<f64> {
             match s.trim().parse::<f64>() {
-                Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-                _ => Err(bad("sizes must be positive numbers")),
+                Ok(v) if v.is_finite() && v >= MIN_SIZE_PX => Ok(v),
+                _ => Err(bad(&format!(
+                    "sizes must be numbers >= {MIN_SIZE_PX} px (a smaller spot puts all its light \
+                     in one pixel, and its tables would grow as 1/size)"
+                ))),
             }
         };
         match text.split_once(':') {
@@ -437,8 +443,12 @@ mod tests {
             "gauss:1",
             "disc:2",
             "gauss:1,0",
+            "airy:0.05",
+            "airy:1e-9",
+            "gauss:1,0.01",
         ] {
             assert_eq!(Spot::parse(bad).unwrap_err().exit_code(), 2, "{bad}");
         }
+        assert!(Spot::parse("airy:0.1").is_ok());
     }
 }

@@ -272,13 +272,8 @@ pub fn write_synthetic_in(
     let truth = draw_truth(spec, pdf);
     let register = match &spec.camera {
         Camera::Emccd(p) => {
-            if p.em_gain < 1.0 || p.stages == 0 {
-                return Err(Error::usage(
-                    "--em-gain",
-                    "EM gain must be >= 1 with >= 1 stage",
-                ));
-            }
-            Some(EmRegister::new(p.em_gain, p.stages))
+            EmRegister::check(p.em_gain, p.stages, "--em-gain")?;
+            Some(EmRegister::new(p.em_gain, p.stages)?)
         }
         Camera::Scmos(_) => None,
     };

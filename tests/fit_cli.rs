@@ -170,7 +170,7 @@ fn emgain_refuses_frames_without_signal() {
         .arg("--out")
         .arg(&out)
         .assert()
-        .code(2);
+        .code(1);
     let err = String::from_utf8_lossy(&a.get_output().stderr).to_string();
     assert!(err.contains("no EM signal"), "{err}");
     assert!(!out.exists());

@@ -35,7 +35,7 @@ fn frames(n: usize, shape: (usize, usize)) -> Vec<Vec<f64>> {
         .collect()
 }
 
-/// Run `detnoise darks` on `inputs`; assert exit code 2, that stderr names `needle`s, and
+/// Run `detnoise darks` on `inputs`; assert exit code 1 (bad data), that stderr names `needle`s, and
 /// that the output directory holds no file.
 fn darks_fails(inputs: &[PathBuf], needles: &[&str]) {
     let out = tempfile::tempdir().unwrap();
@@ -47,7 +47,7 @@ fn darks_fails(inputs: &[PathBuf], needles: &[&str]) {
         .arg("--out")
         .arg(&out_dir)
         .assert()
-        .code(2);
+        .code(1);
     let stderr = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
     for n in needles {
         assert!(stderr.contains(n), "stderr {stderr:?} should contain {n:?}");
@@ -204,7 +204,7 @@ fn ptc_with_a_one_frame_flat_fails_without_output() {
         .arg("--out")
         .arg(&out)
         .assert()
-        .code(2);
+        .code(1);
     let stderr = String::from_utf8_lossy(&a.get_output().stderr).to_string();
     assert!(
         stderr.contains("flat.fits") && stderr.contains("frame 1") && stderr.contains("at least 2"),

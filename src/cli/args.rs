@@ -1,49 +1,135 @@
-//! Argument groups shared by the Monte-Carlo commands, and list parsing.
+//! Argument groups shared by the Monte-Carlo commands, list parsing, and the value parsers
+//! that check every numeric option's range while the command line is parsed.
 
-use crate::detector::{ModelParams, ModelSpec, MODEL_NAMES};
+use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
+use crate::detector::{EmRegister, ModelParams, ModelSpec, MODEL_NAMES};
 use crate::montecarlo::{BgGrid, SimConfig};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
+use std::ops::Bound::{self, Excluded, Included, Unbounded};
+use std::ops::RangeBounds;
 use std::sync::Arc;
+
+/// A clap value parser for a finite real number between `lo` and `hi`; `unit` follows the
+/// range in the message (clap names the option, e.g. `invalid value '-1' for '--qe <QE>':
+/// must be a number in (0, 1]`).
+pub fn real(
+    lo: Bound<f64>,
+    hi: Bound<f64>,
+    unit: &'static str,
+) -> impl Fn(&str) -> std::result::Result<f64, String> + Clone + Send + Sync + 'static {
+    move |text: &str| match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && (lo, hi).contains(&v) => Ok(v),
+        _ => Err(format!("must be a number {}", describe(lo, hi, unit))),
+    }
+}
+
+/// A clap value parser for a whole number from `lo` to `hi` (also written like `1e6`).
+pub fn whole<T>(
+    lo: u64,
+    hi: u64,
+    unit: &'static str,
+) -> impl Fn(&str) -> std::result::Result<T, String> + Clone + Send + Sync + 'static
+where
+    T: TryFrom<u64>,
+{
+    move |text: &str| {
+        let text = text.trim();
+        let value = text.parse::<i128>().ok().or_else(|| {
+            let v = text.parse::<f64>().ok()?;
+            (v.is_finite() && v.fract() == 0.0 && v.abs() < 1e30).then_some(v as i128)
+        });
+        value
+            .filter(|v| (lo as i128..=hi as i128).contains(v))
+            .and_then(|v| T::try_from(v as u64).ok())
+            .ok_or_else(|| {
+                let sep = if unit.is_empty() { "" } else { " " };
+                format!("must be a whole number from {lo} to {hi}{sep}{unit}")
+            })
+    }
+}
+
+/// `in (0, 1] unit`, `>= 0 unit`, ...: a range as the messages state it.
+fn describe(lo: Bound<f64>, hi: Bound<f64>, unit: &str) -> String {
+    let unit = if unit.is_empty() {
+        String::new()
+    } else {
+        format!(" {unit}")
+    };
+    let num = |v: f64| {
+        if v.abs() >= 1e6 {
+            format!("{v:e}")
+        } else {
+            format!("{v}")
+        }
+    };
+    match (lo, hi) {
+        (Included(a), Unbounded) => format!(">= {}{unit}", num(a)),
+        (Excluded(a), Unbounded) => format!("> {}{unit}", num(a)),
+        (Unbounded, Unbounded) => format!("(finite){unit}"),
+        (lo, hi) => {
+            let (open, a) = match lo {
+                Included(a) => ('[', num(a)),
+                Excluded(a) => ('(', num(a)),
+                Unbounded => ('(', "-inf".into()),
+            };
+            let (close, b) = match hi {
+                Included(b) => (']', num(b)),
+                Excluded(b) => (')', num(b)),
+                Unbounded => (')', "inf".into()),
+            };
+            format!("in {open}{a}, {b}{close}{unit}")
+        }
+    }
+}
 
 /// The sub-aperture, spot, signal and sampling options of a Monte-Carlo sweep.
 #[derive(clap::Args, Debug, Clone)]
 pub struct SweepArgs {
-    /// Sub-aperture sizes, pixels per side, comma-separated (e.g. 4,8,16).
+    /// Sub-aperture sizes, pixels per side (2 to 128), comma-separated (e.g. 4,8,16).
     #[arg(long, default_value = "16", allow_hyphen_values = true)]
     pub subap: String,
     /// Spot shapes: airy:D (first-dark-ring diameter D px; airy:1,2,4 gives three spots) or
-    /// gauss:SX,SY (standard deviations in px). Repeat the option for several Gaussians.
-    #[arg(long, default_values = ["airy:2"])]
+    /// gauss:SX,SY (standard deviations in px); sizes >= 0.1 px. Repeat the option for
+    /// several Gaussians.
+    #[arg(long, default_values = ["airy:2"], allow_hyphen_values = true)]
     pub spot: Vec<String>,
     /// Pixel sampling of the spot: integrated over each pixel's area, or point values at pixel centres.
     #[arg(long, value_enum, default_value_t = Sampling::Integrated)]
     pub sampling: Sampling,
-    /// Signal levels, photons per sub-aperture before QE, comma-separated.
+    /// Signal levels, photons per sub-aperture before QE, comma-separated; signal x QE at most
+    /// 1e9 photo-electrons (counts are 32-bit per pixel).
     #[arg(long, default_value = "50", allow_hyphen_values = true)]
     pub signal: String,
     /// Quantum efficiency (photo-electrons per photon, 0-1], applied to every model.
-    #[arg(long, default_value_t = 1.0, allow_hyphen_values = true)]
+    #[arg(long, default_value_t = 1.0, value_parser = real(Excluded(0.0), Included(1.0), ""))]
     pub qe: f64,
-    /// Monte-Carlo iterations (frames) per configuration.
-    #[arg(long, default_value_t = 10_000)]
+    /// Monte-Carlo iterations (frames) per configuration, 2 to 1e9.
+    #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
     /// Seed of every random stream; the same seed gives the same results on any thread count.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
     /// Background levels subtracted before centroiding, e-: `auto` (0-1 e- in 0.05 steps,
-    /// coarser above, 5 % steps up to the brightest expected pixel) or start:stop:step.
-    #[arg(long, default_value = "auto")]
+    /// coarser above, 5 % steps up to the brightest expected pixel) or start:stop:step
+    /// (at most 100,000 levels).
+    #[arg(long, default_value = "auto", allow_hyphen_values = true)]
     pub bg_grid: String,
-    /// Half-width of the random spot offset, px: offsets are uniform in [-h, h] in x and y.
-    #[arg(long, default_value_t = 0.5, allow_hyphen_values = true)]
+    /// Half-width of the random spot offset, px: offsets are uniform in [-h, h] in x and y;
+    /// at most a quarter of the sub-aperture side (the spot stays mostly inside it).
+    #[arg(long, default_value_t = 0.5, value_parser = real(Included(0.0), Unbounded, "px"))]
     pub position_range: f64,
     /// Largest fraction of empty frames (nothing above the level) for a level to be eligible.
-    #[arg(long, default_value_t = 0.01)]
+    #[arg(long, default_value_t = 0.01, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub max_empty_frac: f64,
 }
 
 impl SweepArgs {
+    /// Check every option of the sweep (lists included) before any work.
+    pub fn validate(&self) -> Result<()> {
+        self.configs().map(|_| ())
+    }
+
     /// Every configuration of the cartesian product sub-aperture x spot x signal.
     pub fn configs(&self) -> Result<Vec<SimConfig>> {
         let subaps = parse_list::<usize>(&self.subap, "--subap")?;
@@ -78,35 +164,37 @@ impl SweepArgs {
 /// Detector parameters of the readout models.
 #[derive(clap::Args, Debug, Clone)]
 pub struct DetectorArgs {
-    /// EMCCD mean EM gain, output e- per input e-.
-    #[arg(long, default_value_t = 500.0)]
+    /// EMCCD mean EM gain, output e- per input e-: 1 to 10,000 (cameras run at most at a few
+    /// thousand; the exact register's table grows linearly with the gain).
+    #[arg(long, default_value_t = 500.0, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
     pub gain: f64,
-    /// Stages of the EM register.
-    #[arg(long, default_value_t = 520)]
+    /// Stages of the EM register: 1 to 2000, and at least log2(gain) (a stage at most doubles
+    /// the charge: p = gain^(1/stages) - 1 <= 1).
+    #[arg(long, default_value_t = 520, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
     pub stages: u32,
     /// EMCCD read noise before division by the gain, e- rms.
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = 50.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
     pub emccd_read_noise: f64,
     /// Read noise of `scmos-constant` without its own `:SIGMA`, e- rms.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(long, default_value_t = 1.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
     pub sigma: f64,
     /// `emccd-distribution` draws N(n g, n g^2) instead of Gamma(n, g) above this many input
     /// electrons (the paper's switch, corrected); default: always the exact Gamma.
-    #[arg(long)]
+    #[arg(long, value_parser = whole::<u32>(0, u32::MAX as u64, "input e-"))]
     pub gaussian_switch: Option<u32>,
     /// EM register sampler: `exact` (tabulated single-electron output, fast) or `cascade`
     /// (per-stage binomials, the slow reference).
     #[arg(long, value_parser = ["exact", "cascade"], default_value = "exact")]
     pub register: String,
     /// Seed of the fixed sCMOS noise patterns (`scmos-fixed:K` uses pattern K of it).
-    #[arg(long, default_value_t = 2015)]
+    #[arg(long, default_value_t = 2015, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub pattern_seed: u64,
     /// `emccd-pp` threshold rule (a reconstruction of Basden et al. 2003): poisson-prior
     /// (boundaries n(n+1)/lambda in units of g) or equal-density (fixed, ~0.203, 0.719, 1.896 g ...).
     #[arg(long, value_parser = ["poisson-prior", "equal-density"], default_value = "poisson-prior")]
     pub pp_rule: String,
     /// `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "photo-electrons per pixel"))]
     pub pp_lambda: Option<f64>,
     /// Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or a
     /// `pdf_fit.json` written by `detnoise fit-pdf` (its best model unless --pdf-model).
@@ -122,20 +210,25 @@ pub struct DetectorArgs {
 }
 
 impl DetectorArgs {
-    /// Model parameters, with the paper's rms pdf unless another is given.
-    pub fn params(&self) -> Result<ModelParams> {
-        if !(self.gain >= 1.0 && self.gain.is_finite()) {
-            return Err(Error::usage("--gain", "EM gain must be >= 1"));
+    /// Check the detector options together (single values are checked while parsing), before
+    /// any file is read; `specs` are the models the run will build.
+    pub fn validate(&self, specs: &[ModelSpec]) -> Result<()> {
+        EmRegister::check(self.gain, self.stages, "--gain")?;
+        if self.pdf == "paper" && self.pdf_model.is_some() {
+            return Err(Error::usage("--pdf-model", "applies only with --pdf FILE"));
         }
-        if self.stages == 0 {
+        if specs.contains(&ModelSpec::ScmosMap) && self.map.is_none() {
             return Err(Error::usage(
-                "--stages",
-                "the register needs at least one stage",
+                "--map",
+                "the scmos-map model needs a measured noise map: give --map FILE",
             ));
         }
-        if !(self.emccd_read_noise >= 0.0 && self.sigma >= 0.0) {
-            return Err(Error::usage("--sigma", "read noise must be >= 0 e-"));
-        }
+        Ok(())
+    }
+
+    /// Model parameters, with the paper's rms pdf unless another is given.
+    pub fn params(&self) -> Result<ModelParams> {
+        self.validate(&[])?;
         Ok(ModelParams {
             gain: self.gain,
             stages: self.stages,
@@ -151,15 +244,7 @@ impl DetectorArgs {
             } else {
                 crate::pp::PpRule::PoissonPrior
             },
-            pp_lambda: match self.pp_lambda {
-                Some(l) if !(l.is_finite() && l > 0.0) => {
-                    return Err(Error::usage(
-                        "--pp-lambda",
-                        "must be > 0 photo-electrons per pixel",
-                    ))
-                }
-                other => other,
-            },
+            pp_lambda: self.pp_lambda,
         })
     }
 }
@@ -243,4 +328,72 @@ pub fn parse_spots(items: &[String]) -> Result<Vec<Spot>> {
         }
     }
     Ok(spots)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn real_parser_states_the_range_and_refuses_non_finite_values() {
+        let qe = real(Excluded(0.0), Included(1.0), "");
+        assert_eq!(qe("0.7"), Ok(0.7));
+        assert_eq!(qe("1"), Ok(1.0));
+        for bad in ["0", "80", "-1", "nan", "inf", "x", ""] {
+            assert_eq!(qe(bad), Err("must be a number in (0, 1]".into()), "{bad}");
+        }
+        let noise = real(Included(0.0), Unbounded, "e-");
+        assert_eq!(noise("0"), Ok(0.0));
+        assert_eq!(noise("-1"), Err("must be a number >= 0 e-".into()));
+        let gain = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-");
+        assert_eq!(
+            gain("1e9"),
+            Err("must be a number in [1, 10000] e-/e-".into())
+        );
+    }
+
+    #[test]
+    fn whole_parser_accepts_exponent_notation_and_states_the_range() {
+        let iters = whole::<u64>(2, SimConfig::MAX_ITERS, "frames");
+        assert_eq!(iters("10000"), Ok(10_000));
+        assert_eq!(iters("1e6"), Ok(1_000_000));
+        for bad in ["0", "1", "-1", "2.5", "1e10", "many"] {
+            assert_eq!(
+                iters(bad),
+                Err("must be a whole number from 2 to 1000000000 frames".into()),
+                "{bad}"
+            );
+        }
+        let stages = whole::<u32>(1, MAX_STAGES as u64, "stages");
+        assert!(stages("4294967296").is_err());
+        assert_eq!(
+            whole::<u64>(0, u64::MAX, "")("18446744073709551615"),
+            Ok(u64::MAX)
+        );
+    }
+
+    #[test]
+    fn each_list_option_names_itself() {
+        for (text, option) in [("4;8", "--subap"), ("x", "--signal")] {
+            let e = parse_list::<usize>(text, option).unwrap_err().to_string();
+            assert!(e.contains(option), "{e}");
+        }
+        let sweep = |subap: &str, signal: &str| SweepArgs {
+            subap: subap.into(),
+            spot: vec!["airy:2".into()],
+            sampling: Sampling::Integrated,
+            signal: signal.into(),
+            qe: 1.0,
+            iters: 100,
+            seed: 1,
+            bg_grid: "auto".into(),
+            position_range: 0.5,
+            max_empty_frac: 0.01,
+        };
+        let e = sweep("0", "50").validate().unwrap_err().to_string();
+        assert!(e.contains("--subap") && !e.contains("--signal"), "{e}");
+        let e = sweep("8", "-5").validate().unwrap_err().to_string();
+        assert!(e.contains("--signal") && !e.contains("--subap"), "{e}");
+        sweep("2,8", "20,1e9").validate().unwrap();
+    }
 }

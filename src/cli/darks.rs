@@ -1,9 +1,11 @@
 //! `detnoise darks`: per-pixel offset and read-noise maps from a dark stack.
 
+use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use super::args::{real, whole};
 use crate::calib::darks::{
     dark_maps, require_dark, Clip, DarkMaps, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA,
     FLAG_RTS, FLAG_SATURATED,
@@ -29,28 +31,30 @@ pub struct DarksArgs {
     #[arg(long)]
     pub force: bool,
     /// Conversion gain (e per adu); when given, rms_e.fits is written too. Default: none.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
-    /// Reject the N highest and N lowest samples of each pixel (cosmic rays). Default: 0.
-    #[arg(long, conflicts_with = "sigma_clip")]
+    /// Reject the N highest and N lowest samples of each pixel (cosmic rays), N up to 100,000
+    /// (and 2N + 2 at most the frame count). Default: 0.
+    #[arg(long, conflicts_with = "sigma_clip", value_parser = whole::<usize>(0, MAX_CLIP, "samples"))]
     pub clip: Option<usize>,
     /// Reject samples more than K standard deviations from the pixel mean (two passes). Default: off.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "standard deviations"))]
     pub sigma_clip: Option<f64>,
     /// Subtract each frame's median (common-mode offset, adu) before accumulating. Default: off.
     #[arg(long)]
     pub common_mode: bool,
     /// Hot-pixel threshold: offset above median + K robust sigmas of the offset map. Default: 5.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = real(Excluded(0.0), Unbounded, "robust sigmas"))]
     pub hot_sigma: f64,
-    /// Dead-pixel threshold: read noise below this fraction of the median read noise. Default: 0.1.
-    #[arg(long, default_value_t = 0.1)]
+    /// Dead-pixel threshold: read noise below this fraction of the median read noise, [0, 1].
+    /// Default: 0.1.
+    #[arg(long, default_value_t = 0.1, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub dead_fraction: f64,
     /// Skip the SHA-256 checksums of the inputs in summary.json (saves ~0.8 CPU-s per GB).
     #[arg(long)]
     pub no_checksums: bool,
     /// RTS threshold: von Neumann ratio below 1 - K/sqrt(frames) (K standard errors). Default: 5.
-    #[arg(long, default_value_t = 5.0)]
+    #[arg(long, default_value_t = 5.0, value_parser = real(Excluded(0.0), Unbounded, "standard errors"))]
     pub rts_sigma: f64,
     /// Use frames that look illuminated (variance growing with the mean across pixels, or a
     /// level near the top of the stored range) as darks. Default: refuse them.
@@ -67,6 +71,8 @@ const OUTPUT_NAMES: [&str; 6] = [
     "rms_hist.png",
     "summary.json",
 ];
+/// Largest `--clip` (samples rejected at each end of every pixel).
+const MAX_CLIP: u64 = 100_000;
 
 /// Flag counts per kind.
 #[derive(Debug, Serialize)]
@@ -126,18 +132,14 @@ fn count(flags: &[i32], bit: i32) -> usize {
     flags.iter().filter(|f| **f & bit != 0).count()
 }
 
+/// The dark options; every value was range-checked while parsing, so this is the whole
+/// validation of `darks` and runs before any frame is read.
 fn options(args: &DarksArgs) -> Result<DarkOptions> {
     let clip = match (args.clip, args.sigma_clip) {
         (Some(n), None) if n > 0 => Clip::Extremes(n),
-        (_, Some(k)) if k > 0.0 && k.is_finite() => Clip::Sigma(k),
-        (_, Some(_)) => return Err(Error::usage("--sigma-clip", "must be finite and > 0")),
+        (_, Some(k)) => Clip::Sigma(k),
         _ => Clip::None,
     };
-    if let Some(g) = args.gain_e_per_adu {
-        if !(g > 0.0 && g.is_finite()) {
-            return Err(Error::usage("--gain-e-per-adu", "must be finite and > 0"));
-        }
-    }
     Ok(DarkOptions {
         clip,
         common_mode: args.common_mode,

@@ -40,6 +40,14 @@ pub const OUTPUT_NAMES: [&str; 4] = [
     "effective_noise_S*.png",
     "effective_noise_S*.svg",
 ];
+impl EffectiveArgs {
+    /// Check every option (model, detector, sweep lists) before any file is read.
+    pub fn validate(&self) -> Result<()> {
+        let spec = ModelSpec::parse(&self.model)?;
+        self.detector.validate(std::slice::from_ref(&spec))?;
+        self.sweep.validate()
+    }
+}
 
 /// One configuration's effective read noise.
 #[derive(Debug, Clone, serde::Serialize)]
@@ -140,6 +148,7 @@ pub fn write_outputs(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec
 
 /// Entry point of `detnoise effective`.
 pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
+    args.validate()?;
     let dir = OutputDir::prepare(
         &args.out,
         DirPlan {

@@ -1,9 +1,12 @@
 //! `detnoise emgain`: EM gain, bias, read noise and light level from EMCCD frames.
 
+use std::ops::Bound::{Excluded, Unbounded};
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use super::args::{real, whole};
+use crate::detector::register::MAX_STAGES;
 use crate::error::{Error, Result};
 use crate::fit::em_signature::require_em_signature;
 use crate::fit::emgain::{
@@ -29,7 +32,7 @@ pub struct EmgainArgs {
     #[arg(long)]
     pub force: bool,
     /// Conversion gain (e per adu): the EM gain is then reported in e-/e-. Default: none (adu/e-).
-    #[arg(long, conflicts_with = "gain_map")]
+    #[arg(long, conflicts_with = "gain_map", value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Conversion-gain map (e per adu); its median is used as --gain-e-per-adu. Default: none.
     #[arg(long)]
@@ -43,19 +46,19 @@ pub struct EmgainArgs {
     /// Default: both fitted.
     #[arg(long, requires = "offset")]
     pub read_noise: Option<PathBuf>,
-    /// Model the exact EM register with this many stages (needs the conversion gain).
-    /// Default: the Gamma/Erlang model of the paper (Eq. 2).
-    #[arg(long)]
+    /// Model the exact EM register with this many stages, 1 to 2000 (needs the conversion
+    /// gain). Default: the Gamma/Erlang model of the paper (Eq. 2).
+    #[arg(long, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
     pub stages: Option<u32>,
     /// Also fit serial clock-induced charge (electrons born inside the register; needs --stages).
     /// Default: off (parallel CIC is always part of lambda).
     #[arg(long, requires = "stages")]
     pub serial_cic: bool,
     /// Exclude values above this (adu; cosmics, hot pixels). Default: bias + 40 G (1 + lambda + 5 sqrt(lambda)) from the start values.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Unbounded, Unbounded, "adu"))]
     pub max_value_adu: Option<f64>,
     /// Histogram bin width (adu). Default: 1 for integer data without --offset, else 0.25.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "adu"))]
     pub bin_width_adu: Option<f64>,
     /// Frames at unity EM gain under the same light, for the ratio-of-means cross-check. Default: none.
     #[arg(long, num_args = 1..)]
@@ -98,8 +101,35 @@ pub struct EmgainReport {
     pub ratio_check: Option<RatioCheck>,
 }
 
+impl EmgainArgs {
+    /// Check the options together before any frame is read (single values are range-checked
+    /// while parsing).
+    pub fn validate(&self) -> Result<()> {
+        if !self.reference_stack.is_empty() && self.reference_offset.is_none() {
+            return Err(Error::usage(
+                "--reference-offset",
+                "the ratio-of-means check of --reference-stack needs the reference stack's bias map",
+            ));
+        }
+        if self.stages.is_some() && self.gain_e_per_adu.is_none() && self.gain_map.is_none() {
+            return Err(Error::usage(
+                "--stages",
+                "the exact register model needs the conversion gain (--gain-e-per-adu or --gain-map)",
+            ));
+        }
+        if self.reference_stack.is_empty() && self.reference_offset.is_some() {
+            return Err(Error::usage(
+                "--reference-offset",
+                "applies only with --reference-stack",
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Run `detnoise emgain`.
 pub fn run(args: &EmgainArgs) -> Result<()> {
+    args.validate()?;
     let inputs: Vec<PathBuf> = args
         .stack
         .iter()
@@ -121,12 +151,9 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
     )?;
     let conv = match (&args.gain_map, args.gain_e_per_adu) {
         (Some(p), _) => Some(median_of_map(p)?),
-        (None, Some(g)) if g > 0.0 && g.is_finite() => Some(g),
-        (None, Some(_)) => return Err(Error::usage("--gain-e-per-adu", "must be finite and > 0")),
-        (None, None) => None,
+        (None, g) => g,
     };
     let shape = match args.stages {
-        Some(0) => return Err(Error::usage("--stages", "must be at least 1")),
         Some(stages) => EmShape::Register { stages },
         None => EmShape::Gamma,
     };

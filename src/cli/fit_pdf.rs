@@ -1,7 +1,9 @@
 //! `detnoise fit-pdf`: fit models of the per-pixel read-noise pdf to a measured noise map.
 
+use std::ops::Bound::{Excluded, Unbounded};
 use std::path::{Path, PathBuf};
 
+use super::args::real;
 use crate::error::{Error, Result};
 use crate::fit::{fit_pdf, PdfFitOptions, PdfFitReport, PdfModel};
 use crate::maps::read_map;
@@ -33,7 +35,7 @@ pub struct FitPdfArgs {
     #[arg(long, value_enum, default_value = "e")]
     pub unit: MapUnit,
     /// Conversion gain (e per adu) for --unit adu. Default: none.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Flag map (non-zero = hot/dead/RTS pixel, excluded). Default: flags.fits beside MAP if present.
     #[arg(long)]
@@ -45,12 +47,55 @@ pub struct FitPdfArgs {
     #[arg(long, value_delimiter = ',')]
     pub models: Vec<String>,
     /// Upper cut of the support (e-); larger values are excluded. Default: the map's largest value.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e-"))]
     pub upper_cut_e: Option<f64>,
+}
+
+impl FitPdfArgs {
+    /// Check the options together (models, unit and gain) before the map is read.
+    pub fn validate(&self) -> Result<()> {
+        self.models()?;
+        self.scale().map(|_| ())
+    }
+
+    /// The models to fit (all by default).
+    fn models(&self) -> Result<Vec<PdfModel>> {
+        if self.models.is_empty() {
+            return Ok(PdfModel::ALL.to_vec());
+        }
+        self.models
+            .iter()
+            .map(|m| {
+                PdfModel::from_name(m.trim()).ok_or_else(|| {
+                    Error::usage(
+                        "--models",
+                        format!("unknown model {m:?} (paper-scaled, paper-family, lognormal+tail, empirical)"),
+                    )
+                })
+            })
+            .collect()
+    }
+
+    /// Factor from the map's unit to electrons.
+    fn scale(&self) -> Result<f64> {
+        match (self.unit, self.gain_e_per_adu) {
+            (MapUnit::E, None) => Ok(1.0),
+            (MapUnit::E, Some(_)) => Err(Error::usage(
+                "--gain-e-per-adu",
+                "only applies with --unit adu (the map is already in electrons)",
+            )),
+            (MapUnit::Adu, Some(g)) => Ok(g),
+            (MapUnit::Adu, None) => Err(Error::usage(
+                "--unit adu",
+                "needs a positive --gain-e-per-adu to convert the map to electrons",
+            )),
+        }
+    }
 }
 
 /// Run `detnoise fit-pdf`.
 pub fn run(args: &FitPdfArgs) -> Result<()> {
+    args.validate()?;
     let inputs: Vec<PathBuf> = [Some(args.map.clone()), flags_path(args)]
         .into_iter()
         .flatten()
@@ -65,21 +110,7 @@ pub fn run(args: &FitPdfArgs) -> Result<()> {
         },
     )?;
     let values = map_values_e(args)?;
-    let models = if args.models.is_empty() {
-        PdfModel::ALL.to_vec()
-    } else {
-        args.models
-            .iter()
-            .map(|m| {
-                PdfModel::from_name(m.trim()).ok_or_else(|| {
-                    Error::usage(
-                        "--models",
-                        format!("unknown model {m:?} (paper-scaled, paper-family, lognormal+tail, empirical)"),
-                    )
-                })
-            })
-            .collect::<Result<Vec<_>>>()?
-    };
+    let models = args.models()?;
     let opts = PdfFitOptions {
         models,
         upper_cut_e: args.upper_cut_e,
@@ -94,23 +125,8 @@ pub fn run(args: &FitPdfArgs) -> Result<()> {
 
 /// The map's values in e-, without flagged pixels (unless kept).
 fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
+    let scale = args.scale()?;
     let map = read_map(&args.map)?;
-    let scale = match (args.unit, args.gain_e_per_adu) {
-        (MapUnit::E, None) => 1.0,
-        (MapUnit::E, Some(_)) => {
-            return Err(Error::usage(
-                "--gain-e-per-adu",
-                "only applies with --unit adu (the map is already in electrons)",
-            ))
-        }
-        (MapUnit::Adu, Some(g)) if g > 0.0 && g.is_finite() => g,
-        (MapUnit::Adu, _) => {
-            return Err(Error::usage(
-                "--unit adu",
-                "needs a positive --gain-e-per-adu to convert the map to electrons",
-            ))
-        }
-    };
     let flags = match (&flags_path(args), args.keep_flagged) {
         (Some(p), false) => {
             let f = read_map(p)?;

@@ -14,7 +14,11 @@ mod report_page;
 pub mod simulate;
 pub mod synth;
 
-use clap::{Parser, Subcommand};
+use crate::error::{EXIT_CODES_HELP, EXIT_OK, EXIT_USAGE};
+use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
+
+/// Most worker threads accepted by `--threads`.
+pub const MAX_THREADS: u64 = 1024;
 
 /// detnoise: read-noise models of sCMOS and EMCCD cameras for Shack-Hartmann wavefront sensors.
 ///
@@ -23,8 +27,8 @@ use clap::{Parser, Subcommand};
 #[derive(Parser, Debug)]
 #[command(name = "detnoise", version, about, long_about = None, max_term_width = 100)]
 pub struct Cli {
-    /// Worker threads (default: all cores). Results do not depend on it.
-    #[arg(long, global = true)]
+    /// Worker threads, 1 to 1024 (default: all cores). Results do not depend on it.
+    #[arg(long, global = true, value_parser = args::whole::<usize>(1, MAX_THREADS, "threads"))]
     pub threads: Option<usize>,
     #[command(subcommand)]
     pub command: Command,
@@ -53,19 +57,34 @@ pub enum Command {
     Synth(synth::SynthArgs),
 }
 
+/// The command line: the derived parser, with the exit codes at the end of every help page,
+/// and negative numbers accepted as option values so that they reach the range checks.
+pub fn command() -> clap::Command {
+    fn finish(cmd: clap::Command) -> clap::Command {
+        cmd.after_help(EXIT_CODES_HELP).mut_args(|a| {
+            let takes_values = a.get_action().takes_values();
+            a.allow_negative_numbers(takes_values)
+        })
+    }
+    finish(Cli::command()).mut_subcommands(finish)
+}
+
 /// Parse the command line, run it, and return the process exit code.
 pub fn main() -> i32 {
-    let cli = Cli::parse();
+    let cli = match Cli::from_arg_matches(&command().get_matches()) {
+        Ok(cli) => cli,
+        Err(e) => e.exit(),
+    };
     if let Err(e) = crate::output::temps::install_interrupt_handler() {
         eprintln!("detnoise: warning: {e}");
     }
     if let Some(t) = cli.threads {
         if let Err(e) = rayon::ThreadPoolBuilder::new()
-            .num_threads(t.max(1))
+            .num_threads(t)
             .build_global()
         {
-            eprintln!("detnoise: cannot set --threads: {e}");
-            return 2;
+            eprintln!("detnoise: error: invalid option --threads: cannot start {t} threads: {e}");
+            return EXIT_USAGE;
         }
     }
     let result = match &cli.command {
@@ -82,11 +101,34 @@ pub fn main() -> i32 {
     // An interruption being handled ends the process with its own code: wait for it.
     crate::output::temps::settle();
     match result {
-        Ok(()) => 0,
+        Ok(()) => EXIT_OK,
         Err(e) => {
             let e = crate::output::temps::hide_temporaries(e);
             eprintln!("detnoise: error: {e}");
             e.exit_code()
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn command_is_consistent_and_every_help_lists_the_exit_codes() {
+        let cmd = command();
+        cmd.clone().debug_assert();
+        assert!(cmd.get_after_help().is_some());
+        for sub in cmd.get_subcommands() {
+            let help = sub
+                .get_after_help()
+                .map(|h| h.to_string())
+                .unwrap_or_default();
+            assert!(
+                help.contains("130"),
+                "{} help lacks the exit codes",
+                sub.get_name()
+            );
         }
     }
 }

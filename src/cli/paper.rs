@@ -1,5 +1,7 @@
 //! `detnoise paper`: regenerate every figure of Basden (2015).
 
+use super::args::whole;
+use crate::montecarlo::SimConfig;
 use crate::output::{DirPlan, OutputDir};
 use crate::paper::{generate, write_index, PaperOptions};
 use crate::spot::Sampling;
@@ -18,8 +20,8 @@ pub struct PaperArgs {
     /// Write into an existing --out that holds other files (they are never replaced or deleted).
     #[arg(long)]
     pub force: bool,
-    /// Monte-Carlo iterations per point (the paper used 10,000).
-    #[arg(long, default_value_t = 10_000)]
+    /// Monte-Carlo iterations per point, 2 to 1e9 (the paper used 10,000).
+    #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
     /// Fast smoke run: coarse grids and 200 iterations (same files).
     #[arg(long)]
@@ -28,18 +30,13 @@ pub struct PaperArgs {
     #[arg(long, value_enum, default_value_t = Sampling::Point)]
     pub sampling: Sampling,
     /// Seed of every random stream.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
 }
 
 /// Entry point of `detnoise paper`.
 pub fn run_cli(args: &PaperArgs) -> Result<()> {
-    if args.iters < 2 {
-        return Err(crate::Error::usage(
-            "--iters",
-            "at least 2 iterations are needed",
-        ));
-    }
+    // Every option of `paper` is a single value, range-checked while parsing.
     let dir = OutputDir::prepare(
         &args.out,
         DirPlan {

@@ -1,12 +1,15 @@
 //! `detnoise ptc`: photon transfer (conversion gain, global and per pixel) from darks and flats.
 
+use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::PathBuf;
 
 use serde::Serialize;
 
+use super::args::real;
 use crate::calib::darks::{pixel_stats, Clip};
 use crate::calib::ptc::{photon_transfer, DarkReference, Level, PtcOptions};
 use crate::calib::summary::{inputs, Distribution, InputFile};
+use crate::detector::register::MAX_EM_GAIN;
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 use crate::maps::{key, read_map, write_fits_map, write_json, KeyValue};
@@ -39,13 +42,13 @@ pub struct PtcArgs {
     #[arg(long)]
     pub no_flicker_removal: bool,
     /// Saturation level (adu). Default: largest value of the stored integer type.
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "adu"))]
     pub saturation_adu: Option<f64>,
-    /// EM gain of the frames (EMCCD; output e- per input e-). Default: 1.
-    #[arg(long, default_value_t = 1.0)]
+    /// EM gain of the frames (EMCCD; output e- per input e-), 1 to 10,000. Default: 1.
+    #[arg(long, default_value_t = 1.0, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
     pub em_gain: f64,
-    /// Excess noise factor F^2 (EMCCD; near 2 at high EM gain). Default: 1.
-    #[arg(long, default_value_t = 1.0)]
+    /// Excess noise factor F^2 (EMCCD; 1 without EM gain, near 2 at high gain), [1, 2]. Default: 1.
+    #[arg(long, default_value_t = 1.0, value_parser = real(Included(1.0), Included(2.0), ""))]
     pub excess_noise_factor_sq: f64,
 }
 
@@ -98,14 +101,7 @@ fn map_input(path: &PathBuf) -> Result<InputFile> {
 
 /// Run `detnoise ptc`.
 pub fn run(args: &PtcArgs) -> Result<()> {
-    for (name, v) in [
-        ("--em-gain", args.em_gain),
-        ("--excess-noise-factor-sq", args.excess_noise_factor_sq),
-    ] {
-        if !(v > 0.0 && v.is_finite()) {
-            return Err(Error::usage(name, "must be finite and > 0"));
-        }
-    }
+    // Every value was range-checked while parsing; clap enforces which dark inputs go together.
     let input_paths: Vec<PathBuf> = args
         .darks
         .iter()

@@ -1,7 +1,7 @@
 //! `detnoise report`: a camera's dark (and flat) frames in, effective read-noise tables and
 //! charts out, with one page (`index.html`) that reads offline.
 
-use super::args::DetectorArgs;
+use super::args::{real, whole, DetectorArgs};
 use super::effective::{write_outputs as write_effective, EffectiveRecord};
 use super::progress::Progress;
 use super::simulate::SimRecord;
@@ -17,6 +17,7 @@ use crate::output::{render, write_atomic, DirPlan, Format, OutputDir};
 use crate::plot::{LineChart, Series};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
+use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -43,31 +44,31 @@ pub struct ReportArgs {
     #[arg(long, num_args = 1..)]
     pub flats: Vec<PathBuf>,
     /// Conversion gain, e- per adu (needed when no flats are given).
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
-    /// Sub-aperture sizes of the effective-noise table, px per side, comma-separated.
-    #[arg(long, default_value = DEFAULT_SUBAP)]
+    /// Sub-aperture sizes of the effective-noise table, px per side (2 to 128), comma-separated.
+    #[arg(long, default_value = DEFAULT_SUBAP, allow_hyphen_values = true)]
     pub subap: String,
-    /// Airy spot diameters (first dark ring, px) of the table: airy:D1,D2,...
-    #[arg(long, default_value = DEFAULT_SPOT)]
+    /// Airy spot diameters (first dark ring, px, >= 0.1) of the table: airy:D1,D2,...
+    #[arg(long, default_value = DEFAULT_SPOT, allow_hyphen_values = true)]
     pub spot: String,
-    /// Signal levels, photons per sub-aperture, comma-separated.
-    #[arg(long, default_value = DEFAULT_SIGNAL)]
+    /// Signal levels, photons per sub-aperture, comma-separated (signal x QE at most 1e9).
+    #[arg(long, default_value = DEFAULT_SIGNAL, allow_hyphen_values = true)]
     pub signal: String,
-    /// Monte-Carlo iterations per configuration.
-    #[arg(long, default_value_t = 10_000)]
+    /// Monte-Carlo iterations per configuration, 2 to 1e9.
+    #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
     /// Seed of every random stream.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
     /// Spot sampling.
     #[arg(long, value_enum, default_value_t = Sampling::Integrated)]
     pub sampling: Sampling,
-    /// Quantum efficiency of this (sCMOS) camera in the comparison chart.
-    #[arg(long, default_value_t = 1.0)]
+    /// Quantum efficiency of this (sCMOS) camera in the comparison chart, (0, 1].
+    #[arg(long, default_value_t = 1.0, value_parser = real(Excluded(0.0), Included(1.0), ""))]
     pub qe: f64,
-    /// Quantum efficiency of the EMCCD it is compared with.
-    #[arg(long, default_value_t = 1.0)]
+    /// Quantum efficiency of the EMCCD it is compared with, (0, 1].
+    #[arg(long, default_value_t = 1.0, value_parser = real(Excluded(0.0), Included(1.0), ""))]
     pub qe_emccd: f64,
     /// Use dark frames that look illuminated (variance growing with the mean across pixels, or a
     /// level near the top of the stored range); sCMOS reports only. Default: refuse them.
@@ -211,15 +212,51 @@ fn grid(args: &ReportArgs) -> Result<Grid> {
     })
 }
 
+impl ReportArgs {
+    /// Check every option (grid lists, conversion gain, detector) before any frame is read.
+    pub fn validate(&self) -> Result<()> {
+        let grid = grid(self)?;
+        // The comparison chart runs the EMCCD at its own QE.
+        for cfg in configs(self, &grid) {
+            let qe = self.qe_emccd;
+            SimConfig { qe, ..cfg.clone() }.validate()?;
+            cfg.validate()?;
+        }
+        self.detector.validate(&[])?;
+        gain_source(self).map(|_| ())
+    }
+}
+
+/// Where the conversion gain comes from: `Some(g)` given (e- per adu), `None` photon transfer
+/// on the flats; an error when neither or both are given (or flats for an EMCCD).
+fn gain_source(args: &ReportArgs) -> Result<Option<f64>> {
+    match (args.gain_e_per_adu, args.flats.is_empty(), args.kind) {
+        (Some(g), true, _) => Ok(Some(g)),
+        (None, false, DetectorKind::Scmos) => Ok(None),
+        (Some(_), false, DetectorKind::Scmos) => Err(Error::usage(
+            "--gain-e-per-adu",
+            "give either --flats (photon transfer) or --gain-e-per-adu, not both",
+        )),
+        (_, false, DetectorKind::Emccd) => Err(Error::usage(
+            "--flats",
+            "an EMCCD report takes the conversion gain from --gain-e-per-adu (photon transfer at \
+             unity EM gain, or the data sheet), not from flats",
+        )),
+        (None, true, DetectorKind::Scmos) => Err(Error::usage(
+            "--gain-e-per-adu",
+            "no conversion gain: give --gain-e-per-adu G (e- per adu, from the camera's data sheet) or flat stacks with --flats so photon transfer can measure it",
+        )),
+        (None, true, DetectorKind::Emccd) => Err(Error::usage(
+            "--gain-e-per-adu",
+            "an EMCCD report needs the conversion gain in e- per adu (photon transfer at unity EM gain, or the data sheet)",
+        )),
+    }
+}
+
 /// Entry point of `detnoise report`.
 pub fn run_cli(args: &ReportArgs) -> Result<()> {
+    args.validate()?;
     let grid = grid(args)?;
-    if grid.subaps.contains(&0) || grid.signals.iter().any(|s| s.is_nan() || *s <= 0.0) {
-        return Err(Error::usage(
-            "--subap/--signal",
-            "sizes and signals must be positive",
-        ));
-    }
     let input_paths: Vec<PathBuf> = args
         .darks
         .iter()
@@ -435,14 +472,8 @@ pub struct EmccdSummary {
 /// fitted gain and read noise beside the sCMOS models (the paper's pdf, median and mean).
 fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir) -> Result<()> {
     use crate::fit::emgain::{fit_emgain, EmGainOptions, EmShape};
-    let conv = match args.gain_e_per_adu {
-        Some(g) if g.is_finite() && g > 0.0 => g,
-        _ => {
-            return Err(Error::usage(
-                "--gain-e-per-adu",
-                "an EMCCD report needs the conversion gain in e- per adu (photon transfer at unity EM gain, or the data sheet)",
-            ))
-        }
+    let Some(conv) = gain_source(args)? else {
+        return Err(Error::usage("--flats", "an EMCCD report takes no flats"));
     };
     crate::fit::em_signature::require_em_signature(stack)?;
     let (hist, _) = super::emgain::accumulate(stack, None, None)?;
@@ -461,6 +492,12 @@ fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir)
     let mut params = args.detector.params()?;
     params.gain = fit.em_gain.max(1.0);
     params.emccd_read_noise_e = fit.read_noise_adu * conv;
+    crate::detector::EmRegister::check(params.gain, params.stages, "--gain").map_err(|e| {
+        Error::input(
+            &stack.sources[0].path,
+            format!("the fitted EM gain cannot be simulated: {e}"),
+        )
+    })?;
     let op = operating_point(grid);
     let groups: [(&[&str], f64); 2] = [
         (&["scmos-random", "scmos-median", "scmos-mean"], args.qe),
@@ -503,20 +540,22 @@ fn conversion_gain(
     args: &ReportArgs,
     maps: &crate::calib::darks::DarkMaps,
 ) -> Result<(f64, String, Option<f64>, Option<PtcResult>)> {
-    match (&args.gain_e_per_adu, args.flats.is_empty()) {
-        (Some(g), true) if g.is_finite() && *g > 0.0 => Ok((*g, "given".into(), None, None)),
-        (Some(_), true) => Err(Error::usage("--gain-e-per-adu", "must be a positive number of e- per adu")),
-        (Some(_), false) => Err(Error::usage("--gain-e-per-adu", "give either --flats (photon transfer) or --gain-e-per-adu, not both")),
-        (None, true) => Err(Error::usage(
-            "--gain-e-per-adu",
-            "no conversion gain: give --gain-e-per-adu G (e- per adu, from the camera's data sheet) or flat stacks with --flats so photon transfer can measure it",
-        )),
-        (None, false) => {
-            let flats: Vec<FrameStack> = args.flats.iter().map(|f| FrameStack::open(std::slice::from_ref(f))).collect::<Result<_>>()?;
+    match gain_source(args)? {
+        Some(g) => Ok((g, "given".into(), None, None)),
+        None => {
+            let flats: Vec<FrameStack> = args
+                .flats
+                .iter()
+                .map(|f| FrameStack::open(std::slice::from_ref(f)))
+                .collect::<Result<_>>()?;
             let dark = DarkReference::from_stats(&maps.stats);
             let p = photon_transfer(&flats, &dark, &PtcOptions::default())?;
-            p.notes.iter().for_each(|n| eprintln!("{n}"));
-            Ok((p.gain_e_per_adu, "ptc".into(), Some(p.gain_err_e_per_adu), Some(p)))
+            Ok((
+                p.gain_e_per_adu,
+                "ptc".into(),
+                Some(p.gain_err_e_per_adu),
+                Some(p),
+            ))
         }
     }
 }

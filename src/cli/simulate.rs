@@ -37,6 +37,15 @@ pub struct SimulateArgs {
     pub force: bool,
 }
 
+impl SimulateArgs {
+    /// Check every option (models, detector, sweep lists) before any file is read.
+    pub fn validate(&self) -> Result<()> {
+        let specs = parse_models(&self.model)?;
+        self.detector.validate(&specs)?;
+        self.sweep.validate()
+    }
+}
+
 /// One row of simulation output: a configuration and its result.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct SimRecord {
@@ -137,6 +146,7 @@ pub fn simulate(args: &SimulateArgs) -> Result<Vec<SimRecord>> {
 
 /// Entry point of `detnoise simulate`.
 pub fn run_cli(args: &SimulateArgs) -> Result<()> {
+    args.validate()?;
     check_outputs(args)?;
     let records = simulate(args)?;
     let text = render(&records, args.format)?;

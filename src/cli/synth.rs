@@ -1,7 +1,11 @@
 //! `detnoise synth`: write a synthetic sCMOS or EMCCD stack with a manifest of its truth.
 
+use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::PathBuf;
 
+use super::args::{real, whole};
+use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
+use crate::detector::EmRegister;
 use crate::error::{Error, Result};
 use crate::output::{FileOut, StagedFiles};
 use crate::pdf::RmsPdf;
@@ -24,11 +28,11 @@ pub struct SynthArgs {
     /// Detector to simulate.
     #[arg(long, value_enum)]
     pub detector: DetectorKind,
-    /// Frame shape ROWSxCOLS (pixels), e.g. 64x48.
+    /// Frame shape ROWSxCOLS (pixels), e.g. 64x48; at most 16,777,216 pixels (4096x4096).
     #[arg(long, value_parser = parse_shape)]
     pub shape: (usize, usize),
-    /// Number of frames.
-    #[arg(long)]
+    /// Number of frames, 1 to 1,000,000.
+    #[arg(long, value_parser = whole::<usize>(1, MAX_FRAMES, "frames"))]
     pub frames: usize,
     /// Output file format.
     #[arg(long, value_enum, default_value = "fits")]
@@ -41,10 +45,11 @@ pub struct SynthArgs {
     #[arg(long)]
     pub force: bool,
     /// Seed of all random draws (same seed = same pixels at every light level).
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
-    /// Mean light per pixel per frame (photo-electrons); 0 gives darks.
-    #[arg(long, default_value_t = 0.0)]
+    /// Mean light per pixel per frame (photo-electrons), 0 to 1e6 (above any pixel's full
+    /// well); 0 gives darks.
+    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(MAX_LIGHT_E), "e-"))]
     pub light_e: f64,
     /// Store 32-bit floats instead of unsigned 16-bit integers (no quantisation).
     #[arg(long)]
@@ -54,32 +59,50 @@ pub struct SynthArgs {
     #[arg(long, default_value = "paper")]
     pub rms_pdf: String,
     /// sCMOS mean offset (adu).
-    #[arg(long, default_value_t = 100.0)]
+    #[arg(long, default_value_t = 100.0, value_parser = real(Unbounded, Unbounded, "adu"))]
     pub offset_adu: f64,
     /// sCMOS pixel-to-pixel offset spread, standard deviation (adu).
-    #[arg(long, default_value_t = 2.0)]
+    #[arg(long, default_value_t = 2.0, value_parser = real(Included(0.0), Unbounded, "adu"))]
     pub offset_spread_adu: f64,
     /// sCMOS mean conversion gain (e per adu); EMCCD: output conversion factor (e per adu, default 10).
-    #[arg(long)]
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
-    /// sCMOS relative pixel-to-pixel gain spread (standard deviation / mean).
-    #[arg(long, default_value_t = 0.02)]
+    /// sCMOS relative pixel-to-pixel gain spread (standard deviation / mean), [0, 1].
+    #[arg(long, default_value_t = 0.02, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub gain_spread: f64,
-    /// EMCCD mean EM gain (output e- per input e-).
-    #[arg(long, default_value_t = 300.0)]
+    /// EMCCD mean EM gain (output e- per input e-), 1 to 10,000.
+    #[arg(long, default_value_t = 300.0, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
     pub em_gain: f64,
-    /// EMCCD number of register stages.
-    #[arg(long, default_value_t = 520)]
+    /// EMCCD number of register stages, 1 to 2000 and at least log2(--em-gain).
+    #[arg(long, default_value_t = 520, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
     pub stages: u32,
     /// EMCCD bias (adu).
-    #[arg(long, default_value_t = 500.0)]
+    #[arg(long, default_value_t = 500.0, value_parser = real(Unbounded, Unbounded, "adu"))]
     pub bias_adu: f64,
     /// EMCCD output read noise (e-).
-    #[arg(long, default_value_t = 50.0)]
+    #[arg(long, default_value_t = 50.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
     pub read_noise_e: f64,
-    /// EMCCD clock-induced charge (e- per pixel per frame).
-    #[arg(long, default_value_t = 0.005)]
+    /// EMCCD clock-induced charge (e- per pixel per frame), 0 to 1e6.
+    #[arg(long, default_value_t = 0.005, value_parser = real(Included(0.0), Included(MAX_LIGHT_E), "e-"))]
     pub cic_e: f64,
+}
+
+/// Most frames `synth` writes.
+const MAX_FRAMES: u64 = 1_000_000;
+/// Most pixels per frame: frames are generated 32 at a time in memory, 8 bytes a pixel.
+const MAX_PIXELS: usize = 1 << 24;
+/// Most light (and CIC) per pixel per frame, e-: above the full well of any pixel.
+const MAX_LIGHT_E: f64 = 1e6;
+
+impl SynthArgs {
+    /// Check the options together before anything is written (single values are
+    /// range-checked while parsing; `--rms-pdf` when the pdf is built).
+    pub fn validate(&self) -> Result<()> {
+        if self.detector == DetectorKind::Emccd {
+            EmRegister::check(self.em_gain, self.stages, "--em-gain")?;
+        }
+        Ok(())
+    }
 }
 
 /// Parse `ROWSxCOLS`.
@@ -98,6 +121,11 @@ pub fn parse_shape(s: &str) -> std::result::Result<(usize, usize), String> {
     if r == 0 || c == 0 {
         return Err(format!("empty shape {s}"));
     }
+    if r.checked_mul(c).is_none_or(|n| n > MAX_PIXELS) {
+        return Err(format!(
+            "{s} is more than {MAX_PIXELS} pixels (4096x4096): frames are generated 32 at a time in memory"
+        ));
+    }
     Ok((r, c))
 }
 
@@ -110,7 +138,7 @@ pub fn rms_pdf(spec: &str) -> Result<Box<dyn RmsPdf>> {
         if !(v >= 0.0 && v.is_finite()) {
             return Err(Error::usage(
                 "--rms-pdf",
-                "constant read noise must be finite and >= 0",
+                format!("constant read noise {v} must be finite and >= 0 e-"),
             ));
         }
         return Ok(Box::new(
@@ -127,15 +155,6 @@ pub fn rms_pdf(spec: &str) -> Result<Box<dyn RmsPdf>> {
 
 /// Build the simulation spec from the options.
 pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
-    if !(args.light_e >= 0.0 && args.light_e.is_finite()) {
-        return Err(Error::usage("--light-e", "must be finite and >= 0"));
-    }
-    if args
-        .gain_e_per_adu
-        .is_some_and(|g| !(g > 0.0 && g.is_finite()))
-    {
-        return Err(Error::usage("--gain-e-per-adu", "must be finite and > 0"));
-    }
     let camera = match args.detector {
         DetectorKind::Scmos => Camera::Scmos(ScmosParams {
             offset_adu: args.offset_adu,
@@ -164,6 +183,7 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
 
 /// Run `detnoise synth`.
 pub fn run(args: &SynthArgs) -> Result<()> {
+    args.validate()?;
     let staged = prepare_outputs(args)?;
     let spec = spec(args)?;
     let pdf = rms_pdf(&args.rms_pdf)?;

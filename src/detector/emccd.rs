@@ -3,7 +3,11 @@
 use super::{EmRegister, FrameInput, Readout};
 use crate::rng::SimRng;
 use crate::stats::binomial_half;
-use rand_distr::{Distribution, Gamma, StandardNormal};
+use rand_distr::{Binomial, Distribution, Gamma, StandardNormal};
+
+/// Photo-electrons above which `emccd-simple` halves the count with one Binomial(k, 1/2) draw
+/// (constant cost) instead of counting k random bits (cost k/64 draws); both are exact.
+const BINOMIAL_ABOVE_E: u32 = 1 << 16;
 
 /// `emccd-simple`: the excess noise as a halved QE (Poisson of half the flux), plus
 /// Normal(0, 0.1 e-) read noise. Halving is done by binomial thinning of the shared
@@ -27,7 +31,13 @@ impl Readout for EmccdSimple {
 
     fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
         for (o, &k) in out.iter_mut().zip(input.photo_e) {
-            let kept = if k == 0 { 0 } else { binomial_half(k, aux) };
+            let kept = match k {
+                0 => 0,
+                k if k > BINOMIAL_ABOVE_E => Binomial::new(k as u64, 0.5)
+                    .expect("p = 1/2 is a probability")
+                    .sample(aux) as u32,
+                k => binomial_half(k, aux),
+            };
             let z: f64 = StandardNormal.sample(noise);
             *o = kept as f64 + self.read_noise_e * z;
         }
@@ -183,6 +193,25 @@ mod tests {
     }
 
     #[test]
+    fn simple_model_halves_bright_pixels_exactly() {
+        // Above BINOMIAL_ABOVE_E photo-electrons one Binomial(k, 1/2) draw replaces k coin
+        // flips: still Poisson(lambda / 2), mean and variance 0.5 lambda (+ 0.01); 4 SE.
+        let n = 20_000;
+        let lambda = 4.0 * BINOMIAL_ABOVE_E as f64;
+        let xs = pixel_samples(&EmccdSimple::paper(), lambda, n);
+        let (m, v) = mean_var(&xs);
+        let var = 0.5 * lambda + 0.01;
+        assert!(
+            (m - 0.5 * lambda).abs() < 4.0 * (var / n as f64).sqrt(),
+            "mean {m}"
+        );
+        assert!(
+            (v - var).abs() < 4.0 * var * (2.0 / n as f64).sqrt(),
+            "var {v}"
+        );
+    }
+
+    #[test]
     fn gamma_model_moments() {
         // k fixed: output/g has mean k and variance k + (50/500)^2.
         let model = EmccdDistribution::new(500.0, 50.0, None);
@@ -215,7 +244,7 @@ mod tests {
     #[test]
     fn stochastic_model_has_excess_noise_factor() {
         // Poisson input lambda: output/g has mean lambda, variance F^2 lambda + 0.01.
-        let reg = EmRegister::new(500.0, 520);
+        let reg = EmRegister::new(500.0, 520).unwrap();
         let f2 = reg.excess_noise_factor_sq();
         let model = EmccdStochastic::new(reg, 50.0, false);
         let n = 200_000;

@@ -171,12 +171,12 @@ impl ModelSpec {
         Ok(match self {
             ModelSpec::EmccdSimple => Box::new(EmccdSimple::paper()),
             ModelSpec::EmccdStochastic => Box::new(EmccdStochastic::new(
-                EmRegister::new(params.gain, params.stages),
+                EmRegister::new(params.gain, params.stages)?,
                 params.emccd_read_noise_e,
                 params.cascade_register,
             )),
             ModelSpec::EmccdPp(corrected) => Box::new(EmccdPp::new(
-                EmRegister::new(params.gain, params.stages),
+                EmRegister::new(params.gain, params.stages)?,
                 params.emccd_read_noise_e,
                 crate::pp::PpConfig::new(params.pp_rule, params.gain, params.emccd_read_noise_e)?,
                 params.pp_lambda,

@@ -20,23 +20,85 @@ pub struct EmRegister {
     alias: AliasTable,
 }
 
+/// Largest mean EM gain accepted (output e- per input e-). EMCCD cameras run at gains of at most
+/// a few thousand; the tabulated single-electron output holds about 40 x gain entries, so its
+/// memory and set-up time grow linearly with the gain (0.03 GB and 1 s at this bound).
+pub const MAX_EM_GAIN: f64 = 10_000.0;
+
+/// Largest number of register stages accepted. Real registers have 400 to 1100 stages; the
+/// table's set-up and the per-stage cascade cost time proportional to the stage count.
+pub const MAX_STAGES: u32 = 2000;
+
+/// Input electrons above which [`EmRegister::sample`] switches from summing k table draws
+/// (cost O(k)) to the per-stage binomial cascade (cost O(stages), independent of k). Both are
+/// exact; the cost is equal near 7,000 electrons (about 40 us each), and the switch keeps
+/// bright pixels from making a frame cost O(signal).
+const CASCADE_ABOVE_E: u64 = 8192;
+
 impl EmRegister {
-    /// Register with mean gain `gain` (>= 1) and `stages` stages (>= 1).
-    pub fn new(gain: f64, stages: u32) -> Self {
-        assert!(
-            gain >= 1.0 && stages >= 1,
-            "gain >= 1 and stages >= 1 required"
-        );
-        let p = gain.powf(1.0 / stages as f64) - 1.0;
+    /// Register with mean gain `gain` (1 ..= [`MAX_EM_GAIN`]) and `stages` stages
+    /// (1 ..= [`MAX_STAGES`], and enough that p <= 1: see [`EmRegister::check`]).
+    pub fn new(gain: f64, stages: u32) -> crate::Result<Self> {
+        Self::check(gain, stages, "--gain")?;
+        // p can exceed 1 by round-off when gain is exactly 2^stages.
+        let p = (gain.powf(1.0 / stages as f64) - 1.0).clamp(0.0, 1.0);
         let pmf = single_electron_pmf(p, stages, gain);
-        EmRegister {
+        Ok(EmRegister {
             gain,
             stages,
             p,
             alias: AliasTable::new(&pmf),
-        }
+        })
     }
 
+    /// Fewest stages that reach mean gain `gain` with a per-stage probability p <= 1
+    /// (each stage at most doubles the electrons): ceil(log2 gain), at least 1.
+    pub fn min_stages(gain: f64) -> u32 {
+        let mut n = (gain.log2().ceil().max(1.0)) as u32;
+        // log2 is exact for powers of two; step back if round-off overshot.
+        while n > 1 && gain.powf(1.0 / (n - 1) as f64) - 1.0 <= 1.0 + P_ROUND_OFF {
+            n -= 1;
+        }
+        n
+    }
+
+    /// Check a register's gain and stage count; errors name `gain_option` (the caller's
+    /// spelling of the gain option, e.g. `--gain` or `--em-gain`) and `--stages`.
+    pub fn check(gain: f64, stages: u32, gain_option: &str) -> crate::Result<()> {
+        use crate::Error;
+        if !(gain.is_finite() && (1.0..=MAX_EM_GAIN).contains(&gain)) {
+            return Err(Error::usage(
+                gain_option,
+                format!(
+                    "EM gain {gain} must be in [1, {MAX_EM_GAIN}] e-/e-: cameras run at most at a few thousand, \
+                     and the exact register table grows with the gain (40 x gain entries)"
+                ),
+            ));
+        }
+        if !(1..=MAX_STAGES).contains(&stages) {
+            return Err(Error::usage(
+                "--stages",
+                format!(
+                    "{stages} stages: must be 1 to {MAX_STAGES} (real registers have 400 to 1100)"
+                ),
+            ));
+        }
+        let p = gain.powf(1.0 / stages as f64) - 1.0;
+        if p > 1.0 + P_ROUND_OFF {
+            let n = Self::min_stages(gain);
+            let g_max = 2f64.powi(stages as i32);
+            return Err(Error::usage(
+                format!("--stages/{gain_option}"),
+                format!(
+                    "--stages {stages} cannot give {gain_option} {gain}: each stage multiplies an \
+                     electron with probability p = gain^(1/stages) - 1, here {p:.3}, but p is at \
+                     most 1 (a stage at most doubles the charge). Gain {gain} needs at least {n} \
+                     stages; {stages} stages reach a gain of at most {g_max}"
+                ),
+            ));
+        }
+        Ok(())
+    }
     /// Mean gain (output e- per input e-).
     pub fn gain(&self) -> f64 {
         self.gain
@@ -64,8 +126,12 @@ impl EmRegister {
         1.0 + self.single_electron_variance() / (self.gain * self.gain)
     }
 
-    /// Output electrons for `k` input electrons (exact, fast).
+    /// Output electrons for `k` input electrons (exact, fast): a sum of k table draws, or the
+    /// per-stage cascade above [`CASCADE_ABOVE_E`] input electrons, where it is cheaper.
     pub fn sample(&self, k: u64, rng: &mut SimRng) -> f64 {
+        if k > CASCADE_ABOVE_E {
+            return self.sample_cascade(k, rng);
+        }
         (0..k).map(|_| self.alias.sample(rng) as f64).sum()
     }
 
@@ -80,6 +146,9 @@ impl EmRegister {
         m as f64
     }
 }
+
+/// Round-off allowed in p = gain^(1/stages) - 1 <= 1 (gain exactly 2^stages).
+const P_ROUND_OFF: f64 = 1e-12;
 
 /// Single-electron output pmf, index = output electrons (index 0 has probability 0).
 fn single_electron_pmf(p: f64, stages: u32, gain: f64) -> Vec<f64> {
@@ -150,7 +219,7 @@ mod tests {
 
     #[test]
     fn analytic_moments_for_paper_register() {
-        let r = EmRegister::new(500.0, 520);
+        let r = EmRegister::new(500.0, 520).unwrap();
         assert!((r.p() - 0.012_022_9).abs() < 1e-7);
         let v = r.single_electron_variance() / (500.0 * 500.0);
         assert!((v - 0.974_287).abs() < 1e-6, "var1/g^2 = {v}");
@@ -160,7 +229,7 @@ mod tests {
     #[test]
     fn tabulated_pmf_has_exact_moments() {
         // The table itself (no sampling error): mean g, variance var1, to FFT round-off.
-        let r = EmRegister::new(500.0, 520);
+        let r = EmRegister::new(500.0, 520).unwrap();
         let pmf = single_electron_pmf(r.p(), 520, 500.0);
         let mean: f64 = pmf.iter().enumerate().map(|(k, p)| k as f64 * p).sum();
         let var: f64 = pmf
@@ -179,7 +248,7 @@ mod tests {
     fn fast_sampler_matches_moments_within_standard_error() {
         // k = 3 input electrons: mean 3g, variance 3 var1. SE(mean) = sd/sqrt(N);
         // SE(var) ~ var * sqrt((kurt - 1)/N), kurtosis of this sum ~ 5, so sqrt(4/N).
-        let r = EmRegister::new(500.0, 520);
+        let r = EmRegister::new(500.0, 520).unwrap();
         let n = 200_000;
         let mut rng = stream(3, 0, 0);
         let xs: Vec<f64> = (0..n).map(|_| r.sample(3, &mut rng)).collect();
@@ -193,7 +262,7 @@ mod tests {
     fn fast_sampler_matches_per_stage_cascade() {
         // Two-sample Kolmogorov-Smirnov: critical distance at alpha = 0.001 is
         // 1.95 * sqrt(2/N). Also means and variances against the analytic values.
-        let r = EmRegister::new(500.0, 520);
+        let r = EmRegister::new(500.0, 520).unwrap();
         let n = 20_000;
         let mut ra = stream(11, 0, 0);
         let mut rb = stream(11, 0, 1);
@@ -211,6 +280,92 @@ mod tests {
         }
         let d = ks_distance(&mut a, &mut b);
         assert!(d < 1.95 * (2.0 / n as f64).sqrt(), "KS distance {d}");
+    }
+
+    #[test]
+    fn stage_count_must_let_each_stage_at_most_double_the_charge() {
+        // p = g^(1/N) - 1 <= 1 needs N >= log2 g: 500 needs 9 stages, 512 exactly 9, 513 ten.
+        assert_eq!(EmRegister::min_stages(500.0), 9);
+        assert_eq!(EmRegister::min_stages(512.0), 9);
+        assert_eq!(EmRegister::min_stages(513.0), 10);
+        assert_eq!(EmRegister::min_stages(1.0), 1);
+        assert_eq!(EmRegister::min_stages(2.0), 1);
+        for (gain, stages) in [(500.0, 1), (500.0, 8), (3.0, 1)] {
+            let err = EmRegister::new(gain, stages).unwrap_err();
+            assert_eq!(err.exit_code(), 2);
+            let msg = err.to_string();
+            let n = EmRegister::min_stages(gain);
+            assert!(
+                msg.contains("--stages")
+                    && msg.contains("--gain")
+                    && msg.contains(&format!("at least {n} stages")),
+                "{msg}"
+            );
+        }
+        for (gain, stages) in [
+            (1e9, 520),
+            (0.5, 520),
+            (f64::NAN, 520),
+            (500.0, 0),
+            (500.0, MAX_STAGES + 1),
+        ] {
+            assert_eq!(
+                EmRegister::new(gain, stages).unwrap_err().exit_code(),
+                2,
+                "{gain} {stages}"
+            );
+        }
+    }
+
+    #[test]
+    fn register_at_the_stage_limit_is_exact() {
+        // Gain 2^9 with 9 stages: p = 1, every stage doubles, so one electron gives exactly 512.
+        let r = EmRegister::new(512.0, 9).unwrap();
+        assert_eq!(r.p(), 1.0);
+        let mut rng = stream(5, 0, 0);
+        for k in [1, 3] {
+            assert_eq!(r.sample(k, &mut rng), 512.0 * k as f64);
+            assert_eq!(r.sample_cascade(k, &mut rng), 512.0 * k as f64);
+        }
+        // Gain 500 with 9 stages (p = 0.995): the table keeps the exact mean and variance (to
+        // 1e-6: FFT round-off clipped at 0 on the many near-empty outputs of a near-doubling
+        // register; the exact variance, 658.34186, agrees with a direct branching sum).
+        let r = EmRegister::new(500.0, 9).unwrap();
+        let pmf = single_electron_pmf(r.p(), 9, 500.0);
+        let mean: f64 = pmf.iter().enumerate().map(|(k, p)| k as f64 * p).sum();
+        let var: f64 = pmf
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k as f64 - mean).powi(2) * p)
+            .sum();
+        assert!((mean / 500.0 - 1.0).abs() < 1e-9, "mean {mean}");
+        assert!(
+            (var / r.single_electron_variance() - 1.0).abs() < 1e-6,
+            "var {var}"
+        );
+        assert!((r.single_electron_variance() - 658.341_861_5).abs() < 1e-6);
+    }
+
+    #[test]
+    fn bright_pixels_use_the_cascade_with_the_same_moments() {
+        // Above CASCADE_ABOVE_E input electrons the sampler switches to the cascade, whose cost
+        // does not grow with k. Mean k g and variance k var1 within 4 SE (kurtosis ~ 3 for a
+        // sum of this many electrons: SE(var) ~ var sqrt(2/N)).
+        let r = EmRegister::new(500.0, 520).unwrap();
+        let k = 4 * CASCADE_ABOVE_E;
+        let n = 4000;
+        let mut rng = stream(8, 0, 0);
+        let xs: Vec<f64> = (0..n).map(|_| r.sample(k, &mut rng)).collect();
+        let (m, v) = mean_var(&xs);
+        let var = k as f64 * r.single_electron_variance();
+        assert!(
+            (m - k as f64 * 500.0).abs() < 4.0 * (var / n as f64).sqrt(),
+            "mean {m}"
+        );
+        assert!(
+            (v - var).abs() < 4.0 * var * (2.5 / n as f64).sqrt(),
+            "var {v} vs {var}"
+        );
     }
 
     fn mean_var(xs: &[f64]) -> (f64, f64) {

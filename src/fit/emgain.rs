@@ -946,7 +946,7 @@ mod tests {
     /// Integer-rounded values (adu) of an EMCCD: bias 1000 adu, Poisson(lambda) input,
     /// exact register of `stages`, read noise `sigma_e` (e-), conversion `c` e-/adu.
     fn synth(n: usize, g: f64, lambda: f64, sigma_e: f64, c: f64, seed: u64) -> Vec<f64> {
-        let reg = EmRegister::new(g, 512);
+        let reg = EmRegister::new(g, 512).unwrap();
         let noise = Normal::new(0.0, sigma_e).unwrap();
         let mut rng = stream(seed, 0, 0);
         (0..n)
@@ -1018,7 +1018,7 @@ mod tests {
         // ~1.1 % here, so it must lie within max(2 %, 4 SE); read noise within 2 % (SE
         // 0.15 %); CIC rate and lambda within 4 SE.
         let (g, stages, lambda, cic, sigma) = (1000.0, 512u32, 0.05, 0.03, 50.0);
-        let reg = EmRegister::new(g, stages);
+        let reg = EmRegister::new(g, stages).unwrap();
         let p = reg.p();
         let noise = Normal::new(0.0, sigma).unwrap();
         let mut rng = stream(17, 0, 0);
