@@ -59,12 +59,14 @@ fn collect(dir: &Path, found: &mut Vec<PathBuf>) {
 /// exit code 2 whose message contains every needle, no panic, and nothing written.
 fn refused(args: &[&str], needles: &[&str]) {
     let s = Scratch::new();
-    let (big, out) = (s.path("big.fits"), s.path("out"));
+    let (big, out, out_fits) = (s.path("big.fits"), s.path("out"), s.path("out.fits"));
     let args: Vec<&str> = args
         .iter()
         .map(|a| match *a {
             "BIG" => big.as_str(),
             "OUT" => out.as_str(),
+            // synth writes one stack file, whose name must carry the format's extension.
+            "OUT.fits" => out_fits.as_str(),
             a => a,
         })
         .collect();
@@ -354,7 +356,7 @@ fn calibration_commands_check_their_options_before_reading() {
 
 #[test]
 fn synth_checks_its_options_before_writing() {
-    let base = ["synth", "--detector", "emccd", "--out", "OUT"];
+    let base = ["synth", "--detector", "emccd", "--out", "OUT.fits"];
     let cases: &[(&[&str], &[&str])] = &[
         (
             &["--shape", "8x8", "--frames", "0"],
@@ -414,7 +416,7 @@ fn synth_checks_its_options_before_writing() {
             "--detector",
             "scmos",
             "--out",
-            "OUT",
+            "OUT.fits",
             "--shape",
             "8x8",
             "--frames",

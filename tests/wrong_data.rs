@@ -309,9 +309,10 @@ fn em_signature_is_present_in_emccd_frames_and_absent_in_scmos_frames() {
 fn with_hot_pixels(spec: &SynthSpec, path: &Path) -> PathBuf {
     let truth = draw_truth(spec, &detnoise::pdf::paper());
     let register = match &spec.camera {
-        Camera::Emccd(p) => Some(detnoise::detector::register::EmRegister::new(
-            p.em_gain, p.stages,
-        )),
+        Camera::Emccd(p) => Some(
+            detnoise::detector::register::EmRegister::new(p.em_gain, p.stages)
+                .expect("the bundled EMCCD spec has a valid register"),
+        ),
         Camera::Scmos(_) => None,
     };
     let mut k = 0;
