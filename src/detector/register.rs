@@ -226,17 +226,23 @@ mod tests {
         assert!((r.excess_noise_factor_sq() - 1.974_29).abs() < 1e-5);
     }
 
+    /// Mean and variance of a pmf indexed by output electrons.
+    fn pmf_moments(pmf: &[f64]) -> (f64, f64) {
+        let mean: f64 = pmf.iter().enumerate().map(|(k, p)| k as f64 * p).sum();
+        let var = pmf
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (k as f64 - mean).powi(2) * p)
+            .sum();
+        (mean, var)
+    }
+
     #[test]
     fn tabulated_pmf_has_exact_moments() {
         // The table itself (no sampling error): mean g, variance var1, to FFT round-off.
         let r = EmRegister::new(500.0, 520).unwrap();
         let pmf = single_electron_pmf(r.p(), 520, 500.0);
-        let mean: f64 = pmf.iter().enumerate().map(|(k, p)| k as f64 * p).sum();
-        let var: f64 = pmf
-            .iter()
-            .enumerate()
-            .map(|(k, p)| (k as f64 - mean).powi(2) * p)
-            .sum();
+        let (mean, var) = pmf_moments(&pmf);
         assert!((mean / 500.0 - 1.0).abs() < 1e-9, "mean {mean}");
         assert!(
             (var / r.single_electron_variance() - 1.0).abs() < 1e-8,
@@ -332,12 +338,7 @@ mod tests {
         // register; the exact variance, 658.34186, agrees with a direct branching sum).
         let r = EmRegister::new(500.0, 9).unwrap();
         let pmf = single_electron_pmf(r.p(), 9, 500.0);
-        let mean: f64 = pmf.iter().enumerate().map(|(k, p)| k as f64 * p).sum();
-        let var: f64 = pmf
-            .iter()
-            .enumerate()
-            .map(|(k, p)| (k as f64 - mean).powi(2) * p)
-            .sum();
+        let (mean, var) = pmf_moments(&pmf);
         assert!((mean / 500.0 - 1.0).abs() < 1e-9, "mean {mean}");
         assert!(
             (var / r.single_electron_variance() - 1.0).abs() < 1e-6,
