@@ -6,8 +6,8 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::fit::emgain::{
-    fit_emgain, gain_from_mean_ratio, model_curve, CurveBin, EmGainFit, EmGainOptions, EmShape,
-    ValueHistogram,
+    fit_emgain_of_stack, gain_from_mean_ratio, model_curve, CurveBin, EmGainFit, EmGainOptions,
+    EmShape, ValueHistogram,
 };
 use crate::io::FrameStack;
 use crate::maps::{read_map, write_json, Map};
@@ -127,10 +127,7 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
         fixed_read_noise_adu,
         serial_cic: args.serial_cic,
     };
-    let fit = fit_emgain(&hist, &opts).map_err(|e| match e {
-        Error::Numeric(m) => Error::input(&stack.sources[0].path, m),
-        other => other,
-    })?;
+    let fit = fit_emgain_of_stack(&stack, &hist, &opts)?;
     let ratio_check = if args.reference_stack.is_empty() {
         None
     } else {
@@ -198,8 +195,8 @@ fn median_of_map(path: &Path) -> Result<f64> {
 }
 
 /// Histogram of every pixel-sample (adu), bias-map subtracted if given, one frame at a
-/// time; also the mean value (adu).
-pub(crate) fn accumulate(
+/// time; also the mean value (adu). Errors name the file of the frame at fault.
+pub fn accumulate(
     stack: &FrameStack,
     offset: Option<&Path>,
     width: Option<f64>,
@@ -235,7 +232,7 @@ pub(crate) fn accumulate(
             frame.iter_mut().zip(off).for_each(|(v, o)| *v -= o);
         }
         hist.add_all(&frame)
-            .map_err(|e| Error::input(&stack.sources[0].path, format!("stack frame {i}: {e}")))?;
+            .map_err(|e| Error::input(stack.source_of(i), format!("stack frame {i}: {e}")))?;
     }
     let (mean, _) = hist.mean_var();
     Ok((hist, mean))

@@ -3,7 +3,8 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
-use crate::fit::{fit_pdf, PdfFitOptions, PdfFitReport, PdfModel};
+use crate::fit::pdf_fit::fit_pdf_of_map;
+use crate::fit::{PdfFitOptions, PdfFitReport, PdfModel};
 use crate::maps::read_map;
 use crate::plot::{Bins, HistNorm, Histogram, Inset, Series, SeriesStyle};
 
@@ -66,7 +67,7 @@ pub fn run(args: &FitPdfArgs) -> Result<()> {
         models,
         upper_cut_e: args.upper_cut_e,
     };
-    let report = fit_pdf(&values, &opts)?;
+    let report = fit_pdf_of_map(&args.map, &values, &opts)?;
     std::fs::create_dir_all(&args.out).map_err(|e| Error::io(&args.out, e))?;
     report.write_json(&args.out.join("pdf_fit.json"))?;
     chart(&report, &values, &args.out.join("pdf_fit.png"))?;
@@ -129,7 +130,8 @@ fn map_values_e(args: &FitPdfArgs) -> Result<Vec<f64>> {
 /// Histogram of the map with each fitted pdf, linear with a log-scale inset (paper Fig. 1).
 pub fn chart(report: &PdfFitReport, values: &[f64], path: &Path) -> Result<()> {
     let hi = report.upper_cut_e;
-    let xs: Vec<f64> = (1..=600).map(|i| hi * i as f64 / 600.0).collect();
+    // hi * (i / 600), not hi * i / 600: the product overflows for a cut near f64::MAX.
+    let xs: Vec<f64> = (1..=600).map(|i| hi * (i as f64 / 600.0)).collect();
     let mut curves = vec![];
     for (i, name) in report.models.keys().enumerate() {
         if name == "empirical" {
