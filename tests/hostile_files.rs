@@ -262,18 +262,16 @@ fn emgain_survives_bzero_9e18() {
 
 #[test]
 fn pdf_fit_of_a_map_with_extreme_values_is_not_a_panic() {
-    // A few huge rms values stretch the support until the density has no mass on the
-    // tabulation grid (`density has no mass` in pdf/tabulated.rs).
+    // A few values 1e5 times the bulk stretch the support until a fitted density has no
+    // mass on the tabulation grid (`density has no mass` in pdf/tabulated.rs).
     let d = tempfile::tempdir().unwrap();
-    let mut map = crop(
-        "data-synthetic/scmos-darks-64x64.truth-rms_e.fits",
-        1,
-        (16, 16),
-    )
-    .remove(0);
-    map[3] = 1e12;
-    map[40] = 5e11;
-    map[77] = 8e12;
+    use detnoise::pdf::RmsPdf;
+    let paper = detnoise::pdf::paper();
+    let mut rng = detnoise::rng::stream(1, 0, 0);
+    let mut map: Vec<f64> = (0..256).map(|_| 1e-5 * paper.sample(&mut rng)).collect();
+    for i in 0..10 {
+        map[i * 7] = 1.0 + 0.3 * i as f64;
+    }
     let p = file(
         d.path(),
         "hot.fits",
@@ -414,6 +412,23 @@ fn errors_reached_from_a_file_name_it() {
         &fits_key(&scmos_u16(d.path()), 1, "BSCALE", "1E300"),
     );
     names_file(&darks(&p).unwrap_err(), &p, &["beyond +-2^53"]);
+}
+
+#[test]
+fn emgain_bias_map_with_a_nan_names_the_map() {
+    // A NaN in --offset made every sample of its pixel NaN, blamed on the stack.
+    let d = tempfile::tempdir().unwrap();
+    let stack = emccd_f32(d.path(), "stack.fits", |_| {});
+    let mut bias = vec![500.0; 32 * 48];
+    bias[49] = f64::NAN;
+    let p = file(
+        d.path(),
+        "bias.fits",
+        &write(d.path(), "bias", Kind::Fits, (32, 48), &[bias], false),
+    );
+    let s = FrameStack::open(&[stack]).unwrap();
+    let e = accumulate(&s, Some(&p), None).unwrap_err();
+    names_file(&e, &p, &["row 1, column 1"]);
 }
 
 #[test]

@@ -36,6 +36,7 @@ fn mutants_of_every_format_fail_cleanly() {
     let mut rng = Rng::new(0x15_5e9);
     let watchdog = Watchdog::start(BUDGET);
     let (mut total, mut failures, mut slowest) = (0, Vec::new(), Vec::new());
+    let mut largest = 0usize;
     let t0 = Instant::now();
     let mut per_seed_secs = Vec::new();
     for seed in seeds(dir.path()) {
@@ -57,6 +58,7 @@ fn mutants_of_every_format_fail_cleanly() {
             let t = Instant::now();
             let bad = judge(&path, seed.role, &scratch);
             let secs = t.elapsed().as_secs_f64();
+            largest = largest.max(mutants::alloc::largest());
             watchdog.end();
             total += 1;
             keep_slowest(
@@ -87,7 +89,7 @@ fn mutants_of_every_format_fail_cleanly() {
     }
     let times: Vec<(f64, &str)> = slowest.iter().map(|s| (s.0, s.1.as_str())).collect();
     eprintln!(
-        "{total} mutants in {:.1} s; slowest (in {}): {times:?}",
+        "{total} mutants in {:.1} s; largest allocation {largest} bytes; slowest (in {}): {times:?}",
         t0.elapsed().as_secs_f64(),
         slow_dir.display()
     );

@@ -213,6 +213,18 @@ pub fn accumulate(
                     ),
                 ));
             }
+            // Every pixel needs a bias: a NaN would make its samples NaN, blamed on the stack.
+            if let Some(i) = m.data.iter().position(|v| !v.is_finite()) {
+                return Err(Error::input(
+                    p,
+                    format!(
+                        "frame 0: bias map value {} at row {}, column {}: every pixel needs a finite bias",
+                        m.data[i],
+                        i / m.cols,
+                        i % m.cols
+                    ),
+                ));
+            }
             let mean = map_mean(&m);
             Some(m.data.iter().map(|v| v - mean).collect::<Vec<f64>>())
         }

@@ -856,6 +856,10 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     }
     let st =
         match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
+            (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => return Err(Error::usage(
+                "--offset/--read-noise",
+                format!("the maps give a bias of {b} adu and a read noise of {s} adu: both must be finite, the read noise > 0"),
+            )),
             (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv)?,
             (None, None) => start_values(h)?,
             _ => return Err(Error::usage(
