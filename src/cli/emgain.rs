@@ -10,8 +10,8 @@ use crate::detector::register::MAX_STAGES;
 use crate::error::{Error, Result};
 use crate::fit::em_signature::require_em_signature;
 use crate::fit::emgain::{
-    fit_emgain, gain_from_mean_ratio, model_curve, CurveBin, EmGainFit, EmGainOptions, EmShape,
-    ValueHistogram,
+    fit_emgain_of_stack, gain_from_mean_ratio, model_curve, CurveBin, EmGainFit, EmGainOptions,
+    EmShape, ValueHistogram,
 };
 use crate::io::FrameStack;
 use crate::maps::{read_map, write_json, Map};
@@ -183,10 +183,7 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
         fixed_read_noise_adu,
         serial_cic: args.serial_cic,
     };
-    let fit = fit_emgain(&hist, &opts).map_err(|e| match e {
-        Error::Numeric(m) => Error::input(&stack.sources[0].path, m),
-        other => other,
-    })?;
+    let fit = fit_emgain_of_stack(&stack, &hist, &opts)?;
     let ratio_check = if args.reference_stack.is_empty() {
         None
     } else {
@@ -254,8 +251,8 @@ fn median_of_map(path: &Path) -> Result<f64> {
 }
 
 /// Histogram of every pixel-sample (adu), bias-map subtracted if given, one frame at a
-/// time; also the mean value (adu).
-pub(crate) fn accumulate(
+/// time; also the mean value (adu). Errors name the file of the frame at fault.
+pub fn accumulate(
     stack: &FrameStack,
     offset: Option<&Path>,
     width: Option<f64>,
@@ -269,6 +266,18 @@ pub(crate) fn accumulate(
                     format!(
                         "frame 0: bias map {}x{} differs from the stack's {}x{}",
                         m.rows, m.cols, stack.shape.0, stack.shape.1
+                    ),
+                ));
+            }
+            // Every pixel needs a bias: a NaN would make its samples NaN, blamed on the stack.
+            if let Some(i) = m.data.iter().position(|v| !v.is_finite()) {
+                return Err(Error::input(
+                    p,
+                    format!(
+                        "frame 0: bias map value {} at row {}, column {}: every pixel needs a finite bias",
+                        m.data[i],
+                        i / m.cols,
+                        i % m.cols
                     ),
                 ));
             }
@@ -291,7 +300,7 @@ pub(crate) fn accumulate(
             frame.iter_mut().zip(off).for_each(|(v, o)| *v -= o);
         }
         hist.add_all(&frame)
-            .map_err(|e| Error::input(&stack.sources[0].path, format!("stack frame {i}: {e}")))?;
+            .map_err(|e| Error::input(stack.source_of(i), format!("stack frame {i}: {e}")))?;
     }
     let (mean, _) = hist.mean_var();
     Ok((hist, mean))

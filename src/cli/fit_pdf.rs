@@ -5,7 +5,8 @@ use std::path::{Path, PathBuf};
 
 use super::args::real;
 use crate::error::{Error, Result};
-use crate::fit::{fit_pdf, PdfFitOptions, PdfFitReport, PdfModel};
+use crate::fit::pdf_fit::fit_pdf_of_map;
+use crate::fit::{PdfFitOptions, PdfFitReport, PdfModel};
 use crate::maps::read_map;
 use crate::output::{DirPlan, OutputDir};
 use crate::plot::{Bins, HistNorm, Histogram, Inset, Series, SeriesStyle};
@@ -115,7 +116,7 @@ pub fn run(args: &FitPdfArgs) -> Result<()> {
         models,
         upper_cut_e: args.upper_cut_e,
     };
-    let report = fit_pdf(&values, &opts)?;
+    let report = fit_pdf_of_map(&args.map, &values, &opts)?;
     report.write_json(&dir.path("pdf_fit.json"))?;
     chart(&report, &values, &dir.path("pdf_fit.png"))?;
     dir.commit()?;
@@ -167,7 +168,8 @@ fn flags_path(args: &FitPdfArgs) -> Option<PathBuf> {
 /// Histogram of the map with each fitted pdf, linear with a log-scale inset (paper Fig. 1).
 pub fn chart(report: &PdfFitReport, values: &[f64], path: &Path) -> Result<()> {
     let hi = report.upper_cut_e;
-    let xs: Vec<f64> = (1..=600).map(|i| hi * i as f64 / 600.0).collect();
+    // hi * (i / 600), not hi * i / 600: the product overflows for a cut near f64::MAX.
+    let xs: Vec<f64> = (1..=600).map(|i| hi * (i as f64 / 600.0)).collect();
     let mut curves = vec![];
     for (i, name) in report.models.keys().enumerate() {
         if name == "empirical" {

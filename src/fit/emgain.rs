@@ -25,8 +25,13 @@ pub const MIN_SAMPLES: usize = 2_000;
 /// Fewest samples above bias + 5 read noise (about 0.6 expected from read noise alone
 /// per million samples) for the EM signal to be measurable.
 pub const MIN_SIGNAL_SAMPLES: usize = 50;
-/// Largest FFT used for the model (2^22 points).
-const MAX_FFT: usize = 1 << 22;
+/// Largest FFT used for the model (2^18 points: an 8-fold margin over the grids of real
+/// EMCCD histograms, 4096 to 32768 cells).
+const MAX_FFT: usize = 1 << 18;
+/// Work budget of one fit in model cells evaluated (2^26: a few seconds at most); the
+/// limit on cost evaluations is derived from it, between 300 and 1200 (real fits need
+/// 220 to 300).
+const WORK_CELLS: u64 = 1 << 26;
 
 /// Law of the EM register output for one input electron.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -76,6 +81,11 @@ impl Default for EmGainOptions {
 
 /// A histogram of pixel values (adu) on bins of width `width` centred on multiples of it,
 /// filled one frame at a time (memory O(range), not O(stack)).
+///
+/// The bins cover a window of at most [`MAX_HIST_BINS`] bins, placed around the bulk of the
+/// first frame (its median) and grown towards later values while it fits; values outside
+/// the window are far outliers (a hot pixel, a corrupt sample), only counted. So one wild
+/// sample costs neither memory nor time.
 #[derive(Debug, Clone)]
 pub struct ValueHistogram {
     width: f64,
@@ -83,10 +93,12 @@ pub struct ValueHistogram {
     counts: Vec<f64>,
     sum: f64,
     sum2: f64,
+    outside: f64,
 }
 
-/// Widest value range a histogram may span, in bins.
-const MAX_HIST_BINS: usize = 1 << 24;
+/// Widest value range a histogram may span, in bins (2^22: 32 MiB of counts; 4 Mi adu at
+/// the 1 adu bins of integer data, far beyond any camera's range of EM-gain frames).
+const MAX_HIST_BINS: i64 = 1 << 22;
 
 impl ValueHistogram {
     /// Empty histogram with bins of `width_adu` (1 for integer data).
@@ -98,6 +110,7 @@ impl ValueHistogram {
             counts: Vec::new(),
             sum: 0.0,
             sum2: 0.0,
+            outside: 0.0,
         }
     }
 
@@ -110,44 +123,72 @@ impl ValueHistogram {
 
     /// Add values (adu); non-finite values are an error.
     pub fn add_all(&mut self, values: &[f64]) -> Result<()> {
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        let (mut lo, mut hi) = (i64::MAX, i64::MIN);
         for v in values {
             if !v.is_finite() {
                 return Err(Error::Numeric(format!("non-finite pixel value {v}")));
             }
-            lo = lo.min(*v);
-            hi = hi.max(*v);
+            if let Some(k) = self.key(*v) {
+                lo = lo.min(k);
+                hi = hi.max(k);
+            }
         }
-        if values.is_empty() {
+        if lo > hi {
+            // Nothing to bin (no values, or only values beyond any key).
+            self.outside += values.len() as f64;
             return Ok(());
         }
-        self.reserve(self.key(lo), self.key(hi))?;
+        if self.counts.is_empty() {
+            self.place_window(values, lo, hi);
+        } else {
+            self.grow_window(lo, hi);
+        }
+        let end = self.end();
         for v in values {
-            let i = (self.key(*v) - self.start) as usize;
-            self.counts[i] += 1.0;
-            self.sum += v;
-            self.sum2 += v * v;
+            match self.key(*v) {
+                Some(k) if k >= self.start && k < end => {
+                    self.counts[(k - self.start) as usize] += 1.0;
+                    self.sum += v;
+                    self.sum2 += v * v;
+                }
+                _ => self.outside += 1.0,
+            }
         }
         Ok(())
     }
 
-    fn key(&self, v: f64) -> i64 {
-        (v / self.width + 0.5).floor() as i64
+    /// Bin key of `v`: its bin index counted from 0 adu; None beyond +-2^61 bins, far
+    /// from any window (so that key arithmetic cannot overflow).
+    fn key(&self, v: f64) -> Option<i64> {
+        let k = (v / self.width + 0.5).floor();
+        (k.abs() < (1u64 << 61) as f64).then_some(k as i64)
     }
 
-    fn reserve(&mut self, lo: i64, hi: i64) -> Result<()> {
-        if self.counts.is_empty() {
-            self.start = lo;
-        }
-        let new_start = self.start.min(lo);
-        let new_end = (self.start + self.counts.len() as i64).max(hi + 1);
-        if (new_end - new_start) as usize > MAX_HIST_BINS {
-            return Err(Error::Numeric(format!(
-                "pixel values span {:.0} adu: too wide for a histogram of {} adu bins",
-                (new_end - new_start) as f64 * self.width,
-                self.width
-            )));
-        }
+    /// One past the last key of the window.
+    fn end(&self) -> i64 {
+        self.start + self.counts.len() as i64
+    }
+
+    /// The first window: all of [lo, hi] if it fits, else MAX_HIST_BINS around the median.
+    fn place_window(&mut self, values: &[f64], lo: i64, hi: i64) {
+        let (start, end) = if hi - lo < MAX_HIST_BINS {
+            (lo, hi + 1)
+        } else {
+            let mut keys: Vec<i64> = values.iter().filter_map(|v| self.key(*v)).collect();
+            let mid = keys.len() / 2;
+            let median = *keys.select_nth_unstable(mid).1;
+            let start = (median - MAX_HIST_BINS / 2).max(lo);
+            (start, (start + MAX_HIST_BINS).min(hi + 1))
+        };
+        self.start = start;
+        self.counts = vec![0.0; (end - start) as usize];
+    }
+
+    /// Extend the window towards [lo, hi] as far as MAX_HIST_BINS allows.
+    fn grow_window(&mut self, lo: i64, hi: i64) {
+        let end = self.end();
+        let new_start = lo.min(self.start).max(end - MAX_HIST_BINS);
+        let new_end = (hi + 1).max(end).min(new_start + MAX_HIST_BINS);
         if new_start < self.start {
             let mut c = vec![0.0; (self.start - new_start) as usize];
             c.extend_from_slice(&self.counts);
@@ -155,7 +196,11 @@ impl ValueHistogram {
             self.start = new_start;
         }
         self.counts.resize((new_end - self.start) as usize, 0.0);
-        Ok(())
+    }
+
+    /// Values that fell outside the histogram's window (far outliers, not in any bin).
+    pub fn outside(&self) -> f64 {
+        self.outside
     }
 
     /// Number of values.
@@ -197,6 +242,58 @@ impl ValueHistogram {
             acc += c;
         }
         self.centre(self.counts.len() - 1)
+    }
+
+    /// The lower tail of the values: a low quantile and the scale (adu, a Gaussian sigma)
+    /// from its spacing to a higher one. The quantiles are 1e-4 and 1e-3 (0.63 sigma apart)
+    /// with many values, but at least the 20th and 200th lowest value, so that a few far
+    /// outliers below the bias move neither.
+    fn low_tail(&self) -> (f64, f64) {
+        let n = self.total().max(1.0);
+        let p_lo = (1e-4f64).max(20.0 / n).min(0.05);
+        let p_hi = (10.0 * p_lo).min(0.5);
+        let z = |p: f64| -> f64 {
+            -std::f64::consts::SQRT_2 * statrs::function::erf::erfc_inv(2.0 * p)
+        };
+        let (q_lo, q_hi) = (self.quantile(p_lo), self.quantile(p_hi));
+        (q_lo, (q_hi - q_lo) / (z(p_hi) - z(p_lo)))
+    }
+
+    /// Count, mean and variance (adu, adu^2) of the binned values whose bins lie within
+    /// [lo, hi] adu: the moments with far outliers trimmed.
+    fn moments_within(&self, lo: f64, hi: f64) -> (f64, f64, f64) {
+        let (mut n, mut s, mut s2) = (0.0, 0.0, 0.0);
+        for (i, c) in self.counts.iter().enumerate() {
+            let x = self.centre(i);
+            if *c > 0.0 && x >= lo && x <= hi {
+                n += c;
+                s += c * x;
+                s2 += c * x * x;
+            }
+        }
+        let m = s / n;
+        (n, m, (s2 / n - m * m) * n / (n - 1.0))
+    }
+
+    /// Number of values above `t` (adu) and the median of their excess over `t`.
+    fn tail_above(&self, t: f64) -> (f64, f64) {
+        let above: Vec<(f64, f64)> = self
+            .counts
+            .iter()
+            .enumerate()
+            .filter(|(i, c)| **c > 0.0 && self.centre(*i) > t)
+            .map(|(i, c)| (self.centre(i) - t, *c))
+            .collect();
+        let k: f64 = above.iter().map(|a| a.1).sum();
+        let mut acc = 0.0;
+        let median = above
+            .iter()
+            .find(|(_, c)| {
+                acc += c;
+                acc >= 0.5 * k
+            })
+            .map_or(0.0, |a| a.0);
+        (k, median)
     }
 
     /// Fraction of values below `x` (adu), interpolating within the bin.
@@ -314,10 +411,10 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
             "only {n} pixel-samples: an EM-gain fit needs at least {MIN_SAMPLES} for stable start values and a meaningful histogram"
         )));
     }
-    // A scale from the lowest quantiles (0.63 sigma apart for a Gaussian) sets the
-    // smoothing; the bias is the leftmost peak that dominates +-2 scales around it.
-    let (q4, q3) = (h.quantile(1e-4), h.quantile(1e-3));
-    let scale = ((q3 - q4) / 0.63).max(h.width());
+    // A scale from the low tail (its quantile spacing) sets the smoothing; the bias is the
+    // leftmost peak that dominates +-2 scales around it.
+    let (q4, scale) = h.low_tail();
+    let scale = scale.max(h.width());
     let w = h.width();
     let half = ((scale / 3.0) / w).ceil() as usize;
     let c = h.counts();
@@ -333,13 +430,11 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
         .collect();
     let global = smooth.iter().cloned().fold(0.0, f64::max);
     let reach = ((2.0 * scale) / w).ceil() as usize;
-    let first = ((q4 / w).round() as i64 - h.start).max(0) as usize;
+    let first = ((q4 / w).round() as i64).saturating_sub(h.start).max(0) as usize;
+    let around = sliding_max(&smooth, reach);
     let peak = (first..c.len())
-        .find(|&i| {
-            let (a, b) = (i.saturating_sub(reach), (i + reach + 1).min(c.len()));
-            smooth[i] >= 0.05 * global && smooth[a..b].iter().all(|v| *v <= smooth[i])
-        })
-        .unwrap_or(first);
+        .find(|&i| smooth[i] >= 0.05 * global && around[i] <= smooth[i])
+        .unwrap_or(first.min(c.len() - 1));
     // Refine with a parabola through the log of the smoothed peak and its neighbours.
     let mut bias = h.centre(peak);
     if peak > 0 && peak + 1 < c.len() {
@@ -352,10 +447,14 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
             }
         }
     }
+    // Read noise: rms of the values below the bias, within 6 of a first, quantile-based
+    // estimate (the Gaussian half below the bias holds 0.3173 of its mass beyond 1 sigma),
+    // so that a far outlier below the bias does not count.
+    let sigma_q = (bias - h.quantile(0.3173 * h.cdf(bias))).max(w / 12f64.sqrt());
     let (mut s2, mut nb) = (0.0, 0.0);
     for (i, v) in c.iter().enumerate() {
         let d = h.centre(i) - bias;
-        if d < 0.0 {
+        if d < 0.0 && d >= -6.0 * sigma_q {
             s2 += v * d * d;
             nb += v;
         }
@@ -380,23 +479,15 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
     }
     let p0 = (2.0 * h.cdf(bias)).clamp(1e-6, 1.0 - 1e-6);
     let lambda = (-p0.ln()).max(above / n);
-    let (mean, _) = h.mean_var();
-    let gain = if lambda < 0.3 {
-        let t = bias + 6.0 * read_noise;
-        let (mut s, mut k) = (0.0, 0.0);
-        for (i, v) in c.iter().enumerate() {
-            let x = h.centre(i);
-            if x > t {
-                s += v * (x - t);
-                k += v;
-            }
-        }
-        if k > 0.0 {
-            s / k
-        } else {
-            (mean - bias) / lambda
-        }
+    // Gain at low light: the excess over bias + 6 read noise is exponential of mean G
+    // (memorylessness), whose median is G ln 2 (robust to outliers, unlike the mean).
+    // At higher light: (mean - bias) / lambda, the mean taken within the far limit.
+    let (_, median_excess) = h.tail_above(bias + 6.0 * read_noise);
+    let gain = if lambda < 0.3 && median_excess > 0.0 {
+        median_excess / std::f64::consts::LN_2
     } else {
+        let far = far_limit(h, bias, read_noise);
+        let (_, mean, _) = h.moments_within(bias - 10.0 * read_noise, far);
         (mean - bias) / lambda
     };
     if !(gain > 0.0 && gain.is_finite()) {
@@ -410,6 +501,41 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
         gain_adu_per_e: gain,
         lambda_e: lambda,
     })
+}
+
+/// Running maximum of `v` over i-reach..=i+reach for every i, in O(n) (monotonic deque).
+fn sliding_max(v: &[f64], reach: usize) -> Vec<f64> {
+    let mut out = vec![0.0; v.len()];
+    let mut dq: std::collections::VecDeque<usize> = std::collections::VecDeque::new();
+    let mut next = 0;
+    for (i, o) in out.iter_mut().enumerate() {
+        let hi = (i + reach).min(v.len() - 1);
+        while next <= hi {
+            while dq.back().is_some_and(|&j| v[j] <= v[next]) {
+                dq.pop_back();
+            }
+            dq.push_back(next);
+            next += 1;
+        }
+        while dq.front().is_some_and(|&j| j + reach < i) {
+            dq.pop_front();
+        }
+        *o = v[*dq.front().expect("window holds i")];
+    }
+    out
+}
+
+/// Upper limit (adu) beyond which values are far outliers, not EM signal: with k values
+/// above t = bias + 6 read noise and G the median of their excess / ln 2, the largest of
+/// k exponential excesses exceeds G (ln k + 30) with probability below e^-29 (and a
+/// compound-Poisson tail at high light has a median excess above G, widening the limit).
+fn far_limit(h: &ValueHistogram, bias: f64, read_noise: f64) -> f64 {
+    let t = bias + 6.0 * read_noise;
+    let (k, median_excess) = h.tail_above(t);
+    if k < 1.0 || median_excess <= 0.0 {
+        return f64::INFINITY;
+    }
+    t + median_excess / std::f64::consts::LN_2 * (k.ln() + 30.0)
 }
 
 /// Start values with bias `b` and read noise `s` (adu) known: gain and lambda from the
@@ -428,7 +554,7 @@ fn start_from_moments(
             "only {n} pixel-samples: an EM-gain fit needs at least {MIN_SAMPLES}"
         )));
     }
-    let (mean, var) = h.mean_var();
+    let (_, mean, var) = h.moments_within(b - 10.0 * s, far_limit(h, b, s));
     // The mean's SE is sqrt(var/n): the signal must exceed 5 of them, and the excess
     // variance 5 of its SE var sqrt(2/n).
     if mean - b < 5.0 * (var / n).sqrt() || var - s * s < 5.0 * var * (2.0 / n).sqrt() {
@@ -618,9 +744,9 @@ impl Layout {
         let merge = ((0.5 * s_min / w0).floor() as usize).max(1);
         let w = merge as f64 * w0;
         let per_bin = ((4.5 * w / s_min).ceil() as usize).max(1);
-        let lo = data_lo.min(q4 - 10.0 * sq);
-        // Align the fitted bins with the histogram's bins.
-        let lo = data_lo - ((data_lo - lo) / w).ceil() * w;
+        // From 10 read noises below the 1e-4 quantile (lower values are far outliers),
+        // aligned with the histogram's bins.
+        let lo = data_lo + ((q4 - 10.0 * sq - data_lo) / w).floor() * w;
         Layout {
             lo,
             cut,
@@ -632,7 +758,17 @@ impl Layout {
 
     /// The fit problem with a model period reaching `pad` adu beyond the cut.
     fn problem(&self, h: &ValueHistogram, shape: EmShape, conv: f64, pad: f64) -> Result<Problem> {
-        let n_bins = ((self.cut - self.lo) / self.w).ceil() as usize;
+        // Sizes are checked before anything is allocated from them.
+        let span = self.cut - self.lo + pad;
+        let cells = (span / self.hfine).ceil();
+        if cells.is_nan() || cells > MAX_FFT as f64 {
+            return Err(Error::Numeric(format!(
+                "the value range ({span:.0} adu) is too wide for model cells of {:.3} adu (set by the read noise): more than {MAX_FFT} cells, where real EMCCD histograms need at most 32768; if these are EMCCD frames, lower --max-value-adu or widen --bin-width-adu",
+                self.hfine
+            )));
+        }
+        let m = (cells as usize).max(2).next_power_of_two();
+        let n_bins = ((self.cut - self.lo) / self.w).ceil().max(0.0) as usize;
         let mut counts = vec![0.0; n_bins];
         let mut excluded = 0.0;
         for (i, v) in h.counts().iter().enumerate() {
@@ -644,14 +780,6 @@ impl Layout {
             }
         }
         let n: f64 = counts.iter().sum();
-        let span = self.cut - self.lo + pad;
-        let m = ((span / self.hfine).ceil() as usize).next_power_of_two();
-        if m > MAX_FFT {
-            return Err(Error::Numeric(format!(
-                "the value range ({span:.0} adu) is too wide for fine cells of {:.3} adu: lower --max-value or bin the data",
-                self.hfine
-            )));
-        }
         Ok(Problem {
             model: Model {
                 shape,
@@ -674,6 +802,15 @@ impl Layout {
     }
 }
 
+/// [`fit_emgain`] of the histogram of `stack`'s values: a failure names its first file.
+pub fn fit_emgain_of_stack(
+    stack: &crate::io::FrameStack,
+    h: &ValueHistogram,
+    opts: &EmGainOptions,
+) -> Result<EmGainFit> {
+    fit_emgain(h, opts).map_err(|e| crate::io::name_file(&stack.sources[0].path, e))
+}
+
 /// Fit bias, read noise, gain and lambda to a histogram of EMCCD pixel values (adu).
 pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit> {
     if let Some(c) = opts.gain_e_per_adu {
@@ -693,12 +830,24 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
         }
         (_, c) => c.unwrap_or(1.0),
     };
+    let n = h.total();
+    let all = n + h.outside();
+    if h.outside() > 0.01 * all {
+        return Err(Error::Numeric(format!(
+            "{} of {all} pixel values fall outside the histogram's window of {MAX_HIST_BINS} bins ({} adu) around the bulk of the values: spread far wider than the values of EMCCD frames (check the files, or widen --bin-width-adu)",
+            h.outside(),
+            MAX_HIST_BINS as f64 * h.width()
+        )));
+    }
+    if (n as usize) < MIN_SAMPLES {
+        return Err(Error::Numeric(format!(
+            "only {n} pixel-samples: an EM-gain fit needs at least {MIN_SAMPLES} for stable start values and a meaningful histogram"
+        )));
+    }
     let w0 = h.width();
     let c = h.counts();
-    let data_hi = h.centre(c.len() - 1) + 0.5 * w0;
-    let (mean, var) = h.mean_var();
-    let (q4, q3, q50) = (h.quantile(1e-4), h.quantile(1e-3), h.quantile(0.5));
-    let sq = ((q3 - q4) / 0.63).max(w0 / 12f64.sqrt());
+    let ((q4, sq), q50) = (h.low_tail(), h.quantile(0.5));
+    let sq = sq.max(w0 / 12f64.sqrt());
     if opts.serial_cic && opts.shape == EmShape::Gamma {
         return Err(Error::usage(
             "--serial-cic",
@@ -707,6 +856,10 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     }
     let st =
         match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
+            (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => return Err(Error::usage(
+                "--offset/--read-noise",
+                format!("the maps give a bias of {b} adu and a read noise of {s} adu: both must be finite, the read noise > 0"),
+            )),
             (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv)?,
             (None, None) => start_values(h)?,
             _ => return Err(Error::usage(
@@ -716,6 +869,11 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
         };
     let fixed = opts.fixed_bias_adu.is_some();
     let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
+    // Far outliers (beyond the EM tail, or 10 read noises below the lowest quantile) are
+    // left out of the moments and of the fitted range.
+    let far = far_limit(h, st.bias_adu, st.read_noise_adu);
+    let data_hi = (h.centre(c.len() - 1) + 0.5 * w0).min(far);
+    let (_, mean, var) = h.moments_within(q4 - 10.0 * sq, far);
     let cut = opts
         .max_value_adu
         .unwrap_or(st.bias_adu + 40.0 * g0 * (1.0 + l0 + 5.0 * l0.sqrt()))
@@ -777,7 +935,31 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     let cost = |u: &[f64]| problem.nll(u);
     // Stop when the simplex spans 1e-4 in total log-likelihood.
     let tol = 1e-4 / n;
-    let fit = minimise(cost, &u0, &step, tol, 20_000, "EM-gain fit")?;
+    // Bounded work: at most WORK_CELLS model cells in all (one FFT of m cells per cost,
+    // the exact register costing more per cell); past the budget every cost is invalid,
+    // which ends Nelder-Mead at once, and the fit is refused.
+    let m = problem.model.m;
+    let weight = match opts.shape {
+        EmShape::Gamma => 1,
+        EmShape::Register { stages } => 1 + u64::from(stages) / 64,
+    };
+    let max_evals = (WORK_CELLS / (m as u64 * weight)).clamp(300, 1200);
+    let evals = std::cell::Cell::new(0u64);
+    let capped = |u: &[f64]| {
+        evals.set(evals.get() + 1);
+        if evals.get() > max_evals {
+            INVALID_COST
+        } else {
+            problem.nll(u)
+        }
+    };
+    let fit = minimise(capped, &u0, &step, tol, 20_000, "EM-gain fit");
+    if evals.get() > max_evals {
+        return Err(Error::Numeric(format!(
+            "EM-gain fit: not converged after {max_evals} model evaluations on a grid of {m} cells (real EMCCD histograms, a Gaussian zero-electron peak and an exponential EM tail, converge in 220 to 300): these frames do not look like EMCCD darks or low-light frames (check the files, or give --max-value-adu to leave out what is not EM signal)"
+        )));
+    }
+    let fit = fit?;
     let p = problem.params(&fit.x);
     let hm: Vec<Vec<f64>> = hessian(cost, &fit.x, &vec![1e-3; u0.len()])
         .into_iter()
@@ -822,7 +1004,7 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
         iterations: fit.iterations,
         log_likelihood: -fit.cost * n,
         n_samples: n,
-        n_excluded: excluded,
+        n_excluded: excluded + h.outside(),
         max_value_adu: cut,
         bin_width_adu: w,
         correlations: Some(correlations(&cov)),
@@ -886,21 +1068,27 @@ pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<
         fit.lambda_e,
     );
     let w = h.width();
-    let used = h
+    // From 10 read noises below the bias (lower values are far outliers) to the cut.
+    let first = h
         .counts()
         .iter()
         .enumerate()
-        .take_while(|(i, _)| h.centre(*i) <= fit.max_value_adu)
+        .position(|(i, _)| h.centre(i) >= b - 10.0 * s)
+        .unwrap_or(0);
+    let counts = &h.counts()[first..];
+    let used = (0..counts.len())
+        .take_while(|i| h.centre(first + i) <= fit.max_value_adu)
         .count()
-        .max(1);
+        .max(1)
+        .min(counts.len());
     let group = used.div_ceil(max_bins.max(1));
-    let lo = h.centre(0) - 0.5 * w;
-    let per_bin = ((4.5 * w / s).ceil() as usize).max(1);
+    let lo = h.centre(first) - 0.5 * w;
+    let per_bin = ((4.5 * w / s).ceil() as usize).clamp(1, 1024);
     let hfine = w / per_bin as f64;
     let span = used as f64 * w + (10.0 * s).max(100.0 * g);
-    let m = ((span / hfine).ceil() as usize)
-        .next_power_of_two()
-        .min(MAX_FFT);
+    let m = ((span / hfine).ceil().min(MAX_FFT as f64) as usize)
+        .max(2)
+        .next_power_of_two();
     let model = Model {
         shape: fit.shape,
         conv: fit.gain_e_per_adu.unwrap_or(1.0),
@@ -927,7 +1115,7 @@ pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<
             let i1 = (i0 + group).min(used);
             CurveBin {
                 x_adu: lo + 0.5 * (i0 + i1) as f64 * w,
-                data: h.counts()[i0..i1].iter().sum(),
+                data: counts[i0..i1].iter().sum(),
                 model: n * sum(&total, i0, i1),
                 zero_electron: n * (-l - cic).exp() * sum(&gauss, i0, i1),
             }

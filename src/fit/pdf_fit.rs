@@ -451,21 +451,41 @@ impl PdfFitReport {
     }
 }
 
+/// What `--pdf FILE` expects, for errors about the file given.
+const PDF_FILE_HINT: &str = "--pdf takes the pdf_fit.json written by `detnoise fit-pdf` or `detnoise report` (or the word `paper`); a read-noise map goes to `--model scmos-map --map FILE`";
+
 /// Load the fitted pdf `model` (the best model if `None`) from a `pdf_fit.json`.
 pub fn load_pdf_fit(path: &Path, model: Option<&str>) -> Result<Arc<dyn RmsPdf>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let bytes = std::fs::read(path).map_err(|e| Error::io(path, e))?;
+    if let Ok(format) = crate::io::Format::detect(path) {
+        return Err(Error::input(
+            path,
+            format!(
+                "a {} image, not a pdf_fit.json: {PDF_FILE_HINT}",
+                format!("{format:?}").to_uppercase()
+            ),
+        ));
+    }
+    let text = String::from_utf8(bytes).map_err(|_| {
+        Error::input(
+            path,
+            format!("not a text file, so not a pdf_fit.json: {PDF_FILE_HINT}"),
+        )
+    })?;
     let report: PdfFitReport = serde_json::from_str(&text)
-        .map_err(|e| Error::input(path, format!("not a pdf_fit.json: {e}")))?;
+        .map_err(|e| Error::input(path, format!("not a pdf_fit.json ({e}): {PDF_FILE_HINT}")))?;
     if report.schema != PDF_FIT_SCHEMA {
         return Err(Error::input(
             path,
             format!("schema {:?}, expected {PDF_FIT_SCHEMA:?}", report.schema),
         ));
     }
-    report.pdf(model).map_err(|e| match e {
-        Error::Numeric(m) => Error::input(path, m),
-        other => other,
-    })
+    report.pdf(model).map_err(|e| crate::io::name_file(path, e))
+}
+
+/// [`fit_pdf`] of the values of the map file `path`: a failure names the file.
+pub fn fit_pdf_of_map(path: &Path, values: &[f64], opts: &PdfFitOptions) -> Result<PdfFitReport> {
+    fit_pdf(values, opts).map_err(|e| crate::io::name_file(path, e))
 }
 
 #[cfg(test)]

@@ -283,12 +283,7 @@ pub(crate) fn density(model: PdfModel, p: &[f64], norms: &[f64], x: f64) -> f64 
 pub(crate) fn tabulate(model: PdfModel, p: &[f64], upper: f64) -> Option<TabulatedPdf> {
     let norms = Grid::new(upper).norms(model, p)?;
     let label = format!("{} fit [0, {upper:.3}] e-", model.name());
-    Some(TabulatedPdf::from_density(
-        |x| density(model, p, &norms, x),
-        0.0,
-        upper,
-        &label,
-    ))
+    TabulatedPdf::try_from_density(|x| density(model, p, &norms, x), 0.0, upper, &label)
 }
 
 #[cfg(test)]

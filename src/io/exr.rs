@@ -12,8 +12,8 @@ use exr::meta::attribute::SampleType as ExrType;
 use exr::meta::MetaData;
 use exr::prelude::*;
 
-use super::{frame_error, widen, FileFrames, SampleType};
-use crate::error::Result;
+use super::{compressed_size_error, frame_error, widen, FileFrames, SampleType, MAX_EXPANSION};
+use crate::error::{Error, Result};
 
 fn map_type(t: ExrType) -> SampleType {
     match t {
@@ -23,13 +23,32 @@ fn map_type(t: ExrType) -> SampleType {
     }
 }
 
-/// Frame count, shape and sample type of an EXR file (headers only).
+/// Decoded bytes of the largest level of one layer (every channel at its sampling), or
+/// None on overflow.
+fn layer_bytes(h: &exr::meta::header::Header) -> Option<u64> {
+    let (w, ht) = (h.layer_size.width() as u64, h.layer_size.height() as u64);
+    h.channels.list.iter().try_fold(0u64, |acc, c| {
+        let (sx, sy) = (c.sampling.x().max(1) as u64, c.sampling.y().max(1) as u64);
+        let samples = (w / sx).checked_mul(ht / sy)?;
+        acc.checked_add(samples.checked_mul(c.sample_type.bytes_per_sample() as u64)?)
+    })
+}
+
+/// Frame count, shape and sample type of an EXR file (headers only). The decoded size of
+/// all layers (decoded together on the first frame) must fit in the file: in full when
+/// uncompressed, within [`MAX_EXPANSION`] otherwise; so must the chunk offset tables.
 pub fn scan(path: &Path) -> Result<(usize, (usize, usize), SampleType)> {
     let meta = MetaData::read_from_file(path, false)
         .map_err(|e| frame_error(path, 0, format!("cannot read EXR header: {e}")))?;
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
     let mut frames = 0;
     let mut shape = None;
     let mut sample_type = SampleType::F32;
+    let mut decoded = Some(0u64);
+    let mut chunks = 0u64;
+    let mut compressed = false;
     for (i, h) in meta.headers.iter().enumerate() {
         if h.deep {
             return Err(frame_error(
@@ -58,7 +77,37 @@ pub fn scan(path: &Path) -> Result<(usize, (usize, usize), SampleType)> {
             }
             _ => {}
         }
+        decoded = decoded
+            .zip(layer_bytes(h))
+            .and_then(|(a, b)| a.checked_add(b));
+        chunks = chunks.saturating_add(h.chunk_count as u64);
+        compressed |= h.compression != Compression::Uncompressed;
         frames += h.channels.list.len();
+    }
+    if chunks.saturating_mul(8) > len {
+        return Err(frame_error(
+            path,
+            0,
+            format!("file truncated or corrupt: the headers describe {chunks} chunks, whose offset tables alone need more than the file's {len} bytes"),
+        ));
+    }
+    let limit = if compressed {
+        len.saturating_mul(MAX_EXPANSION)
+    } else {
+        len
+    };
+    if decoded.is_none_or(|d| d > limit) {
+        if compressed {
+            return Err(compressed_size_error(path, 0, "the layers", decoded, len));
+        }
+        return Err(frame_error(
+            path,
+            0,
+            format!(
+                "file truncated or corrupt: the uncompressed layers need {} bytes, the file has {len}",
+                decoded.map_or("more than 2^64".to_string(), |d| d.to_string())
+            ),
+        ));
     }
     Ok((frames, shape.unwrap_or((0, 0)), sample_type))
 }

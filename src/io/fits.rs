@@ -54,6 +54,20 @@ struct RawLayout {
     bzero: f64,
 }
 
+impl RawLayout {
+    /// Whether every stored integer maps to a finite value within the sample range, so
+    /// frames need no per-sample check.
+    fn within_sample_range(&self) -> bool {
+        let max_stored = match self.bitpix {
+            8 => 255.0,
+            16 => 32768.0,
+            32 => 2_147_483_648.0,
+            _ => return false,
+        };
+        (max_stored * self.bscale.abs() + self.bzero.abs()) <= super::MAX_SAMPLE_ABS
+    }
+}
+
 #[derive(Clone, Debug)]
 struct HduFrames {
     /// 1-based HDU number.
@@ -139,52 +153,36 @@ fn is_plain_fits(path: &Path) -> bool {
 }
 
 impl FitsFrames {
-    /// Open `path` and list its image HDUs; all must have one frame shape.
+    /// Open `path` and list its image HDUs; all must have one frame shape. The headers are
+    /// checked first ([`super::fits_header`]), so CFITSIO never sees an unchecked size.
     pub fn open(path: &Path) -> Result<FitsFrames> {
+        let images = super::fits_header::check(path)?;
         let mut file = FitsFile::open(path)
             .map_err(|e| Error::input(path, format!("frame 0: cannot open as FITS: {e}")))?;
         // SAFETY: the pointer stays owned by `file`, which outlives every use below.
         let fptr = unsafe { file.as_raw() };
         let plain = is_plain_fits(path);
-        let file_len = std::fs::metadata(path)
-            .map_err(|e| Error::io(path, e))?
-            .len();
-        let mut nhdu: c_int = 0;
-        let mut status = 0;
-        unsafe { sys::ffthdu(fptr, &mut nhdu, &mut status) };
-        check(path, status, "counting HDUs")?;
         let mut hdus = Vec::new();
         let mut shape = None;
         let mut sample_type = SampleType::F64;
         let mut first = 0usize;
-        for hdu in 1..=nhdu {
+        for img in &images {
+            let hdu = img.hdu;
             let mut exttype = 0;
             let mut status = 0;
             unsafe { sys::ffmahd(fptr, hdu, &mut exttype, &mut status) };
             check(path, status, &format!("HDU {hdu}"))?;
-            if exttype != IMAGE_HDU {
-                continue;
-            }
-            let mut naxis = 0;
-            unsafe { sys::ffgidm(fptr, &mut naxis, &mut status) };
-            check(path, status, &format!("HDU {hdu}"))?;
-            if naxis == 0 {
-                continue;
-            }
-            if naxis == 1 {
+            let dims = cfitsio_dims(path, fptr, hdu)?;
+            if exttype != IMAGE_HDU || dims != img.dims {
                 return Err(Error::input(
                     path,
-                    format!("frame {first}: HDU {hdu} is a 1-D image, not a frame"),
+                    format!(
+                        "frame {first}: HDU {hdu}: CFITSIO reads dimensions {dims:?}, the header says {:?}",
+                        img.dims
+                    ),
                 ));
             }
-            let mut dims = vec![0i64; naxis as usize];
-            unsafe { sys::ffgiszll(fptr, naxis, dims.as_mut_ptr(), &mut status) };
-            check(path, status, &format!("HDU {hdu}"))?;
-            let (cols, rows) = (dims[0] as usize, dims[1] as usize);
-            let frames: usize = dims[2..].iter().map(|d| *d as usize).product();
-            if rows == 0 || cols == 0 || frames == 0 {
-                continue;
-            }
+            let ((rows, cols), frames) = (img.shape(), img.frames());
             let (mut stored, mut equiv) = (0, 0);
             unsafe { sys::ffgidt(fptr, &mut stored, &mut status) };
             unsafe { sys::ffgiet(fptr, &mut equiv, &mut status) };
@@ -203,24 +201,14 @@ impl FitsFrames {
                 }
                 _ => {}
             }
-            let compressed = unsafe { sys::fits_is_compressed_image(fptr, &mut status) } != 0;
-            let raw = if plain && !compressed {
+            let raw = if plain && !img.compressed {
                 let layout = raw_layout(path, fptr, hdu, stored)?;
-                let bytes_per_frame = (rows * cols * (stored.unsigned_abs() as usize / 8)) as u64;
-                let needed = layout.datastart + bytes_per_frame * frames as u64;
-                if needed > file_len {
-                    let complete =
-                        (file_len.saturating_sub(layout.datastart) / bytes_per_frame) as usize;
-                    return Err(Error::input(
-                        path,
-                        format!(
-                            "frame {}: file truncated (HDU {hdu} needs {needed} bytes, file has {file_len})",
-                            first + complete
-                        ),
-                    ));
-                }
-                // BLANK marks undefined integer pixels: leave those HDUs to CFITSIO, which turns them into NaN.
-                (stored < 0 || !has_key(fptr, "BLANK")).then_some(layout)
+                // BLANK marks undefined integer pixels: leave those HDUs to CFITSIO, which
+                // turns them into NaN. Scaled values that can exceed the sample range take
+                // the checked path too.
+                (stored < 0 || !has_key(fptr, "BLANK"))
+                    .then_some(layout)
+                    .filter(|l| stored < 0 || l.within_sample_range())
             } else {
                 None
             };
@@ -255,6 +243,22 @@ impl FitsFrames {
     pub fn frames(&self) -> usize {
         self.hdus.iter().map(|h| h.frames).sum()
     }
+}
+
+/// The image dimensions CFITSIO reads for the current HDU (NAXIS1 first).
+fn cfitsio_dims(path: &Path, fptr: *mut sys::fitsfile, hdu: c_int) -> Result<Vec<usize>> {
+    let (mut naxis, mut status) = (0, 0);
+    unsafe { sys::ffgidm(fptr, &mut naxis, &mut status) };
+    check(path, status, &format!("HDU {hdu}"))?;
+    let mut dims = vec![0i64; naxis.clamp(0, 999) as usize];
+    if !dims.is_empty() {
+        unsafe { sys::ffgiszll(fptr, naxis, dims.as_mut_ptr(), &mut status) };
+        check(path, status, &format!("HDU {hdu}"))?;
+    }
+    Ok(dims
+        .iter()
+        .map(|d| usize::try_from(*d).unwrap_or(usize::MAX))
+        .collect())
 }
 
 fn raw_layout(
@@ -342,14 +346,10 @@ impl FileFrames for FitsFrames {
             .map_err(|e| frame_error(&self.path, k, format!("cannot read data: {e}")))
     }
 
-    fn may_be_nonfinite(&self, k: usize) -> bool {
-        // Raw integer HDUs have no BLANK (checked at open) and finite BSCALE/BZERO.
-        !self.hdus.iter().any(|h| {
-            k >= h.first
-                && k < h.first + h.frames
-                && h.raw
-                    .is_some_and(|r| r.bitpix > 0 && r.bscale.is_finite() && r.bzero.is_finite())
-        })
+    fn may_be_out_of_range(&self, k: usize) -> bool {
+        // Raw integer HDUs have no BLANK and map into the sample range (checked at open).
+        self.hdu_of(k)
+            .is_none_or(|h| h.raw.is_none_or(|r| r.bitpix < 0))
     }
 
     fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()> {

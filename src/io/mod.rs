@@ -6,6 +6,7 @@
 
 pub mod exr;
 pub mod fits;
+mod fits_header;
 pub mod tiff;
 
 use std::path::{Path, PathBuf};
@@ -14,6 +15,36 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::maps::Map;
+
+/// Largest factor by which compressed sample data may expand when decoded. Deflate's limit
+/// is 1032:1 and LZW's about 1400:1 (on constant data); Rice, RLE, PackBits and B44 stay far
+/// below. A header that claims more decoded bytes than this many times the bytes stored is
+/// refused before anything is allocated (uncompressed data must be present in full).
+pub const MAX_EXPANSION: u64 = 2048;
+
+/// Largest magnitude of a sample value (adu): 2^53, beyond which f64 no longer holds every
+/// integer. No camera delivers such values; they come from a corrupt header (BZERO, BSCALE)
+/// or garbage data, and would overflow the sums of squares of the statistics.
+pub const MAX_SAMPLE_ABS: f64 = 9_007_199_254_740_992.0;
+
+/// The error for a header whose decoded size is impossible for the bytes stored
+/// (`decoded` is None when the size does not even fit in 64 bits).
+pub(crate) fn compressed_size_error(
+    path: &Path,
+    frame: usize,
+    what: &str,
+    decoded: Option<u64>,
+    stored: u64,
+) -> Error {
+    let size = decoded.map_or("more than 2^64".to_string(), |d| d.to_string());
+    frame_error(
+        path,
+        frame,
+        format!(
+            "{what} would decode to {size} bytes from {stored} stored bytes, more than compression allows ({MAX_EXPANSION}:1): the header is corrupt"
+        ),
+    )
+}
 
 /// Storage type of the samples in a file (values are always delivered as f64).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -134,8 +165,9 @@ pub(crate) trait FileFrames {
     /// Frames are requested in increasing order.
     fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()>;
 
-    /// Whether frame `k` can hold NaN/Inf (false for plain integer storage, which skips the check).
-    fn may_be_nonfinite(&self, _k: usize) -> bool {
+    /// Whether frame `k` can hold NaN/Inf or values beyond [`MAX_SAMPLE_ABS`] (false for
+    /// plain integer storage, which skips the check).
+    fn may_be_out_of_range(&self, _k: usize) -> bool {
         true
     }
 
@@ -267,6 +299,18 @@ fn scan_file(path: &Path) -> Result<SourceFile> {
             format!("frame 0: empty frame shape {}x{}", shape.0, shape.1),
         ));
     }
+    // The readers bound every shape by the file size; this keeps `rows * cols * 8` exact.
+    if shape
+        .0
+        .checked_mul(shape.1)
+        .and_then(|p| p.checked_mul(8))
+        .is_none_or(|b| b > isize::MAX as usize)
+    {
+        return Err(Error::input(
+            path,
+            format!("frame 0: frame shape {}x{} is too large", shape.0, shape.1),
+        ));
+    }
     Ok(SourceFile {
         path: path.to_path_buf(),
         format,
@@ -353,44 +397,28 @@ pub struct FrameStack {
     pub shape: (usize, usize),
     /// Total number of frames.
     pub frames: usize,
-    /// Sample type of the first file (others may differ in type, not in shape).
+    /// Sample type (one per stack).
     pub sample_type: SampleType,
 }
 
 impl FrameStack {
     /// Open a stack from files, directories or glob patterns, reading headers only.
-    /// Fails (naming file and frame) when shapes differ or a file is unreadable.
+    /// Fails (naming file and frame) when a file is unreadable, and (listing what was
+    /// found) when the files mix formats, frame shapes or sample types: the same frames
+    /// saved as .fits, .tif and .exr in one directory are not a stack three times as long.
     pub fn open(inputs: &[PathBuf]) -> Result<FrameStack> {
         let files = expand_inputs(inputs)?;
-        let mut sources = Vec::with_capacity(files.len());
-        let mut start = 0usize;
-        for path in &files {
-            let src = scan_file(path)?;
-            if let Some(first) = sources.first() {
-                let first: &SourceFile = first;
-                if src.shape != first.shape {
-                    return Err(Error::input(
-                        path,
-                        format!(
-                            "frame 0 (stack frame {start}): shape {}x{} differs from {}x{} of {}",
-                            src.shape.0,
-                            src.shape.1,
-                            first.shape.0,
-                            first.shape.1,
-                            first.path.display()
-                        ),
-                    ));
-                }
-            }
-            start += src.frames;
-            sources.push(src);
-        }
+        let sources = files
+            .iter()
+            .map(|p| scan_file(p))
+            .collect::<Result<Vec<SourceFile>>>()?;
+        check_uniform(inputs, &sources)?;
         let shape = sources[0].shape;
         let sample_type = sources[0].sample_type;
         Ok(FrameStack {
+            frames: sources.iter().map(|s| s.frames).sum(),
             sources,
             shape,
-            frames: start,
             sample_type,
         })
     }
@@ -398,6 +426,18 @@ impl FrameStack {
     /// Pixels per frame.
     pub fn pixels(&self) -> usize {
         self.shape.0 * self.shape.1
+    }
+
+    /// The file holding stack frame `k` (the last file if `k` is past the end).
+    pub fn source_of(&self, k: usize) -> &Path {
+        let mut start = 0;
+        for s in &self.sources {
+            if k < start + s.frames {
+                return &s.path;
+            }
+            start += s.frames;
+        }
+        &self.sources[self.sources.len() - 1].path
     }
 
     /// Source file paths, in order.
@@ -453,6 +493,93 @@ impl FrameStack {
             open: None,
         }
     }
+}
+
+/// The stack arguments for a message: the first three, then how many more.
+fn shown(inputs: &[PathBuf]) -> String {
+    let mut s: Vec<String> = inputs
+        .iter()
+        .take(3)
+        .map(|p| p.display().to_string())
+        .collect();
+    if inputs.len() > 3 {
+        s.push(format!("and {} more", inputs.len() - 3));
+    }
+    s.join(" ")
+}
+
+/// Files of one kind (format, shape or sample type) in a stack: how many, and the first.
+fn groups<K: PartialEq + std::fmt::Debug>(
+    sources: &[SourceFile],
+    key: impl Fn(&SourceFile) -> K,
+) -> Vec<(K, usize, &Path)> {
+    let mut out: Vec<(K, usize, &Path)> = Vec::new();
+    for s in sources {
+        let k = key(s);
+        match out.iter_mut().find(|g| g.0 == k) {
+            Some(g) => g.1 += 1,
+            None => out.push((k, 1, &s.path)),
+        }
+    }
+    out
+}
+
+/// One format, one frame shape and one sample type per stack, or an error listing each
+/// kind found with its file count and first file.
+fn check_uniform(inputs: &[PathBuf], sources: &[SourceFile]) -> Result<()> {
+    fn list<K>(g: &[(K, usize, &Path)], name: impl Fn(&K) -> String) -> String {
+        g.iter()
+            .map(|(k, n, p)| {
+                let files = if *n == 1 { "file" } else { "files" };
+                format!("{} ({n} {files}, first {})", name(k), p.display())
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+    let formats = groups(sources, |s| s.format);
+    let shapes = groups(sources, |s| s.shape);
+    let types = groups(sources, |s| s.sample_type);
+    let mut found = Vec::new();
+    if formats.len() > 1 {
+        found.push(format!(
+            "formats {}",
+            list(&formats, |f| format!("{f:?}").to_uppercase())
+        ));
+    }
+    if shapes.len() > 1 {
+        found.push(format!(
+            "frame shapes {}",
+            list(&shapes, |s| format!("{}x{}", s.0, s.1))
+        ));
+    }
+    if types.len() > 1 {
+        found.push(format!(
+            "sample types {}",
+            list(&types, |t| format!("{t:?}").to_lowercase())
+        ));
+    }
+    if found.is_empty() {
+        return Ok(());
+    }
+    // Name the first file that differs from the first one, with its stack frame.
+    let first = &sources[0];
+    let odd = sources
+        .iter()
+        .position(|s| {
+            (s.format, s.shape, s.sample_type) != (first.format, first.shape, first.sample_type)
+        })
+        .expect("some file differs");
+    let start: usize = sources[..odd].iter().map(|s| s.frames).sum();
+    Err(Error::input(
+        &sources[odd].path,
+        format!(
+            "frame 0 (stack frame {start}): differs from {}; the {} files given ({}) are not one stack: {}. A stack is frames of one camera in one format, shape and sample type (the same frames saved as .fits, .tif and .exr would be read three times): give one kind, e.g. DIR/*.fits",
+            first.path.display(),
+            sources.len(),
+            shown(inputs),
+            found.join("; ")
+        ),
+    ))
 }
 
 /// Sequential reader over the frames of a [`FrameStack`]; holds at most one open file.
@@ -536,24 +663,9 @@ impl StackReader<'_> {
         reader
             .read_frame(self.local, out)
             .map_err(|e| add_stack_frame(e, self.global))?;
-        let check = reader.may_be_nonfinite(self.local);
-        let bad = if check {
-            out.iter().position(|v| !v.is_finite())
-        } else {
-            None
-        };
-        if let Some(i) = bad {
-            return Err(Error::input(
-                &src.path,
-                format!(
-                    "frame {} (stack frame {}): non-finite sample {} at row {}, column {}",
-                    self.local,
-                    self.global,
-                    out[i],
-                    i / src.shape.1,
-                    i % src.shape.1
-                ),
-            ));
+        if reader.may_be_out_of_range(self.local) {
+            check_samples(&src.path, src.shape.1, out, false)
+                .map_err(|e| add_stack_frame(prefix_frame(e, self.local), self.global))?;
         }
         let k = self.global;
         self.local += 1;
@@ -562,11 +674,57 @@ impl StackReader<'_> {
     }
 }
 
+/// Fail on the first sample that is non-finite (NaN allowed when `nan_ok`, for masked map
+/// pixels) or beyond [`MAX_SAMPLE_ABS`], naming its row and column.
+fn check_samples(path: &Path, cols: usize, values: &[f64], nan_ok: bool) -> Result<()> {
+    let bad = values
+        .iter()
+        .position(|v| !(v.abs() <= MAX_SAMPLE_ABS || (nan_ok && v.is_nan())));
+    let Some(i) = bad else {
+        return Ok(());
+    };
+    let v = values[i];
+    let what = if v.is_finite() {
+        format!(
+            "sample {v:e} beyond +-2^53 (not camera data: check BZERO/BSCALE or the file's integrity)"
+        )
+    } else {
+        format!("non-finite sample {v}")
+    };
+    Err(Error::input(
+        path,
+        format!("{what} at row {}, column {}", i / cols, i % cols),
+    ))
+}
+
+/// Prefix the message of an input error with `frame k: `.
+fn prefix_frame(e: Error, k: usize) -> Error {
+    match e {
+        Error::Input { path, message } => Error::Input {
+            path,
+            message: format!("frame {k}: {message}"),
+        },
+        other => other,
+    }
+}
+
 fn add_stack_frame(e: Error, global: usize) -> Error {
     match e {
         Error::Input { path, message } => Error::Input {
             path,
             message: format!("{message} (stack frame {global})"),
+        },
+        other => other,
+    }
+}
+
+/// Attribute a numerical failure to the file whose data caused it: `Error::Numeric` becomes
+/// an input error naming `path`; other errors already name their file or option.
+pub fn name_file(path: &Path, e: Error) -> Error {
+    match e {
+        Error::Numeric(message) => Error::Input {
+            path: path.to_path_buf(),
+            message,
         },
         other => other,
     }
@@ -598,11 +756,13 @@ pub(crate) fn widen<T: Copy + Into<f64>>(
 }
 
 /// Read the first frame of a FITS, TIFF or EXR file (or stack argument) as a map.
-/// NaN is allowed in maps (it marks masked pixels), so this does not use the stack check.
+/// NaN is allowed in maps (it marks masked pixels); infinities and values beyond
+/// [`MAX_SAMPLE_ABS`] are not.
 pub fn read_first_frame(path: &Path) -> Result<Map> {
     let src = scan_file(path)?;
     let mut data = vec![0.0; src.shape.0 * src.shape.1];
     open_file(&src)?.read_frame(0, &mut data)?;
+    check_samples(path, src.shape.1, &data, true).map_err(|e| prefix_frame(e, 0))?;
     Ok(Map {
         rows: src.shape.0,
         cols: src.shape.1,

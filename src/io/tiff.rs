@@ -14,15 +14,111 @@ use tiff::decoder::{Decoder, DecodingResult, Limits};
 use tiff::tags::{ByteOrder, CompressionMethod, Tag};
 use tiff::ColorType;
 
-use super::{frame_error, widen, FileFrames, SampleType};
+use super::{compressed_size_error, frame_error, widen, FileFrames, SampleType, MAX_EXPANSION};
 use crate::error::{Error, Result};
 
 type Dec = Decoder<BufReader<File>>;
 
+/// Bytes of one value of TIFF field type `t` (1 for unknown types, which are skipped).
+fn type_bytes(t: u16) -> u64 {
+    match t {
+        3 | 8 => 2,
+        4 | 9 | 11 | 13 => 4,
+        5 | 10 | 12 | 16 | 17 | 18 => 8,
+        _ => 1,
+    }
+}
+
+/// Walk the IFD chain before the decoder does: every IFD and every entry's values must lie
+/// inside the file. The decoder sizes its tag value lists from the entries' counts, before
+/// any of our checks could run, so a count of 2^32 would otherwise allocate 128 GiB.
+fn check_ifds(path: &Path, f: &File, len: u64) -> Result<()> {
+    let read = |at: u64, n: usize| -> Result<Vec<u8>> {
+        let mut b = vec![0u8; n];
+        f.read_exact_at(&mut b, at)
+            .map_err(|_| frame_error(path, 0, format!("file truncated or corrupt: {n} bytes at offset {at} are beyond its {len} bytes")))?;
+        Ok(b)
+    };
+    let head = read(0, 16.min(len as usize))?;
+    let big = head.starts_with(b"MM");
+    let num = |b: &[u8]| -> u64 {
+        let push = |v: u64, x: &u8| (v << 8) | u64::from(*x);
+        if big {
+            b.iter().fold(0, push)
+        } else {
+            b.iter().rev().fold(0, push)
+        }
+    };
+    let bigtiff = head.len() >= 4 && num(&head[2..4]) == 43;
+    let (count_w, entry_w, off_w) = if bigtiff {
+        (8u64, 20u64, 8u64)
+    } else {
+        (2, 12, 4)
+    };
+    let first_at = if bigtiff { 8 } else { 4 };
+    let mut ifd = num(read(first_at, off_w as usize)?.as_slice());
+    let mut seen = std::collections::HashSet::new();
+    let mut page = 0;
+    while ifd != 0 {
+        if !seen.insert(ifd) {
+            return Err(frame_error(
+                path,
+                page,
+                format!("IFD chain loops back to offset {ifd}"),
+            ));
+        }
+        let n = num(&read(ifd, count_w as usize)?);
+        let bytes = n
+            .checked_mul(entry_w)
+            .and_then(|b| b.checked_add(count_w + off_w))
+            .filter(|b| ifd.checked_add(*b).is_some_and(|end| end <= len))
+            .ok_or_else(|| {
+                frame_error(
+                    path,
+                    page,
+                    format!(
+                        "IFD at offset {ifd} claims {n} entries, beyond the file's {len} bytes"
+                    ),
+                )
+            })?;
+        let table = read(ifd + count_w, bytes as usize - count_w as usize)?;
+        for e in table[..(n * entry_w) as usize].chunks_exact(entry_w as usize) {
+            let (tag, typ) = (num(&e[..2]), num(&e[2..4]) as u16);
+            let count = num(&e[4..4 + off_w as usize]);
+            let value_bytes = count.checked_mul(type_bytes(typ));
+            let fits = match value_bytes {
+                Some(b) if b <= off_w => true,
+                Some(b) => {
+                    let at = num(&e[4 + off_w as usize..]);
+                    at.checked_add(b).is_some_and(|end| end <= len)
+                }
+                None => false,
+            };
+            if !fits {
+                return Err(frame_error(
+                    path,
+                    page,
+                    format!("IFD entry of tag {tag}: {count} values of type {typ} lie beyond the file's {len} bytes"),
+                ));
+            }
+        }
+        ifd = num(&table[(n * entry_w) as usize..]);
+        page += 1;
+    }
+    Ok(())
+}
+
 fn open_decoder(path: &Path) -> Result<Dec> {
     let f = File::open(path).map_err(|e| Error::io(path, e))?;
+    let len = f.metadata().map_err(|e| Error::io(path, e))?.len();
+    check_ifds(path, &f, len)?;
+    let len = len as usize;
+    // The decoder sizes its buffers (and tag value lists) from header fields: cap them by
+    // what the file can hold, at most MAX_EXPANSION times its bytes when decoded.
     let mut limits = Limits::default();
-    limits.decoding_buffer_size = 1 << 31;
+    limits.decoding_buffer_size = len.saturating_mul(MAX_EXPANSION as usize).max(1 << 20);
+    limits.intermediate_buffer_size = len.max(1 << 20);
+    limits.ifd_value_size = len.max(1 << 10);
     Decoder::new(BufReader::new(f))
         .map(|d| d.with_limits(limits))
         .map_err(|e| frame_error(path, 0, format!("cannot decode TIFF header: {e}")))
@@ -62,7 +158,89 @@ fn page_info(path: &Path, k: usize, dec: &mut Dec) -> Result<((usize, usize), Sa
             ))
         }
     };
-    Ok(((h as usize, w as usize), t))
+    let shape = (h as usize, w as usize);
+    check_page_bytes(path, k, dec, shape, t)?;
+    Ok((shape, t))
+}
+
+/// A tag's values, or an error naming the page.
+fn tag_vec(path: &Path, k: usize, dec: &mut Dec, tag: Tag) -> Result<Option<Vec<u64>>> {
+    dec.find_tag_unsigned_vec::<u64>(tag)
+        .map_err(|e| frame_error(path, k, format!("tag {tag:?}: {e}")))
+}
+
+/// The page's strips (or tiles) must lie inside the file and hold the decoded frame: all of
+/// it when uncompressed, at most [`MAX_EXPANSION`] times their size when compressed. Checked
+/// before anything is decoded or allocated from the header's dimensions.
+fn check_page_bytes(
+    path: &Path,
+    k: usize,
+    dec: &mut Dec,
+    (rows, cols): (usize, usize),
+    t: SampleType,
+) -> Result<()> {
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    let tiled = tag_vec(path, k, dec, Tag::TileOffsets)?.is_some();
+    let (offsets_tag, counts_tag) = if tiled {
+        (Tag::TileOffsets, Tag::TileByteCounts)
+    } else {
+        (Tag::StripOffsets, Tag::StripByteCounts)
+    };
+    let offsets = tag_vec(path, k, dec, offsets_tag)?.unwrap_or_default();
+    let counts = tag_vec(path, k, dec, counts_tag)?.unwrap_or_default();
+    if offsets.is_empty() || offsets.len() != counts.len() {
+        return Err(frame_error(
+            path,
+            k,
+            format!(
+                "{} {offsets_tag:?} and {} {counts_tag:?}: the page's data cannot be located",
+                offsets.len(),
+                counts.len()
+            ),
+        ));
+    }
+    let mut stored = 0u64;
+    for (i, (o, c)) in offsets.iter().zip(&counts).enumerate() {
+        if o.checked_add(*c).is_none_or(|end| end > len) {
+            return Err(frame_error(
+                path,
+                k,
+                format!("file truncated or corrupt: {offsets_tag:?}[{i}] = {o} with {c} bytes ends beyond the file's {len} bytes"),
+            ));
+        }
+        stored = stored.saturating_add(*c);
+    }
+    let decoded = (rows as u64)
+        .checked_mul(cols as u64)
+        .and_then(|p| p.checked_mul(bytes_of(t) as u64));
+    let compression = dec
+        .find_tag_unsigned::<u16>(Tag::Compression)
+        .map_err(|e| frame_error(path, k, format!("tag Compression: {e}")))?
+        .unwrap_or(1);
+    if compression == CompressionMethod::None.to_u16() {
+        // Tiles are padded to whole tiles, strips hold whole rows: at least the frame.
+        if decoded.is_none_or(|d| d > stored) {
+            return Err(frame_error(
+                path,
+                k,
+                format!(
+                    "file truncated or corrupt: the page's {} bytes of uncompressed data cannot hold a {rows}x{cols} frame of {t:?}",
+                    stored
+                ),
+            ));
+        }
+    } else if decoded.is_none_or(|d| d > stored.saturating_mul(MAX_EXPANSION)) {
+        return Err(compressed_size_error(
+            path,
+            k,
+            &format!("the {rows}x{cols} page"),
+            decoded,
+            stored,
+        ));
+    }
+    Ok(())
 }
 
 /// ImageJ frame count from the first page's ImageDescription (`images=N`), if any.
@@ -159,14 +337,17 @@ fn scan_pages(path: &Path) -> Result<Scan> {
         let len = std::fs::metadata(path)
             .map_err(|e| Error::io(path, e))?
             .len();
-        if offset + frame_bytes * n as u64 > len {
-            let complete = len.saturating_sub(offset) / frame_bytes;
+        let needed = frame_bytes
+            .checked_mul(n as u64)
+            .and_then(|b| b.checked_add(offset));
+        if needed.is_none_or(|b| b > len) {
+            let complete = len.saturating_sub(offset) / frame_bytes.max(1);
             return Err(frame_error(
                 path,
                 complete as usize,
                 format!(
                     "file truncated: ImageJ stack of {n} frames needs {} bytes, file has {len}",
-                    offset + frame_bytes * n as u64
+                    needed.map_or("more than 2^64".to_string(), |b| b.to_string())
                 ),
             ));
         }
@@ -261,8 +442,11 @@ impl TiffFrames {
 }
 
 impl FileFrames for TiffFrames {
-    fn may_be_nonfinite(&self, _k: usize) -> bool {
-        self.sample_type.is_float()
+    fn may_be_out_of_range(&self, _k: usize) -> bool {
+        matches!(
+            self.sample_type,
+            SampleType::F32 | SampleType::F64 | SampleType::I64
+        )
     }
 
     fn read_frame(&mut self, k: usize, out: &mut [f64]) -> Result<()> {

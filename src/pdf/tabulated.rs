@@ -26,10 +26,20 @@ pub struct TabulatedPdf {
 }
 
 impl TabulatedPdf {
-    /// Tabulate the (unnormalised, non-negative) density `f` on [lo, hi] e-.
+    /// Tabulate the (unnormalised, non-negative) density `f` on [lo, hi] e-; panics if it
+    /// cannot be tabulated (for densities fixed in the code, such as the paper's).
     pub fn from_density(f: impl Fn(f64) -> f64, lo: f64, hi: f64, label: &str) -> Self {
-        assert!(hi > lo, "empty support");
+        Self::try_from_density(f, lo, hi, label).expect("density has mass on a finite support")
+    }
+
+    /// Tabulate the density `f` on [lo, hi] e-, or None when the support is empty or not
+    /// finite, or the density has no finite positive mass on the grid (e.g. a fitted density
+    /// concentrated inside one cell of a support stretched by extreme map values).
+    pub fn try_from_density(f: impl Fn(f64) -> f64, lo: f64, hi: f64, label: &str) -> Option<Self> {
         let step = (hi - lo) / CELLS as f64;
+        if !(lo.is_finite() && hi.is_finite() && step > 0.0 && step.is_finite()) {
+            return None;
+        }
         // Cell masses by 3-point Gauss-Legendre: exact to O(step^6) for smooth densities.
         let nodes = [-0.774_596_669_241_483_4, 0.0, 0.774_596_669_241_483_4];
         let weights = [5.0 / 18.0, 8.0 / 18.0, 5.0 / 18.0];
@@ -47,9 +57,11 @@ impl TabulatedPdf {
             acc += mass;
             cdf.push(acc);
         }
-        assert!(acc > 0.0 && acc.is_finite(), "density has no mass");
+        if !(acc > 0.0 && acc.is_finite()) {
+            return None;
+        }
         cdf.iter_mut().for_each(|c| *c /= acc);
-        Self::from_cdf(lo, step, cdf, label)
+        Some(Self::from_cdf(lo, step, cdf, label))
     }
 
     fn from_cdf(lo: f64, step: f64, cdf: Vec<f64>, label: &str) -> Self {
@@ -214,6 +226,17 @@ mod tests {
         let mean = xs.iter().sum::<f64>() / n as f64;
         let sd = (p.rms().powi(2) - p.mean().powi(2)).sqrt();
         assert!((mean - 1.078).abs() < 4.0 * sd / (n as f64).sqrt() + 1e-3);
+    }
+
+    #[test]
+    fn untabulable_densities_are_none_not_a_panic() {
+        // All mass inside the first cell, missed by every quadrature node.
+        let spike = |x: f64| if x < 1e-3 { 1.0 } else { 0.0 };
+        assert!(TabulatedPdf::try_from_density(spike, 0.0, 1e12, "t").is_none());
+        assert!(TabulatedPdf::try_from_density(|_| 1.0, 1.0, 1.0, "t").is_none());
+        assert!(TabulatedPdf::try_from_density(|_| 1.0, 0.0, f64::NAN, "t").is_none());
+        assert!(TabulatedPdf::try_from_density(|_| f64::INFINITY, 0.0, 1.0, "t").is_none());
+        assert!(TabulatedPdf::try_from_density(|_| 1.0, 0.0, 1.0, "t").is_some());
     }
 
     #[test]

@@ -195,8 +195,12 @@ impl Histogram {
 }
 
 fn uniform_edges(lo: f64, hi: f64, n: usize) -> Vec<f64> {
+    // Interpolated, not lo + (hi - lo) * i / n, which overflows to inf for huge ranges.
     (0..=n)
-        .map(|i| lo + (hi - lo) * i as f64 / n as f64)
+        .map(|i| {
+            let t = i as f64 / n as f64;
+            lo * (1.0 - t) + hi * t
+        })
         .collect()
 }
 
