@@ -573,7 +573,7 @@ fn check_uniform(inputs: &[PathBuf], sources: &[SourceFile]) -> Result<()> {
     Err(Error::input(
         &sources[odd].path,
         format!(
-            "frame 0 (stack frame {start}): differs from {}; the {} files given ({}) are not one stack: {}. A stack is frames of one camera in one format, shape and sample type (the same frames saved as .fits, .tif and .exr would be read three times): give one kind, e.g. DIR/*.fits",
+            "frame 0 (stack frame {start}): differs from {}; the {} files of {} are not one stack: {}. A stack is frames of one camera in one format, shape and sample type (the same frames saved as .fits, .tif and .exr would be read three times): give one kind, e.g. DIR/*.fits",
             first.path.display(),
             sources.len(),
             shown(inputs),

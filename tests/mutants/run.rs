@@ -55,6 +55,10 @@ fn map_entry_point(path: &Path, scratch: &Path) -> Vec<(&'static str, Result<(),
     vec![("fit-pdf", r)]
 }
 
+/// Files for which some entry point succeeded (mutants still read as valid files): shows
+/// how deep the mutants reach.
+pub static ALL_OK: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+
 /// What went wrong with one file, if anything.
 pub fn judge(path: &Path, role: Role, scratch: &Path) -> Option<String> {
     let len = std::fs::metadata(path)
@@ -76,6 +80,9 @@ pub fn judge(path: &Path, role: Role, scratch: &Path) -> Option<String> {
             bad.push(format!("PANIC: {msg}"));
         }
         Ok(results) => {
+            if results.iter().any(|r| r.1.is_ok()) {
+                ALL_OK.fetch_add(1, Ordering::Relaxed);
+            }
             let name = path.display().to_string();
             for (entry, r) in results {
                 if let Err(e) = r {
