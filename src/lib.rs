@@ -6,6 +6,7 @@
 
 pub mod calib;
 pub mod centroid;
+#[cfg(feature = "cli")]
 pub mod cli;
 pub mod detector;
 pub mod effective;

@@ -58,7 +58,8 @@ pub(crate) fn set_mode(path: &Path, mode: u32) -> Result<()> {
 }
 
 /// Output format of a table of records.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum Format {
     /// Aligned text columns for reading in a terminal.
     Table,

@@ -77,7 +77,8 @@ impl Spot {
 }
 
 /// How the intensity is turned into pixel values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Sampling {
     /// Intensity integrated over each pixel's area (physical; the default).

@@ -24,7 +24,8 @@ const PURPOSE_PIXELS: u64 = 0x5059_5845_4c53; // "PIXELS"
 const PURPOSE_FRAMES: u64 = 0x4652_414d_4553; // "FRAMES"
 
 /// Output file format of a synthetic stack.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum StackFormat {
     /// FITS cube (one HDU, NAXIS3 = frames).

@@ -67,6 +67,7 @@ impl Guard {
 
     /// Remove every registered path, newest first (files inside a temporary directory go
     /// before it, created parents after it).
+    #[cfg(feature = "cli")]
     fn remove_all(&mut self) {
         for (path, kind) in self.0.live.drain(..).rev() {
             remove(&path, kind);
@@ -134,7 +135,9 @@ impl Drop for Temp {
 }
 
 /// Install the handler of Ctrl-C and SIGTERM: remove every registered temporary, then exit
-/// with [`INTERRUPTED_EXIT_CODE`]. Call once, at the start of the program.
+/// with [`INTERRUPTED_EXIT_CODE`]. Call once, at the start of the program. Only with the
+/// `cli` feature (the library alone installs no signal handler).
+#[cfg(feature = "cli")]
 pub fn install_interrupt_handler() -> Result<(), String> {
     ctrlc::set_handler(|| {
         // Keep the lock to the end: no new temporary can appear, and no commit is half done.
