@@ -4,6 +4,8 @@
 //! -> Monte-Carlo (`spot`, `detector`, `centroid`, `montecarlo`) -> tables and charts
 //! (`effective`, `plot`, `report`). The binary `detnoise` is a thin layer in `cli`.
 
+#![warn(missing_docs)]
+
 pub mod calib;
 pub mod centroid;
 #[cfg(feature = "cli")]

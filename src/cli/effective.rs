@@ -19,8 +19,10 @@ pub struct EffectiveArgs {
     /// scmos-map (needs --map), scmos-fixed:K, or any other model name.
     #[arg(long, default_value = "scmos-random")]
     pub model: String,
+    /// The Monte-Carlo sweep: sub-aperture sizes (px), spots, signals (photons), iterations, seed.
     #[command(flatten)]
     pub sweep: SweepArgs,
+    /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
     /// Output directory: effective_noise.csv, effective_noise.json and one heatmap per signal

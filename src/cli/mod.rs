@@ -30,6 +30,7 @@ pub struct Cli {
     /// Worker threads, 1 to 1024 (default: all cores). Results do not depend on it.
     #[arg(long, global = true, value_parser = args::whole::<usize>(1, MAX_THREADS, "threads"))]
     pub threads: Option<usize>,
+    /// The subcommand to run (simulate, effective, report, ...).
     #[command(subcommand)]
     pub command: Command,
 }

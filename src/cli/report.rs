@@ -79,6 +79,7 @@ pub struct ReportArgs {
     /// the report). The full grid takes several minutes.
     #[arg(long)]
     pub quick: bool,
+    /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
     /// Output directory, written only when the whole report succeeded; an existing directory is

@@ -18,8 +18,10 @@ pub struct SimulateArgs {
         default_value = "emccd-simple,emccd-stochastic,emccd-distribution,scmos-median,scmos-mean,scmos-random"
     )]
     pub model: String,
+    /// The Monte-Carlo sweep: sub-aperture sizes (px), spots, signals (photons), iterations, seed.
     #[command(flatten)]
     pub sweep: SweepArgs,
+    /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
     /// Output format: table (text), csv, or json (an array of records, with R at every level).
