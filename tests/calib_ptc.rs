@@ -1,6 +1,10 @@
 //! Photon transfer against known truth: the global gain within its stated uncertainty,
 //! per-pixel gains with correct errors, and lamp flicker removal.
 
+mod common;
+
+use common::open;
+
 use std::path::{Path, PathBuf};
 
 use detnoise::calib::darks::{pixel_stats, Clip};
@@ -21,10 +25,6 @@ fn spec(frames: usize, light_e: f64) -> SynthSpec {
         seed: 5,
         u16_samples: true,
     }
-}
-
-fn open(p: &Path) -> FrameStack {
-    FrameStack::open(&[p.to_path_buf()]).unwrap()
 }
 
 /// Darks and flats written by `synth`; returns (dark path, flat paths).

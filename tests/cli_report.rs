@@ -1,12 +1,11 @@
 //! End-to-end tests of `detnoise report` on tiny synthetic cameras.
 
-use assert_cmd::Command;
+mod common;
+
+use common::detnoise;
+
 use serde_json::Value;
 use std::path::Path;
-
-fn detnoise() -> Command {
-    Command::cargo_bin("detnoise").unwrap()
-}
 
 /// A synthetic sCMOS dark stack with read noise `rms` (`paper` or a constant in e-), gain 0.25 e-/adu.
 fn synth(dir: &Path, rms: &str, frames: &str, seed: &str) -> std::path::PathBuf {

@@ -1,11 +1,10 @@
 //! End-to-end tests of `detnoise simulate`.
 
-use assert_cmd::Command;
-use serde_json::Value;
+mod common;
 
-fn detnoise() -> Command {
-    Command::cargo_bin("detnoise").unwrap()
-}
+use common::detnoise;
+
+use serde_json::Value;
 
 const KEYS: [&str; 15] = [
     "model",

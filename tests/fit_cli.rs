@@ -2,17 +2,16 @@
 //! recovery on synthetic stacks, clear refusals, and agreement of the gain routes on the
 //! real LANL EMCCD stacks (tests/data/lanl-emccd, BSD-3-Clause, LICENSE beside them).
 
+mod common;
+
+use common::detnoise;
+
 use std::path::{Path, PathBuf};
 
-use assert_cmd::Command;
 use detnoise::fit::load_pdf_fit;
 use detnoise::maps::{write_fits_map, Map};
 use detnoise::pdf::{paper, EmpiricalPdf, RmsPdf};
 use detnoise::rng::stream;
-
-fn detnoise() -> Command {
-    Command::cargo_bin("detnoise").unwrap()
-}
 
 fn json(path: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()

@@ -1,18 +1,14 @@
 //! The committed data-synthetic/ stacks run through `darks` and `ptc` from a clean checkout,
 //! give identical maps in all three formats and match their truth maps.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use common::data;
 
 use detnoise::calib::darks::{dark_maps, pixel_stats, Clip, DarkOptions};
 use detnoise::calib::ptc::{photon_transfer, DarkReference, PtcOptions};
 use detnoise::io::FrameStack;
 use detnoise::maps::read_map;
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data-synthetic")
-        .join(name)
-}
 
 fn open(name: &str) -> FrameStack {
     FrameStack::open(&[data(name)]).unwrap()

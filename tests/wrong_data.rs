@@ -1,10 +1,13 @@
 //! The wrong kind of data is recognised before the work (issue 9, section 3): flats given as
 //! darks, sCMOS frames given to the EM-gain fit, and several light levels in one `--flats`.
 
+mod common;
+
+use common::{data, detnoise, open};
+
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
-use assert_cmd::Command;
 use detnoise::calib::darks::{dark_maps, pixel_stats, Clip, DarkOptions, Illumination};
 use detnoise::calib::ptc::{light_levels, photon_transfer, DarkReference, PtcOptions};
 use detnoise::fit::em_signature::{EmSignature, Verdict};
@@ -26,24 +29,10 @@ const SCMOS_DARKS: [&str; 3] = [
 ];
 const EMCCD: [&str; 2] = ["emccd-darks-32x48.fits", "emccd-lowlight-32x48.fits"];
 
-fn detnoise() -> Command {
-    Command::cargo_bin("detnoise").unwrap()
-}
-
-fn data(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("data-synthetic")
-        .join(name)
-}
-
 fn lanl(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/data/lanl-emccd/gain-GS")
         .join(name)
-}
-
-fn open(p: &Path) -> FrameStack {
-    FrameStack::open(&[p.to_path_buf()]).unwrap()
 }
 
 /// The exit code the project gives bad input data.

@@ -1,0 +1,26 @@
+//! Helpers shared by the integration tests (`mod common;` in each file that uses them).
+
+// Each test file is its own crate and uses only some of these.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+use assert_cmd::Command;
+use detnoise::io::FrameStack;
+
+/// The `detnoise` binary built for this test run (needs the `cli` feature).
+pub fn detnoise() -> Command {
+    Command::cargo_bin("detnoise").unwrap()
+}
+
+/// Path of the bundled stack `name` under `data-synthetic/`.
+pub fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data-synthetic")
+        .join(name)
+}
+
+/// The frame stack in the single file `p`.
+pub fn open(p: &Path) -> FrameStack {
+    FrameStack::open(&[p.to_path_buf()]).unwrap()
+}
