@@ -69,7 +69,8 @@ pub fn key(name: &str, value: KeyValue, comment: &str) -> Keyword {
     (name.to_string(), value, comment.to_string())
 }
 
-pub use crate::output::{write_atomic as write_bytes_atomic, write_atomic_with as write_atomic};
+use crate::output::write_atomic_with;
+pub use crate::output::write_json;
 
 fn fits_err(path: &Path, e: fitsio::errors::Error) -> Error {
     Error::io(path, std::io::Error::other(e.to_string()))
@@ -137,7 +138,7 @@ fn write_fits_image(
     bunit: &str,
     keys: &[Keyword],
 ) -> Result<()> {
-    write_atomic(path, |tmp| {
+    write_atomic_with(path, |tmp| {
         let data_type = match data {
             FitsData::F64(_) => ImageType::Double,
             FitsData::I32(_) => ImageType::Long,
@@ -170,11 +171,4 @@ fn write_fits_image(
         write_keys(&mut f, tmp, &all)?;
         Ok(())
     })
-}
-
-/// Write a serialisable value as pretty JSON, atomically.
-pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
-    let text = serde_json::to_string_pretty(value)
-        .map_err(|e| Error::Numeric(format!("JSON encoding: {e}")))?;
-    write_bytes_atomic(path, format!("{text}\n").as_bytes())
 }

@@ -13,7 +13,7 @@ use crate::effective::effective_sigma;
 use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
 use crate::io::FrameStack;
 use crate::montecarlo::{run, BgGrid, SimConfig};
-use crate::output::{render, write_atomic, DirPlan, Format, OutputDir};
+use crate::output::{render, write_atomic, write_json, DirPlan, Format, OutputDir};
 use crate::plot::{LineChart, Series};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
@@ -424,8 +424,7 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
         sampling: args.sampling.label().into(),
         quick: args.quick,
     };
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::Numeric(e.to_string()))?;
-    write_atomic(&dir.path("summary.json"), json.as_bytes())?;
+    write_json(&dir.path("summary.json"), &summary)?;
     let page = super::report_page::index_html(
         &summary,
         &fit,
@@ -525,8 +524,7 @@ fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir)
         seed: args.seed,
         quick: args.quick,
     };
-    let json = serde_json::to_string_pretty(&summary).map_err(|e| Error::Numeric(e.to_string()))?;
-    write_atomic(&dir.path("summary.json"), json.as_bytes())?;
+    write_json(&dir.path("summary.json"), &summary)?;
     write_atomic(
         &dir.path("index.html"),
         super::report_page::emccd_html(&summary, &comparison).as_bytes(),

@@ -7,11 +7,7 @@ use crate::fit::pdf_fit::PdfFitReport;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-}
+use crate::output::html_escape as esc;
 
 fn fmt_sigma(v: f64, se: f64) -> String {
     if v.is_finite() {

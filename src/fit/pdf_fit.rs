@@ -445,9 +445,7 @@ impl PdfFitReport {
 
     /// Write as pretty JSON to `path`, atomically.
     pub fn write_json(&self, path: &Path) -> Result<()> {
-        let text = serde_json::to_string_pretty(self)
-            .map_err(|e| Error::Numeric(format!("cannot serialise the fit: {e}")))?;
-        super::write_atomic(path, text.as_bytes())
+        crate::output::write_json(path, self)
     }
 }
 

@@ -202,7 +202,7 @@ pub fn write_layers(
         ImageAttributes::new(IntegerBounds::from_dimensions(size)),
         layers,
     );
-    crate::maps::write_atomic(path, |tmp| {
+    crate::output::write_atomic_with(path, |tmp| {
         image
             .write()
             .to_file(tmp)

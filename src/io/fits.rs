@@ -412,7 +412,7 @@ pub fn write_cube(
     use fitsio::images::{ImageDescription, ImageType};
     let fits_err =
         |p: &Path, e: fitsio::errors::Error| Error::io(p, std::io::Error::other(e.to_string()));
-    crate::maps::write_atomic(path, |tmp| {
+    crate::output::write_atomic_with(path, |tmp| {
         let data_type = if u16_samples {
             ImageType::UnsignedShort
         } else {

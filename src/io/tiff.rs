@@ -495,7 +495,7 @@ pub fn write_pages(
     next: &mut dyn FnMut() -> Vec<f64>,
 ) -> Result<()> {
     use tiff::encoder::{colortype, TiffEncoder};
-    crate::maps::write_atomic(path, |tmp| {
+    crate::output::write_atomic_with(path, |tmp| {
         let file = File::create(tmp).map_err(|e| Error::io(tmp, e))?;
         let mut enc = TiffEncoder::new(std::io::BufWriter::new(file))
             .map_err(|e| Error::io(tmp, std::io::Error::other(e)))?;

@@ -104,9 +104,10 @@ impl OutputDir {
             .into_iter()
             .filter(|f| f != Path::new(MANIFEST_NAME))
             .collect();
-        let json = serde_json::to_string_pretty(&Manifest::new(&self.command, &files))
-            .map_err(|e| Error::Numeric(format!("cannot serialise the manifest: {e}")))?;
-        super::write_atomic(&tmp.join(MANIFEST_NAME), json.as_bytes())?;
+        super::write_json(
+            &tmp.join(MANIFEST_NAME),
+            &Manifest::new(&self.command, &files),
+        )?;
         super::set_mode(&tmp, 0o755)?;
         // Under the lock, an interruption waits until the directory is complete in place.
         let guard = temps::lock();
