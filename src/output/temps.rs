@@ -28,9 +28,6 @@ static REGISTRY: Mutex<Registry> = Mutex::new(Registry {
     aliases: Vec::new(),
 });
 
-/// Exit code of a run stopped by Ctrl-C or SIGTERM.
-pub const INTERRUPTED_EXIT_CODE: i32 = 130;
-
 /// The locked registry. While a guard lives the interrupt handler waits, so a sequence of
 /// renames done under it is never cut in half by Ctrl-C.
 pub(crate) struct Guard(MutexGuard<'static, Registry>);
@@ -135,7 +132,7 @@ impl Drop for Temp {
 }
 
 /// Install the handler of Ctrl-C and SIGTERM: remove every registered temporary, then exit
-/// with [`INTERRUPTED_EXIT_CODE`]. Call once, at the start of the program. Only with the
+/// with [`crate::error::EXIT_INTERRUPTED`]. Call once, at the start of the program. Only with the
 /// `cli` feature (the library alone installs no signal handler).
 #[cfg(feature = "cli")]
 pub fn install_interrupt_handler() -> Result<(), String> {
@@ -144,7 +141,7 @@ pub fn install_interrupt_handler() -> Result<(), String> {
         let mut reg = lock();
         reg.remove_all();
         eprintln!("\ndetnoise: interrupted; temporary files removed");
-        std::process::exit(INTERRUPTED_EXIT_CODE);
+        std::process::exit(crate::error::EXIT_INTERRUPTED);
     })
     .map_err(|e| format!("cannot install the Ctrl-C handler: {e}"))
 }
