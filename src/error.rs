@@ -23,18 +23,29 @@ Exit status:
        a bad or refused output path
   130  interrupted by Ctrl-C or SIGTERM";
 
+/// A field as shown in a message: flags (`--out`, `STACK`) as "option ...", library fields
+/// in backticks.
+fn shown_field(field: &str) -> String {
+    if field.starts_with('-') || field.chars().all(|c| c.is_ascii_uppercase()) {
+        format!("option {field}")
+    } else {
+        format!("`{field}`")
+    }
+}
+
 /// Result alias used across the library.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
 
 /// Everything that can go wrong in detnoise, with the file (and frame) it concerns.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A command-line option or configuration value is invalid (exit code 2).
-    #[error("invalid option {option}: {message}")]
+    /// A setting is invalid (exit code 2). The library names its own field (`signal_photons`);
+    /// the command line replaces it with the option's flag (`--signal`) before printing.
+    #[error("invalid {}: {message}", shown_field(field))]
     Usage {
-        /// The option or setting at fault, e.g. `--signal`.
-        option: String,
-        /// What is wrong with it.
+        /// The setting at fault: a library field name, or a flag once the CLI has mapped it.
+        field: String,
+        /// What is wrong with it; other settings are named as `` `field` `` (backticks).
         message: String,
     },
     /// An input file is unreadable or its content is invalid (exit code 1: bad data).
@@ -59,10 +70,10 @@ pub enum Error {
 }
 
 impl Error {
-    /// A usage error for `option`.
-    pub fn usage(option: impl Into<String>, message: impl Into<String>) -> Self {
+    /// An invalid setting: `field` is the library's name for it (e.g. `emccd_read_noise_e`).
+    pub fn invalid(field: impl Into<String>, message: impl Into<String>) -> Self {
         Error::Usage {
-            option: option.into(),
+            field: field.into(),
             message: message.into(),
         }
     }
@@ -100,7 +111,7 @@ mod tests {
     #[test]
     fn exit_codes_follow_the_documented_rule() {
         let io = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "denied");
-        assert_eq!(Error::usage("--qe", "bad").exit_code(), EXIT_USAGE);
+        assert_eq!(Error::invalid("qe", "bad").exit_code(), EXIT_USAGE);
         assert_eq!(Error::input("a.fits", "bad").exit_code(), EXIT_FAILURE);
         assert_eq!(Error::io("a.fits", io).exit_code(), EXIT_FAILURE);
         assert_eq!(Error::Numeric("no fit".into()).exit_code(), EXIT_FAILURE);

@@ -51,7 +51,7 @@ impl BgGrid {
         if text == "auto" {
             return Ok(BgGrid::Auto);
         }
-        let bad = |why: String| Error::usage("--bg-grid", format!("'{text}': {why}"));
+        let bad = |why: String| Error::invalid("--bg-grid", format!("'{text}': {why}"));
         let form = || {
             bad(
                 "expected auto or start:stop:step in e-, with 0 <= start <= stop and step > 0"
@@ -182,7 +182,7 @@ impl SimConfig {
             if ok {
                 Ok(())
             } else {
-                Err(Error::usage(option, msg))
+                Err(Error::invalid(option, msg))
             }
         };
         let n = self.subap_px;

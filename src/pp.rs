@@ -108,19 +108,19 @@ impl PpConfig {
     /// Checks that gain, read noise, `lambda_max` and `k` are finite and in range.
     pub fn validate(&self) -> Result<()> {
         if !(self.gain.is_finite() && self.gain > 0.0) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--gain",
                 format!("EM gain must be > 0, got {}", self.gain),
             ));
         }
         if !(self.read_noise_e.is_finite() && self.read_noise_e >= 0.0) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--emccd-read-noise",
                 format!("read noise must be >= 0 e-, got {}", self.read_noise_e),
             ));
         }
         if !(self.lambda_max.is_finite() && self.lambda_max > 0.0 && self.lambda_max <= 1e5) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--pp-lambda-max",
                 format!(
                     "must be in (0, 1e5] photo-electrons, got {}",
@@ -130,7 +130,7 @@ impl PpConfig {
         }
         if let ZeroOneRule::KSigma(k) = self.zero_one {
             if !(k.is_finite() && k > 0.0) || self.read_noise_e == 0.0 {
-                return Err(Error::usage(
+                return Err(Error::invalid(
                     "--pp-zero-one",
                     format!("k*sigma threshold needs k > 0 and read noise > 0, got k = {k}"),
                 ));
@@ -158,7 +158,7 @@ impl PpConfig {
         if let ZeroOneRule::KSigma(k) = self.zero_one {
             t[0] = k * self.read_noise_e / self.gain;
             if t.len() > 1 && t[0] >= t[1] {
-                return Err(Error::usage(
+                return Err(Error::invalid(
                     "--pp-zero-one",
                     format!("{k} sigma lies above the 1|2 boundary ({:.3} g)", t[1]),
                 ));
@@ -187,7 +187,7 @@ fn check_lambda(lambda: f64, option: &str) -> Result<()> {
     if lambda.is_finite() && lambda >= 0.0 {
         Ok(())
     } else {
-        Err(Error::usage(
+        Err(Error::invalid(
             option,
             format!("light level must be finite and >= 0, got {lambda}"),
         ))
@@ -261,7 +261,7 @@ fn ln_emg(x: f64, gain: f64, sigma: f64) -> f64 {
 pub fn zero_one_threshold_e(lambda: f64, gain: f64, read_noise_e: f64) -> Result<f64> {
     check_lambda(lambda, "--pp-lambda")?;
     if lambda == 0.0 {
-        return Err(Error::usage(
+        return Err(Error::invalid(
             "--pp-lambda",
             "the 0|1 boundary needs a light level > 0",
         ));
@@ -657,7 +657,7 @@ impl PhotometricCorrection {
     /// Tabulates E[K | lambda] for `thresholds` on [0, lambda_max] photo-electrons and its inverse.
     pub fn new(thresholds: &PpThresholds, lambda_max: f64) -> Result<Self> {
         if !(lambda_max.is_finite() && lambda_max > 0.0) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--pp-lambda-max",
                 format!("must be > 0, got {lambda_max}"),
             ));

@@ -33,7 +33,7 @@ impl Spot {
     /// Parse `airy:D` or `gauss:SX,SY` (pixels).
     pub fn parse(text: &str) -> Result<Self> {
         let bad = |why: &str| {
-            Error::usage(
+            Error::invalid(
                 "--spot",
                 format!("'{text}': {why} (use airy:D or gauss:SX,SY, in px)"),
             )

@@ -265,7 +265,7 @@ pub fn write_synthetic_in(
     let staged = |p: &Path| dir.join(p.file_name().unwrap_or_default());
     let files = output_files(out);
     if spec.frames == 0 || spec.shape.0 == 0 || spec.shape.1 == 0 {
-        return Err(Error::usage(
+        return Err(Error::invalid(
             "--shape/--frames",
             "need at least one row, column and frame",
         ));

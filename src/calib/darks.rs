@@ -521,7 +521,7 @@ pub fn pixel_stats_of(
     };
     if let Clip::Extremes(n) = clip {
         if 2 * n + 2 > used {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--clip",
                 format!(
                     "rejecting {n} high and {n} low samples leaves fewer than 2 of {used} frames"

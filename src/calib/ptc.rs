@@ -207,7 +207,7 @@ pub fn photon_transfer(
     opts: &PtcOptions,
 ) -> Result<PtcResult> {
     if flats.is_empty() {
-        return Err(Error::usage("--flats", "need at least one flat stack"));
+        return Err(Error::invalid("--flats", "need at least one flat stack"));
     }
     let (rows, cols) = (dark.offset_adu.rows, dark.offset_adu.cols);
     let npix = rows * cols;

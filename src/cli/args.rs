@@ -215,10 +215,13 @@ impl DetectorArgs {
     pub fn validate(&self, specs: &[ModelSpec]) -> Result<()> {
         EmRegister::check(self.gain, self.stages, "--gain")?;
         if self.pdf == "paper" && self.pdf_model.is_some() {
-            return Err(Error::usage("--pdf-model", "applies only with --pdf FILE"));
+            return Err(Error::invalid(
+                "--pdf-model",
+                "applies only with --pdf FILE",
+            ));
         }
         if specs.contains(&ModelSpec::ScmosMap) && self.map.is_none() {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--map",
                 "the scmos-map model needs a measured noise map: give --map FILE",
             ));
@@ -254,7 +257,10 @@ impl DetectorArgs {
     fn rms_pdf(&self) -> Result<Arc<dyn crate::pdf::RmsPdf>> {
         match (self.pdf.as_str(), &self.pdf_model) {
             ("paper", None) => Ok(Arc::new(crate::pdf::paper())),
-            ("paper", Some(_)) => Err(Error::usage("--pdf-model", "applies only with --pdf FILE")),
+            ("paper", Some(_)) => Err(Error::invalid(
+                "--pdf-model",
+                "applies only with --pdf FILE",
+            )),
             (file, model) => {
                 crate::fit::pdf_fit::load_pdf_fit(std::path::Path::new(file), model.as_deref())
             }
@@ -290,7 +296,7 @@ pub fn parse_models(text: &str) -> Result<Vec<ModelSpec>> {
         .map(|s| ModelSpec::parse(s.trim()))
         .collect::<Result<_>>()?;
     if specs.is_empty() {
-        return Err(Error::usage(
+        return Err(Error::invalid(
             "--model",
             format!("no model given (known: {MODEL_NAMES})"),
         ));
@@ -304,12 +310,12 @@ pub fn parse_list<T: std::str::FromStr>(text: &str, option: &str) -> Result<Vec<
         .split(',')
         .map(|s| {
             s.trim().parse::<T>().map_err(|_| {
-                Error::usage(option, format!("'{s}' in '{text}' is not a valid number"))
+                Error::invalid(option, format!("'{s}' in '{text}' is not a valid number"))
             })
         })
         .collect::<Result<_>>()?;
     if items.is_empty() {
-        return Err(Error::usage(option, "empty list"));
+        return Err(Error::invalid(option, "empty list"));
     }
     Ok(items)
 }

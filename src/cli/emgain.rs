@@ -106,19 +106,19 @@ impl EmgainArgs {
     /// while parsing).
     pub fn validate(&self) -> Result<()> {
         if !self.reference_stack.is_empty() && self.reference_offset.is_none() {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--reference-offset",
                 "the ratio-of-means check of --reference-stack needs the reference stack's bias map",
             ));
         }
         if self.stages.is_some() && self.gain_e_per_adu.is_none() && self.gain_map.is_none() {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--stages",
                 "the exact register model needs the conversion gain (--gain-e-per-adu or --gain-map)",
             ));
         }
         if self.reference_stack.is_empty() && self.reference_offset.is_some() {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--reference-offset",
                 "applies only with --reference-stack",
             ));
@@ -188,7 +188,7 @@ pub fn run(args: &EmgainArgs) -> Result<()> {
         None
     } else {
         let off = args.reference_offset.as_deref().ok_or_else(|| {
-            Error::usage(
+            Error::invalid(
                 "--reference-offset",
                 "the ratio-of-means check needs the reference stack's bias map",
             )
@@ -288,7 +288,7 @@ pub fn accumulate(
     };
     let width = match width {
         Some(w) if w > 0.0 && w.is_finite() => w,
-        Some(_) => return Err(Error::usage("--bin-width-adu", "must be finite and > 0")),
+        Some(_) => return Err(Error::invalid("--bin-width-adu", "must be finite and > 0")),
         None if off.is_none() && !stack.sample_type.is_float() => 1.0,
         None => 0.25,
     };

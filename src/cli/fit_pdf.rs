@@ -68,7 +68,7 @@ impl FitPdfArgs {
             .iter()
             .map(|m| {
                 PdfModel::from_name(m.trim()).ok_or_else(|| {
-                    Error::usage(
+                    Error::invalid(
                         "--models",
                         format!("unknown model {m:?} (paper-scaled, paper-family, lognormal+tail, empirical)"),
                     )
@@ -81,12 +81,12 @@ impl FitPdfArgs {
     fn scale(&self) -> Result<f64> {
         match (self.unit, self.gain_e_per_adu) {
             (MapUnit::E, None) => Ok(1.0),
-            (MapUnit::E, Some(_)) => Err(Error::usage(
+            (MapUnit::E, Some(_)) => Err(Error::invalid(
                 "--gain-e-per-adu",
                 "only applies with --unit adu (the map is already in electrons)",
             )),
             (MapUnit::Adu, Some(g)) => Ok(g),
-            (MapUnit::Adu, None) => Err(Error::usage(
+            (MapUnit::Adu, None) => Err(Error::invalid(
                 "--unit adu",
                 "needs a positive --gain-e-per-adu to convert the map to electrons",
             )),

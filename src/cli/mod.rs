@@ -5,6 +5,7 @@ mod charts;
 pub mod darks;
 pub mod effective;
 pub mod emgain;
+pub mod fields;
 pub mod fit_pdf;
 pub mod paper;
 pub mod progress;
@@ -104,7 +105,7 @@ pub fn main() -> i32 {
     match result {
         Ok(()) => EXIT_OK,
         Err(e) => {
-            let e = crate::output::temps::hide_temporaries(e);
+            let e = fields::to_cli(crate::output::temps::hide_temporaries(e));
             eprintln!("detnoise: error: {e}");
             e.exit_code()
         }

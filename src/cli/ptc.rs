@@ -148,7 +148,7 @@ pub fn run(args: &PtcArgs) -> Result<()> {
             )
         }
         _ => {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--darks",
                 "give --darks or both --dark-offset and --dark-rms",
             ))

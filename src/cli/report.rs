@@ -234,20 +234,20 @@ fn gain_source(args: &ReportArgs) -> Result<Option<f64>> {
     match (args.gain_e_per_adu, args.flats.is_empty(), args.kind) {
         (Some(g), true, _) => Ok(Some(g)),
         (None, false, DetectorKind::Scmos) => Ok(None),
-        (Some(_), false, DetectorKind::Scmos) => Err(Error::usage(
+        (Some(_), false, DetectorKind::Scmos) => Err(Error::invalid(
             "--gain-e-per-adu",
             "give either --flats (photon transfer) or --gain-e-per-adu, not both",
         )),
-        (_, false, DetectorKind::Emccd) => Err(Error::usage(
+        (_, false, DetectorKind::Emccd) => Err(Error::invalid(
             "--flats",
             "an EMCCD report takes the conversion gain from --gain-e-per-adu (photon transfer at \
              unity EM gain, or the data sheet), not from flats",
         )),
-        (None, true, DetectorKind::Scmos) => Err(Error::usage(
+        (None, true, DetectorKind::Scmos) => Err(Error::invalid(
             "--gain-e-per-adu",
             "no conversion gain: give --gain-e-per-adu G (e- per adu, from the camera's data sheet) or flat stacks with --flats so photon transfer can measure it",
         )),
-        (None, true, DetectorKind::Emccd) => Err(Error::usage(
+        (None, true, DetectorKind::Emccd) => Err(Error::invalid(
             "--gain-e-per-adu",
             "an EMCCD report needs the conversion gain in e- per adu (photon transfer at unity EM gain, or the data sheet)",
         )),
@@ -473,7 +473,7 @@ pub struct EmccdSummary {
 fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir) -> Result<()> {
     use crate::fit::emgain::{fit_emgain, EmGainOptions, EmShape};
     let Some(conv) = gain_source(args)? else {
-        return Err(Error::usage("--flats", "an EMCCD report takes no flats"));
+        return Err(Error::invalid("--flats", "an EMCCD report takes no flats"));
     };
     crate::fit::em_signature::require_em_signature(stack)?;
     let (hist, _) = super::emgain::accumulate(stack, None, None)?;

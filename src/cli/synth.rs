@@ -136,14 +136,14 @@ pub fn rms_pdf(spec: &str) -> Result<Box<dyn RmsPdf>> {
     }
     if let Ok(v) = spec.parse::<f64>() {
         if !(v >= 0.0 && v.is_finite()) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--rms-pdf",
                 format!("constant read noise {v} must be finite and >= 0 e-"),
             ));
         }
         return Ok(Box::new(
             crate::pdf::EmpiricalPdf::new(&[v], &format!("constant {v} e-"))
-                .ok_or_else(|| Error::usage("--rms-pdf", "bad constant"))?,
+                .ok_or_else(|| Error::invalid("--rms-pdf", "bad constant"))?,
         ));
     }
     let map = crate::maps::read_map(spec)?;

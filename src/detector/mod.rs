@@ -124,7 +124,7 @@ impl ModelSpec {
             None => (text, None),
         };
         let bad = || {
-            Error::usage(
+            Error::invalid(
                 "--model",
                 format!("unknown model '{text}' (known: {MODEL_NAMES})"),
             )
@@ -144,7 +144,7 @@ impl ModelSpec {
                 None => Ok(ModelSpec::ScmosConstant(None)),
                 Some(a) => match a.parse::<f64>() {
                     Ok(s) if s.is_finite() && s >= 0.0 => Ok(ModelSpec::ScmosConstant(Some(s))),
-                    _ => Err(Error::usage(
+                    _ => Err(Error::invalid(
                         "--model",
                         format!("'{text}': sigma must be a number >= 0 (e-)"),
                     )),
@@ -153,7 +153,7 @@ impl ModelSpec {
             "scmos-fixed" => match arg {
                 None => Ok(ModelSpec::ScmosFixed(0)),
                 Some(a) => a.parse::<u32>().map(ModelSpec::ScmosFixed).map_err(|_| {
-                    Error::usage(
+                    Error::invalid(
                         "--model",
                         format!("'{text}': pattern must be a whole number"),
                     )
@@ -203,7 +203,7 @@ impl ModelSpec {
             ModelSpec::ScmosMap => match &params.map {
                 Some(map) => Box::new(ScmosMap::new(map.clone(), subap_px)?),
                 None => {
-                    return Err(Error::usage(
+                    return Err(Error::invalid(
                         "--model",
                         "scmos-map needs a measured noise map: give --map FILE",
                     ))

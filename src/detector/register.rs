@@ -67,7 +67,7 @@ impl EmRegister {
     pub fn check(gain: f64, stages: u32, gain_option: &str) -> crate::Result<()> {
         use crate::Error;
         if !(gain.is_finite() && (1.0..=MAX_EM_GAIN).contains(&gain)) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 gain_option,
                 format!(
                     "EM gain {gain} must be in [1, {MAX_EM_GAIN}] e-/e-: cameras run at most at a few thousand, \
@@ -76,7 +76,7 @@ impl EmRegister {
             ));
         }
         if !(1..=MAX_STAGES).contains(&stages) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--stages",
                 format!(
                     "{stages} stages: must be 1 to {MAX_STAGES} (real registers have 400 to 1100)"
@@ -87,7 +87,7 @@ impl EmRegister {
         if p > 1.0 + P_ROUND_OFF {
             let n = Self::min_stages(gain);
             let g_max = 2f64.powi(stages as i32);
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 format!("--stages/{gain_option}"),
                 format!(
                     "--stages {stages} cannot give {gain_option} {gain}: each stage multiplies an \

@@ -815,7 +815,7 @@ pub fn fit_emgain_of_stack(
 pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit> {
     if let Some(c) = opts.gain_e_per_adu {
         if !(c > 0.0 && c.is_finite()) {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--gain-e-per-adu",
                 "must be a positive number",
             ));
@@ -823,7 +823,7 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     }
     let conv = match (opts.shape, opts.gain_e_per_adu) {
         (EmShape::Register { .. }, None) => {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 "--stages",
                 "the exact register model needs the conversion gain (--gain-e-per-adu)",
             ))
@@ -849,20 +849,20 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     let ((q4, sq), q50) = (h.low_tail(), h.quantile(0.5));
     let sq = sq.max(w0 / 12f64.sqrt());
     if opts.serial_cic && opts.shape == EmShape::Gamma {
-        return Err(Error::usage(
+        return Err(Error::invalid(
             "--serial-cic",
             "serial CIC has partial gain, modelled only with the exact register (--stages)",
         ));
     }
     let st =
         match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
-            (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => return Err(Error::usage(
+            (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => return Err(Error::invalid(
                 "--offset/--read-noise",
                 format!("the maps give a bias of {b} adu and a read noise of {s} adu: both must be finite, the read noise > 0"),
             )),
             (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv)?,
             (None, None) => start_values(h)?,
-            _ => return Err(Error::usage(
+            _ => return Err(Error::invalid(
                 "--offset/--read-noise",
                 "bias and read noise are fixed together (both from no-signal frames) or not at all",
             )),

@@ -153,7 +153,7 @@ impl Data {
 pub fn fit_pdf(values: &[f64], opts: &PdfFitOptions) -> Result<PdfFitReport> {
     let cut = opts.upper_cut_e.unwrap_or(f64::INFINITY);
     if cut.is_nan() || cut <= 0.0 {
-        return Err(Error::usage("--upper-cut", "must be positive (e-)"));
+        return Err(Error::invalid("--upper-cut", "must be positive (e-)"));
     }
     let mut sorted: Vec<f64> = values
         .iter()
@@ -406,7 +406,7 @@ impl PdfFitReport {
     pub fn pdf(&self, model: Option<&str>) -> Result<Arc<dyn RmsPdf>> {
         let name = model.unwrap_or(&self.best_model);
         let fit = self.models.get(name).ok_or_else(|| {
-            Error::usage(
+            Error::invalid(
                 "--pdf-model",
                 format!(
                     "model {name:?} is not in this fit (available: {})",
@@ -415,7 +415,7 @@ impl PdfFitReport {
             )
         })?;
         let kind = PdfModel::from_name(name)
-            .ok_or_else(|| Error::usage("--pdf-model", format!("unknown model {name:?}")))?;
+            .ok_or_else(|| Error::invalid("--pdf-model", format!("unknown model {name:?}")))?;
         if kind == PdfModel::Empirical {
             let values = fit.values_e.as_deref().ok_or_else(|| {
                 Error::Numeric("the empirical model was stored without its values_e".into())

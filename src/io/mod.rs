@@ -365,7 +365,7 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
             out.push(input.clone());
         } else if s.contains(['*', '?', '[']) {
             let paths = glob::glob(&s)
-                .map_err(|e| Error::usage("STACK", format!("bad glob pattern {s}: {e}")))?;
+                .map_err(|e| Error::invalid("stacks", format!("bad glob pattern {s}: {e}")))?;
             let mut files: Vec<PathBuf> = paths
                 .filter_map(|p| p.ok())
                 .filter(|p| p.is_file())
@@ -383,7 +383,7 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
         }
     }
     if out.is_empty() {
-        return Err(Error::usage("STACK", "no input given"));
+        return Err(Error::invalid("stacks", "no input given"));
     }
     Ok(out)
 }

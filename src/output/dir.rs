@@ -273,7 +273,7 @@ fn create_parents(out: &Path, parent: &Path) -> Result<Vec<Temp>> {
 }
 
 fn usage(out: &Path, what: impl std::fmt::Display) -> Error {
-    Error::usage(OPTION, format!("{}: {what}", out.display()))
+    Error::invalid(OPTION, format!("{}: {what}", out.display()))
 }
 
 fn foreign_error(out: &Path, s: &Survey) -> Error {

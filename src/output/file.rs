@@ -28,7 +28,7 @@ pub fn check_file(f: &FileOut, force: bool, inputs: &[PathBuf]) -> Result<()> {
 
 /// [`check_file`] with resolved inputs; returns the resolved path.
 fn check_resolved(f: &FileOut, force: bool, inputs: &[(PathBuf, PathBuf)]) -> Result<PathBuf> {
-    let usage = |what: String| Error::usage(f.option, format!("{}: {what}", f.path.display()));
+    let usage = |what: String| Error::invalid(f.option, format!("{}: {what}", f.path.display()));
     refuse_unexpanded_tilde(f.path, f.option)?;
     let ext = f
         .path
@@ -113,7 +113,7 @@ impl StagedFiles {
             .iter()
             .any(|(_, r)| r.parent() != Some(parent.as_path()))
         {
-            return Err(Error::usage(
+            return Err(Error::invalid(
                 first.option,
                 "the output files must share one directory",
             ));
@@ -126,7 +126,7 @@ impl StagedFiles {
                 .keep())
         })
         .map_err(|e| {
-            Error::usage(
+            Error::invalid(
                 first.option,
                 format!(
                     "{}: cannot write in {}: {}",
@@ -154,7 +154,7 @@ impl StagedFiles {
         let _guard = temps::lock();
         if !self.force {
             if let Some((shown, _)) = self.files.iter().find(|(_, r)| r.exists()) {
-                return Err(Error::usage(
+                return Err(Error::invalid(
                     &self.option,
                     format!(
                         "{} appeared during the run: add --force to replace it",

@@ -52,7 +52,7 @@ fn append_lexically<'a>(
 pub(crate) fn refuse_unexpanded_tilde(path: &Path, option: &str) -> Result<()> {
     let first = path.components().next();
     if matches!(first, Some(Component::Normal(n)) if n == "~") {
-        return Err(Error::usage(
+        return Err(Error::invalid(
             option,
             format!(
                 "{}: `~` was not expanded by the shell (it is only at the start of a separate \
@@ -73,7 +73,7 @@ pub(crate) fn refuse_protected_dir(
     inputs: &[(PathBuf, PathBuf)],
 ) -> Result<()> {
     let refuse = |what: String| {
-        Err(Error::usage(
+        Err(Error::invalid(
             option,
             format!(
                 "{}: {what}; detnoise writes its results into a directory of their own: choose a \
@@ -115,7 +115,7 @@ pub(crate) fn refuse_input_file(
     inputs: &[(PathBuf, PathBuf)],
 ) -> Result<()> {
     match inputs.iter().find(|(_, input)| input == resolved) {
-        Some((shown, _)) => Err(Error::usage(
+        Some((shown, _)) => Err(Error::invalid(
             option,
             format!(
                 "{} is the input {}: choose another name for the output",

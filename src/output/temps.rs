@@ -174,8 +174,8 @@ pub fn hide_temporaries(e: Error) -> Error {
             })
     };
     match e {
-        Error::Usage { option, message } => Error::Usage {
-            option,
+        Error::Usage { field, message } => Error::Usage {
+            field,
             message: text(message),
         },
         Error::Input { path: p, message } => Error::Input {

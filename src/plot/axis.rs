@@ -175,8 +175,8 @@ impl Axis {
         let (lo, hi) = match fixed {
             Some((a, b)) => {
                 if !(a.is_finite() && b.is_finite() && b > a && (!log || a > 0.0)) {
-                    return Err(Error::usage(
-                        "chart range",
+                    return Err(Error::invalid(
+                        "axis_range",
                         format!("{what} range [{a}, {b}] is empty or not positive on a log axis"),
                     ));
                 }

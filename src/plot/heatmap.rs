@@ -72,14 +72,14 @@ impl Heatmap {
     fn check(&self) -> Result<()> {
         let (nx, ny) = (self.x_categories.len(), self.y_categories.len());
         if nx == 0 || ny == 0 {
-            return Err(Error::usage(
-                "heatmap",
+            return Err(Error::invalid(
+                "heatmap_values",
                 "needs at least one row and one column",
             ));
         }
         if self.values.len() != ny || self.values.iter().any(|r| r.len() != nx) {
-            return Err(Error::usage(
-                "heatmap",
+            return Err(Error::invalid(
+                "heatmap_values",
                 format!("values must be {ny} rows of {nx} columns, one per category"),
             ));
         }

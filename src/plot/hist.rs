@@ -116,10 +116,7 @@ impl Histogram {
         let (lo, hi) = match self.range {
             Some((a, b)) if a.is_finite() && b.is_finite() && b > a => (a, b),
             Some((a, b)) => {
-                return Err(Error::usage(
-                    "histogram range",
-                    format!("[{a}, {b}] is empty"),
-                ));
+                return Err(Error::invalid("hist_range", format!("[{a}, {b}] is empty")));
             }
             None => {
                 let lo = finite.iter().cloned().fold(f64::INFINITY, f64::min);
@@ -138,8 +135,8 @@ impl Histogram {
                         .any(|w| w[1].partial_cmp(&w[0]) != Some(std::cmp::Ordering::Greater))
                     || e.iter().any(|v| !v.is_finite())
                 {
-                    return Err(Error::usage(
-                        "histogram bins",
+                    return Err(Error::invalid(
+                        "hist_edges",
                         "edges must be finite and strictly increasing",
                     ));
                 }

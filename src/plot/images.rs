@@ -88,12 +88,12 @@ impl ImageGrid {
 
     fn check(&self) -> Result<()> {
         if self.images.is_empty() {
-            return Err(Error::usage("image grid", "needs at least one image"));
+            return Err(Error::invalid("image_grid", "needs at least one image"));
         }
         for (k, im) in self.images.iter().enumerate() {
             if im.width == 0 || im.height == 0 || im.data.len() != im.width * im.height {
-                return Err(Error::usage(
-                    "image grid",
+                return Err(Error::invalid(
+                    "image_grid",
                     format!(
                         "image {k}: {} values for {}x{} pixels",
                         im.data.len(),

@@ -84,8 +84,8 @@ impl Format {
         match ext.as_deref() {
             Some("png") => Ok(Format::Png),
             Some("svg") => Ok(Format::Svg),
-            _ => Err(Error::usage(
-                "chart file",
+            _ => Err(Error::invalid(
+                "chart_path",
                 format!("{}: the extension must be .png or .svg", path.display()),
             )),
         }
@@ -111,8 +111,8 @@ fn save_chart<C: Chart>(chart: &C, path: &Path) -> Result<()> {
     ensure_fonts()?;
     let (w, h) = chart.size();
     if !(64..=20_000).contains(&w) || !(64..=20_000).contains(&h) {
-        return Err(Error::usage(
-            "chart size",
+        return Err(Error::invalid(
+            "chart_size_px",
             format!("{w}x{h} px is outside 64..20000 px per side"),
         ));
     }
