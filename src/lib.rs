@@ -22,6 +22,7 @@ pub mod paper;
 pub mod pdf;
 pub mod plot;
 pub mod pp;
+pub mod progress;
 pub mod rng;
 pub mod spot;
 pub mod stats;
