@@ -8,10 +8,10 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::axis::{frame, Axis, FrameText};
+use super::render::{de, save_chart, Chart};
 use super::style::{
     colour_bar_width, contrast_ink, draw_colour_bar, scale_colour, scale_range, FAMILY,
 };
-use super::{de, save_chart, Chart};
 use crate::error::{Error, Result};
 
 /// A heatmap chart; fill the fields (or use [`Heatmap::new`]) and call [`Heatmap::save`].

@@ -7,10 +7,10 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
+use super::render::{de, save_chart, Chart};
 use super::style::{
     colour_bar_width, draw_colour_bar, scale_colour, scale_range, text, INK, TITLE_PX,
 };
-use super::{de, save_chart, Chart};
 use crate::error::{Error, Result};
 
 /// Largest image side drawn cell by cell; bigger images are block-averaged down to it.

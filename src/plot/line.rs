@@ -6,9 +6,10 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::axis::{frame, Axis, Coord2d, FrameText};
+use super::axis::{frame, Axis, FrameText};
+use super::render::{de, save_chart, Chart};
 use super::style::{densify, draw_legend, legend_box, marker, place_legend, series_colour};
-use super::{de, save_chart, Chart};
+use super::ticks::Coord2d;
 use crate::error::Result;
 
 pub use super::style::LegendPos;

@@ -6,8 +6,8 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{FontStyle, FontTransform, TextStyle};
 
-use super::axis::{fmt_tick, nice_ticks, AxisCoord};
-use super::de;
+use super::render::de;
+use super::ticks::{fmt_tick, nice_ticks, AxisCoord, Coord2d};
 use crate::error::Result;
 
 /// Sans-serif font family registered by `ensure_fonts`.
@@ -359,7 +359,7 @@ pub fn place_legend(
 /// Draws the legend of the labelled series of `chart` with its top-left corner at `at`
 /// (plot-area pixels; nothing for None).
 pub fn draw_legend<'a, DB: DrawingBackend + 'a>(
-    chart: &mut ChartContext<'a, DB, super::axis::Coord2d>,
+    chart: &mut ChartContext<'a, DB, Coord2d>,
     at: Option<(i32, i32)>,
 ) -> Result<()> {
     let Some((x, y)) = at else { return Ok(()) };

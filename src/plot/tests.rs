@@ -1,7 +1,9 @@
 //! Chart tests: every kind draws with text to PNG and SVG; PNGs decode to the right size and are not blank.
 
+use super::render::{ensure_fonts, Chart};
 use super::*;
-use std::path::PathBuf;
+use crate::error::{Error, Result};
+use std::path::{Path, PathBuf};
 
 /// Decodes `path` and checks its size and that it has real content (many distinct, non-white pixels).
 pub(super) fn check_png(path: &Path, size: (u32, u32)) {
