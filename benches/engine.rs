@@ -46,9 +46,9 @@ fn main() {
             // Warm-up builds the spot table and touches the caches.
             let mut warm = cfg.clone();
             warm.iters = 1000;
-            run(&warm, &model, &|_| {}).unwrap();
+            run(&warm, &model, &detnoise::progress::Silent).unwrap();
             let (t, c0) = (Instant::now(), cpu_seconds());
-            run(&cfg, &model, &|_| {}).unwrap();
+            run(&cfg, &model, &detnoise::progress::Silent).unwrap();
             let secs = t.elapsed().as_secs_f64();
             let cpu = match (c0, cpu_seconds()) {
                 (Some(a), Some(b)) => b - a,

@@ -8,11 +8,14 @@ pub trait Observer: Sync {
     /// A stage begins: `label` names it (e.g. `effective`), `total` counts its iterations, and
     /// `work_pixel_frames` (iterations x pixels x models) lets a front end guess its duration.
     fn begin(&self, _label: &str, _total: u64, _work_pixel_frames: u64) {}
+    /// The current stage moves on to the part named `label` (e.g. one figure of the paper).
+    fn step(&self, _label: &str) {}
     /// `iterations` more iterations of the current stage are done (called from worker threads).
     fn advance(&self, _iterations: u64) {}
     /// The current stage has ended.
     fn end(&self) {}
-    /// Something the user should know that does not stop the run (e.g. an optimum at a grid edge).
+    /// Something the user should know that does not stop the run (e.g. an optimum at a grid
+    /// edge). Settings are named as `` `field` `` (backticks), like in errors.
     fn warn(&self, _message: &str) {}
 }
 
@@ -21,3 +24,72 @@ pub trait Observer: Sync {
 pub struct Silent;
 
 impl Observer for Silent {}
+
+/// An observer that records what it is told, for tests of the long runs.
+#[cfg(test)]
+#[derive(Debug, Default)]
+pub(crate) struct Recorder {
+    /// `(label, total, work)` of every stage begun.
+    pub stages: std::sync::Mutex<Vec<(String, u64, u64)>>,
+    /// Labels of the steps.
+    pub steps: std::sync::Mutex<Vec<String>>,
+    /// Iterations advanced, over all stages.
+    pub advanced: std::sync::atomic::AtomicU64,
+    /// Stages ended.
+    pub ended: std::sync::atomic::AtomicU64,
+    /// Warnings.
+    pub warnings: std::sync::Mutex<Vec<String>>,
+}
+
+#[cfg(test)]
+impl Observer for Recorder {
+    fn begin(&self, label: &str, total: u64, work: u64) {
+        let stage = (label.to_string(), total, work);
+        self.stages.lock().unwrap().push(stage);
+    }
+    fn step(&self, label: &str) {
+        self.steps.lock().unwrap().push(label.to_string());
+    }
+    fn advance(&self, iterations: u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.advanced.fetch_add(iterations, Relaxed);
+    }
+    fn end(&self) {
+        self.ended
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+    }
+    fn warn(&self, message: &str) {
+        self.warnings.lock().unwrap().push(message.to_string());
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn silent_and_recorder_observe_through_the_trait() {
+        let observers: [&dyn Observer; 2] = [&Silent, &Recorder::default()];
+        for o in observers {
+            o.begin("stage", 10, 100);
+            o.step("part");
+            o.advance(4);
+            o.advance(6);
+            o.end();
+            o.warn("w");
+        }
+        let r = Recorder::default();
+        r.begin("stage", 10, 100);
+        std::thread::scope(|s| {
+            for _ in 0..4 {
+                s.spawn(|| r.advance(5));
+            }
+        });
+        r.end();
+        r.warn("edge");
+        assert_eq!(*r.stages.lock().unwrap(), [("stage".to_string(), 10, 100)]);
+        assert_eq!(r.advanced.load(std::sync::atomic::Ordering::Relaxed), 20);
+        assert_eq!(r.ended.load(std::sync::atomic::Ordering::Relaxed), 1);
+        assert_eq!(*r.warnings.lock().unwrap(), ["edge"]);
+    }
+}

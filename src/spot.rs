@@ -34,7 +34,7 @@ impl Spot {
     pub fn parse(text: &str) -> Result<Self> {
         let bad = |why: &str| {
             Error::invalid(
-                "--spot",
+                "spot",
                 format!("'{text}': {why} (use airy:D or gauss:SX,SY, in px)"),
             )
         };
@@ -62,6 +62,23 @@ impl Spot {
             }
             _ => Err(bad("unknown spot")),
         }
+    }
+
+    /// Parse spot lists: each item is `airy:D1,D2,...` (one Airy spot per diameter) or
+    /// `gauss:SX,SY` (one Gaussian); spots in the order given.
+    pub fn parse_list(items: &[String]) -> Result<Vec<Self>> {
+        let mut spots = Vec::new();
+        for item in items {
+            match item.strip_prefix("airy:") {
+                Some(ds) => {
+                    for d in ds.split(',') {
+                        spots.push(Spot::parse(&format!("airy:{}", d.trim()))?);
+                    }
+                }
+                None => spots.push(Spot::parse(item)?),
+            }
+        }
+        Ok(spots)
     }
 
     /// Canonical text form, as accepted by [`Spot::parse`].
@@ -305,6 +322,27 @@ impl PixelTable {
 mod tests {
     use super::*;
     use crate::centroid::cog;
+
+    #[test]
+    fn spot_lists_expand_airy_diameters_and_keep_the_order() {
+        let items = [
+            "airy:1, 2.5".to_string(),
+            "gauss:1,3".into(),
+            "airy:4".into(),
+        ];
+        let labels: Vec<String> = Spot::parse_list(&items)
+            .unwrap()
+            .iter()
+            .map(Spot::label)
+            .collect();
+        assert_eq!(labels, ["airy:1", "airy:2.5", "gauss:1,3", "airy:4"]);
+        let e = Spot::parse_list(&["airy:2,0.01".into()]).unwrap_err();
+        assert!(
+            e.to_string().starts_with("invalid `spot`: 'airy:0.01'"),
+            "{e}"
+        );
+        assert!(Spot::parse_list(&["disc:2".into()]).is_err());
+    }
 
     fn normalised(spot: Spot, sampling: Sampling, n: usize, x0: f64, y0: f64) -> Vec<f64> {
         let r = SpotRenderer::new(spot, sampling, n, 0.6);

@@ -3,7 +3,7 @@
 
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
 use crate::detector::{EmRegister, ModelParams, ModelSpec, MODEL_NAMES};
-use crate::montecarlo::{BgGrid, SimConfig};
+use crate::montecarlo::{BgGrid, Grid, SimConfig};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
 use std::ops::Bound::{self, Excluded, Included, Unbounded};
@@ -132,32 +132,26 @@ impl SweepArgs {
 
     /// Every configuration of the cartesian product sub-aperture x spot x signal.
     pub fn configs(&self) -> Result<Vec<SimConfig>> {
-        let subaps = parse_list::<usize>(&self.subap, "--subap")?;
-        let signals = parse_list::<f64>(&self.signal, "--signal")?;
-        let spots = parse_spots(&self.spot)?;
-        let bg_grid = BgGrid::parse(&self.bg_grid)?;
-        let mut out = Vec::new();
-        for &subap_px in &subaps {
-            for spot in &spots {
-                for &signal_photons in &signals {
-                    let cfg = SimConfig {
-                        subap_px,
-                        spot: *spot,
-                        sampling: self.sampling,
-                        signal_photons,
-                        qe: self.qe,
-                        iters: self.iters,
-                        seed: self.seed,
-                        bg_grid: bg_grid.clone(),
-                        position_half_range_px: self.position_range,
-                        max_empty_frac: self.max_empty_frac,
-                    };
-                    cfg.validate()?;
-                    out.push(cfg);
-                }
-            }
-        }
-        Ok(out)
+        let subaps_px = parse_list::<usize>(&self.subap, "--subap")?;
+        let signals_photons = parse_list::<f64>(&self.signal, "--signal")?;
+        let spots = Spot::parse_list(&self.spot)?;
+        let shared = SimConfig {
+            sampling: self.sampling,
+            qe: self.qe,
+            iters: self.iters,
+            seed: self.seed,
+            bg_grid: BgGrid::parse(&self.bg_grid)?,
+            position_half_range_px: self.position_range,
+            max_empty_frac: self.max_empty_frac,
+            ..SimConfig::paper(subaps_px[0])
+        };
+        let grid = Grid {
+            subaps_px,
+            spots,
+            signals_photons,
+            shared,
+        };
+        grid.configs()
     }
 }
 
@@ -255,15 +249,10 @@ impl DetectorArgs {
 impl DetectorArgs {
     /// The per-pixel rms distribution named by `--pdf`.
     fn rms_pdf(&self) -> Result<Arc<dyn crate::pdf::RmsPdf>> {
-        match (self.pdf.as_str(), &self.pdf_model) {
-            ("paper", None) => Ok(Arc::new(crate::pdf::paper())),
-            ("paper", Some(_)) => Err(Error::invalid(
-                "--pdf-model",
-                "applies only with --pdf FILE",
-            )),
-            (file, model) => {
-                crate::fit::pdf_fit::load_pdf_fit(std::path::Path::new(file), model.as_deref())
-            }
+        // `validate` has refused --pdf-model without a file.
+        match self.pdf.as_str() {
+            "paper" => Ok(Arc::new(crate::pdf::paper())),
+            file => crate::fit::pdf_fit::load_pdf_fit(file.as_ref(), self.pdf_model.as_deref()),
         }
     }
 
@@ -320,86 +309,5 @@ pub fn parse_list<T: std::str::FromStr>(text: &str, option: &str) -> Result<Vec<
     Ok(items)
 }
 
-/// Parse spot options: `airy:D1,D2,...` gives one Airy spot per diameter; `gauss:SX,SY` one Gaussian.
-pub fn parse_spots(items: &[String]) -> Result<Vec<Spot>> {
-    let mut spots = Vec::new();
-    for item in items {
-        match item.strip_prefix("airy:") {
-            Some(ds) => {
-                for d in ds.split(',') {
-                    spots.push(Spot::parse(&format!("airy:{}", d.trim()))?);
-                }
-            }
-            None => spots.push(Spot::parse(item)?),
-        }
-    }
-    Ok(spots)
-}
-
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn real_parser_states_the_range_and_refuses_non_finite_values() {
-        let qe = real(Excluded(0.0), Included(1.0), "");
-        assert_eq!(qe("0.7"), Ok(0.7));
-        assert_eq!(qe("1"), Ok(1.0));
-        for bad in ["0", "80", "-1", "nan", "inf", "x", ""] {
-            assert_eq!(qe(bad), Err("must be a number in (0, 1]".into()), "{bad}");
-        }
-        let noise = real(Included(0.0), Unbounded, "e-");
-        assert_eq!(noise("0"), Ok(0.0));
-        assert_eq!(noise("-1"), Err("must be a number >= 0 e-".into()));
-        let gain = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-");
-        assert_eq!(
-            gain("1e9"),
-            Err("must be a number in [1, 10000] e-/e-".into())
-        );
-    }
-
-    #[test]
-    fn whole_parser_accepts_exponent_notation_and_states_the_range() {
-        let iters = whole::<u64>(2, SimConfig::MAX_ITERS, "frames");
-        assert_eq!(iters("10000"), Ok(10_000));
-        assert_eq!(iters("1e6"), Ok(1_000_000));
-        for bad in ["0", "1", "-1", "2.5", "1e10", "many"] {
-            assert_eq!(
-                iters(bad),
-                Err("must be a whole number from 2 to 1000000000 frames".into()),
-                "{bad}"
-            );
-        }
-        let stages = whole::<u32>(1, MAX_STAGES as u64, "stages");
-        assert!(stages("4294967296").is_err());
-        assert_eq!(
-            whole::<u64>(0, u64::MAX, "")("18446744073709551615"),
-            Ok(u64::MAX)
-        );
-    }
-
-    #[test]
-    fn each_list_option_names_itself() {
-        for (text, option) in [("4;8", "--subap"), ("x", "--signal")] {
-            let e = parse_list::<usize>(text, option).unwrap_err().to_string();
-            assert!(e.contains(option), "{e}");
-        }
-        let sweep = |subap: &str, signal: &str| SweepArgs {
-            subap: subap.into(),
-            spot: vec!["airy:2".into()],
-            sampling: Sampling::Integrated,
-            signal: signal.into(),
-            qe: 1.0,
-            iters: 100,
-            seed: 1,
-            bg_grid: "auto".into(),
-            position_range: 0.5,
-            max_empty_frac: 0.01,
-        };
-        let e = sweep("0", "50").validate().unwrap_err().to_string();
-        assert!(e.contains("--subap") && !e.contains("--signal"), "{e}");
-        let e = sweep("8", "-5").validate().unwrap_err().to_string();
-        assert!(e.contains("--signal") && !e.contains("--subap"), "{e}");
-        sweep("2,8", "20,1e9").validate().unwrap();
-    }
-}
+mod tests;

@@ -1,7 +1,7 @@
 //! Charts drawn by the Monte-Carlo commands.
 
-use super::effective::EffectiveRecord;
-use super::simulate::SimRecord;
+use crate::effective::EffectiveRecord;
+use crate::montecarlo::SimRecord;
 use crate::output::OutputDir;
 use crate::plot::{Heatmap, LineChart, Series};
 use crate::{Error, Result};
@@ -20,33 +20,37 @@ pub fn r_against_sweep(records: &[SimRecord], path: &Path) -> Result<()> {
     let axes: [Axis; 3] = [
         (
             "signal (photons per sub-aperture)",
-            |r| r.signal_photons,
+            |r| r.config.signal_photons,
             true,
         ),
         (
             "sub-aperture size (px per side)",
-            |r| r.subap_px as f64,
+            |r| r.config.subap_px as f64,
             false,
         ),
-        ("spot size (px)", |r| spot_size(&r.spot), false),
+        (
+            "spot size (px)",
+            |r| spot_size(&r.config.spot.label()),
+            false,
+        ),
     ];
     let counts = [
-        distinct(&|r| r.signal_photons.to_string()),
-        distinct(&|r| r.subap_px.to_string()),
-        distinct(&|r| r.spot.clone()),
+        distinct(&|r| r.config.signal_photons.to_string()),
+        distinct(&|r| r.config.subap_px.to_string()),
+        distinct(&|r| r.config.spot.label()),
     ];
     let k = counts.iter().position(|&c| c > 1).unwrap_or(0);
     let (x_label, x_of, log_x) = axes[k];
     let series_key = |r: &SimRecord| {
-        let mut parts = vec![r.model.clone()];
+        let mut parts = vec![r.result.model.clone()];
         if k != 0 && counts[0] > 1 {
-            parts.push(format!("S = {}", r.signal_photons));
+            parts.push(format!("S = {}", r.config.signal_photons));
         }
         if k != 1 && counts[1] > 1 {
-            parts.push(format!("{}x{}", r.subap_px, r.subap_px));
+            parts.push(format!("{}x{}", r.config.subap_px, r.config.subap_px));
         }
         if k != 2 && counts[2] > 1 {
-            parts.push(r.spot.clone());
+            parts.push(r.config.spot.label());
         }
         parts.join(", ")
     };
@@ -70,7 +74,7 @@ pub fn r_against_sweep(records: &[SimRecord], path: &Path) -> Result<()> {
             let pts = records
                 .iter()
                 .filter(|r| &series_key(r) == key)
-                .map(|r| (x_of(r), r.r_px, r.r_se_px));
+                .map(|r| (x_of(r), r.result.r_px, r.result.r_se_px));
             Series::with_errors(key.clone(), pts)
         })
         .collect();
@@ -88,31 +92,31 @@ fn spot_size(spot: &str) -> f64 {
 
 /// One heatmap per signal level (PNG and SVG): sub-aperture size x spot, colour = sigma_eff_e.
 pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
-    let mut signals: Vec<f64> = records.iter().map(|r| r.signal_photons).collect();
+    let mut signals: Vec<f64> = records.iter().map(|r| r.config.signal_photons).collect();
     signals.sort_by(f64::total_cmp);
     signals.dedup();
-    let mut subaps: Vec<usize> = records.iter().map(|r| r.subap_px).collect();
+    let mut subaps: Vec<usize> = records.iter().map(|r| r.config.subap_px).collect();
     subaps.sort();
     subaps.dedup();
     let mut spots: Vec<String> = Vec::new();
     for r in records {
-        if !spots.contains(&r.spot) {
-            spots.push(r.spot.clone());
+        if !spots.contains(&r.config.spot.label()) {
+            spots.push(r.config.spot.label());
         }
     }
     let mut written = Vec::new();
     for s in signals {
         let mut values = vec![vec![f64::NAN; subaps.len()]; spots.len()];
-        for r in records.iter().filter(|r| r.signal_photons == s) {
+        for r in records.iter().filter(|r| r.config.signal_photons == s) {
             let i = subaps
                 .iter()
-                .position(|&n| n == r.subap_px)
+                .position(|&n| n == r.config.subap_px)
                 .ok_or_else(|| Error::Numeric("subap".into()))?;
             let j = spots
                 .iter()
-                .position(|p| p == &r.spot)
+                .position(|p| p == &r.config.spot.label())
                 .ok_or_else(|| Error::Numeric("spot".into()))?;
-            values[j][i] = r.sigma_eff_e;
+            values[j][i] = r.effective.sigma_eff_e;
         }
         let mut h = Heatmap::new(
             format!("Effective read noise (e-), S = {s} photons per sub-aperture"),

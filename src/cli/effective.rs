@@ -1,11 +1,10 @@
 //! `detnoise effective`: the effective Gaussian read noise over a grid of configurations.
 
 use super::args::{DetectorArgs, SweepArgs};
-use super::progress::Progress;
-use crate::detector::{ModelSpec, Readout};
-use crate::effective::effective_sigma;
-use crate::montecarlo::SimConfig;
-use crate::output::{render, write_atomic, DirPlan, Format, OutputDir};
+use super::progress::Terminal;
+use crate::detector::ModelSpec;
+use crate::effective::{effective_table, write_tables, EffectiveRecord, TABLE_NAMES};
+use crate::output::{render, DirPlan, OutputDir, TableFormat};
 use crate::Result;
 use std::path::PathBuf;
 
@@ -37,11 +36,12 @@ pub struct EffectiveArgs {
 
 /// Files `effective` writes into its directory (glob patterns).
 pub const OUTPUT_NAMES: [&str; 4] = [
-    "effective_noise.csv",
-    "effective_noise.json",
+    TABLE_NAMES[0],
+    TABLE_NAMES[1],
     "effective_noise_S*.png",
     "effective_noise_S*.svg",
 ];
+
 impl EffectiveArgs {
     /// Check every option (model, detector, sweep lists) before any file is read.
     pub fn validate(&self) -> Result<()> {
@@ -51,100 +51,9 @@ impl EffectiveArgs {
     }
 }
 
-/// One configuration's effective read noise.
-#[derive(Debug, Clone, serde::Serialize)]
-pub struct EffectiveRecord {
-    /// The detector model.
-    pub model: String,
-    /// Sub-aperture side (px).
-    pub subap_px: usize,
-    /// Spot, e.g. `airy:2`.
-    pub spot: String,
-    /// Spot sampling.
-    pub sampling: String,
-    /// Photons per sub-aperture before QE.
-    pub signal_photons: f64,
-    /// Quantum efficiency.
-    pub qe: f64,
-    /// Iterations.
-    pub iters: u64,
-    /// Seed.
-    pub seed: u64,
-    /// Effective Gaussian read noise (e-).
-    pub sigma_eff_e: f64,
-    /// Its standard error (e-).
-    pub sigma_eff_se_e: f64,
-    /// The detector's R (px).
-    pub r_px: f64,
-    /// Standard error of R (px).
-    pub r_se_px: f64,
-    /// The detector's best background level (e-).
-    pub b_opt_e: f64,
-    /// ok, lower_bound (sigma_eff = 0) or unreachable (no constant sigma gives this R; sigma_eff null).
-    pub status: crate::effective::Status,
-}
-
-/// Solve every configuration of the sweep for `detector_spec`.
-pub fn effective_table(
-    spec: &ModelSpec,
-    sweep: &SweepArgs,
-    detector: &DetectorArgs,
-    label: &str,
-) -> Result<Vec<EffectiveRecord>> {
-    let params = detector.params()?;
-    let configs = sweep.configs()?;
-    // Pilot (10 %) plus the detector and four constant sigmas in the final run.
-    let work: u64 = configs
-        .iter()
-        .map(|c| c.iters * (c.subap_px * c.subap_px) as u64 * 6)
-        .sum();
-    let progress = Progress::new(label, configs.iter().map(|c| c.iters).sum(), work);
-    let mut out = Vec::with_capacity(configs.len());
-    for cfg in &configs {
-        let model = spec.build(&params, cfg.subap_px)?;
-        out.push(solve(cfg, model.as_ref(), &progress)?);
-    }
-    progress.finish();
-    Ok(out)
-}
-
-fn solve(cfg: &SimConfig, model: &dyn Readout, progress: &Progress) -> Result<EffectiveRecord> {
-    let e = effective_sigma(cfg, model, &|k| progress.inc(k))?;
-    Ok(EffectiveRecord::new(model.name(), cfg, &e))
-}
-
-impl EffectiveRecord {
-    /// The record of `model` (a label) in configuration `cfg`.
-    pub fn new(model: String, cfg: &SimConfig, e: &crate::effective::Effective) -> Self {
-        EffectiveRecord {
-            model,
-            subap_px: cfg.subap_px,
-            spot: cfg.spot.label(),
-            sampling: cfg.sampling.label().into(),
-            signal_photons: cfg.signal_photons,
-            qe: cfg.qe,
-            iters: cfg.iters,
-            seed: cfg.seed,
-            sigma_eff_e: e.sigma_eff_e,
-            sigma_eff_se_e: e.sigma_eff_se_e,
-            r_px: e.r_px,
-            r_se_px: e.r_se_px,
-            b_opt_e: e.b_opt_e,
-            status: e.status,
-        }
-    }
-}
-
-/// Write the table (CSV, JSON) and the heatmaps into `dir`.
+/// Write the table (CSV, JSON) and the heatmaps into `dir`; returns the heatmaps' paths.
 pub fn write_outputs(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
-    write_atomic(
-        &dir.path("effective_noise.csv"),
-        render(records, Format::Csv)?.as_bytes(),
-    )?;
-    write_atomic(
-        &dir.path("effective_noise.json"),
-        render(records, Format::Json)?.as_bytes(),
-    )?;
+    write_tables(records, &dir.path(""))?;
     super::charts::effective_heatmaps(records, dir)
 }
 
@@ -160,10 +69,12 @@ pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
             names: &OUTPUT_NAMES,
         },
     )?;
-    let spec = ModelSpec::parse(&args.model)?;
-    let records = effective_table(&spec, &args.sweep, &args.detector, "effective")?;
+    let specs = [ModelSpec::parse(&args.model)?];
+    let params = args.detector.params()?;
+    let configs = args.sweep.configs()?;
+    let records = effective_table(&configs, &specs, &params, &Terminal::default())?;
     write_outputs(&records, &dir)?;
-    print!("{}", render(&records, Format::Table)?);
+    print!("{}", render(&records, TableFormat::Table)?);
     let path = dir.commit()?;
     eprintln!("wrote {}", path.display());
     Ok(())

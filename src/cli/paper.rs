@@ -1,12 +1,12 @@
 //! `detnoise paper`: regenerate every figure of Basden (2015).
 
 use super::args::whole;
+use super::progress::Terminal;
 use crate::montecarlo::SimConfig;
 use crate::output::{DirPlan, OutputDir};
 use crate::paper::{generate, write_index, PaperOptions};
 use crate::spot::Sampling;
 use crate::Result;
-use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::PathBuf;
 
 /// Options of `detnoise paper`.
@@ -56,16 +56,7 @@ pub fn run_cli(args: &PaperArgs) -> Result<()> {
         sampling: args.sampling,
         quick: args.quick,
     };
-    let bar = ProgressBar::with_draw_target(Some(14), ProgressDrawTarget::stderr());
-    bar.set_style(
-        ProgressStyle::with_template("[{elapsed_precise}] {bar:30} {pos}/{len} {msg}")
-            .expect("valid template"),
-    );
-    let figures = generate(&opts, &dir.path(""), &|label| {
-        bar.set_message(label.to_string());
-        bar.inc(1);
-    })?;
-    bar.finish_and_clear();
+    let figures = generate(&opts, &dir.path(""), &Terminal::default())?;
     write_index(&dir.path(""), &figures, &opts)?;
     let path = dir.commit()?;
     eprintln!(

@@ -2,18 +2,17 @@
 //! charts out, with one page (`index.html`) that reads offline.
 
 use super::args::{real, whole, DetectorArgs};
-use super::effective::{write_outputs as write_effective, EffectiveRecord};
-use super::progress::Progress;
-use super::simulate::SimRecord;
+use super::effective::write_outputs as write_effective;
+use super::progress::Terminal;
 use crate::calib::darks::{dark_maps, require_dark, DarkOptions};
 use crate::calib::ptc::{photon_transfer, DarkReference, PtcOptions, PtcResult};
 use crate::calib::summary::inputs;
 use crate::detector::{ModelParams, ModelSpec, NoiseMap, Readout};
-use crate::effective::effective_sigma;
+use crate::effective::{effective_sigma, EffectiveRecord};
 use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
 use crate::io::FrameStack;
-use crate::montecarlo::{run, BgGrid, SimConfig};
-use crate::output::{render, write_atomic, write_json, DirPlan, Format, OutputDir};
+use crate::montecarlo::{run, BgGrid, SimConfig, SimRecord};
+use crate::output::{render, write_atomic, write_json, DirPlan, OutputDir, TableFormat};
 use crate::plot::{LineChart, Series};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
@@ -200,7 +199,7 @@ fn grid(args: &ReportArgs) -> Result<Grid> {
     };
     Ok(Grid {
         subaps: super::args::parse_list(&pick(&args.subap, DEFAULT_SUBAP, "4,8,16"), "--subap")?,
-        spots: super::args::parse_spots(&[pick(&args.spot, DEFAULT_SPOT, "airy:2,6")])?,
+        spots: Spot::parse_list(&[pick(&args.spot, DEFAULT_SPOT, "airy:2,6")])?,
         signals: super::args::parse_list(
             &pick(&args.signal, DEFAULT_SIGNAL, "20,50,500"),
             "--signal",
@@ -338,7 +337,9 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
         .iter()
         .map(|c| c.iters * (c.subap_px * c.subap_px) as u64 * 12)
         .sum();
-    let progress = Progress::new(
+    let progress = Terminal::default();
+    crate::progress::Observer::begin(
+        &progress,
         "report",
         2 * configs.iter().map(|c| c.iters).sum::<u64>(),
         work,
@@ -347,7 +348,7 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
     for spec in [ModelSpec::ScmosRandom, ModelSpec::ScmosMap] {
         for cfg in &configs {
             let model = spec.build(&params, cfg.subap_px)?;
-            let e = effective_sigma(cfg, model.as_ref(), &|k| progress.inc(k))?;
+            let e = effective_sigma(cfg, model.as_ref(), &progress)?;
             let label = if spec == ModelSpec::ScmosRandom {
                 "scmos-random (fitted pdf)"
             } else {
@@ -356,7 +357,7 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
             effective.push(EffectiveRecord::new(label.into(), cfg, &e));
         }
     }
-    progress.finish();
+    crate::progress::Observer::end(&progress);
     let fitted: Vec<EffectiveRecord> = effective
         .iter()
         .filter(|r| r.model.starts_with("scmos-random"))
@@ -365,17 +366,17 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
     let heatmaps = write_effective(&fitted, &dir)?;
     write_atomic(
         &dir.path("effective_noise.csv"),
-        render(&effective, Format::Csv)?.as_bytes(),
+        render(&effective, TableFormat::Csv)?.as_bytes(),
     )?;
     write_atomic(
         &dir.path("effective_noise.json"),
-        render(&effective, Format::Json)?.as_bytes(),
+        render(&effective, TableFormat::Json)?.as_bytes(),
     )?;
     let op = operating_point(&grid);
     let comparison = compare(args, &params, &grid, op)?;
     write_atomic(
         &dir.path("r_vs_signal.csv"),
-        render(&comparison, Format::Csv)?.as_bytes(),
+        render(&comparison, TableFormat::Csv)?.as_bytes(),
     )?;
     comparison_chart(&comparison, &dir.path("r_vs_signal.png"), &SCMOS_LABELS)?;
     comparison_chart(&comparison, &dir.path("r_vs_signal.svg"), &SCMOS_LABELS)?;
@@ -387,9 +388,9 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
             .iter()
             .find(|r| {
                 r.model.starts_with(model)
-                    && r.subap_px == op.0
-                    && r.spot == op.1.label()
-                    && r.signal_photons == op.2
+                    && r.config.subap_px == op.0
+                    && r.config.spot == op.1
+                    && r.config.signal_photons == op.2
             })
             .expect("operating point is in the grid")
     };
@@ -414,10 +415,10 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
             subap_px: op.0,
             spot: op.1.label(),
             signal_photons: op.2,
-            sigma_eff_fitted_pdf_e: fr.sigma_eff_e,
-            sigma_eff_fitted_pdf_se_e: fr.sigma_eff_se_e,
-            sigma_eff_map_e: mr.sigma_eff_e,
-            sigma_eff_map_se_e: mr.sigma_eff_se_e,
+            sigma_eff_fitted_pdf_e: fr.effective.sigma_eff_e,
+            sigma_eff_fitted_pdf_se_e: fr.effective.sigma_eff_se_e,
+            sigma_eff_map_e: mr.effective.sigma_eff_e,
+            sigma_eff_map_se_e: mr.effective.sigma_eff_se_e,
         },
         iters: grid.iters,
         seed: args.seed,
@@ -506,7 +507,7 @@ fn run_emccd(args: &ReportArgs, grid: &Grid, stack: &FrameStack, dir: OutputDir)
     let comparison = compare_models(args, &params, grid, op, &groups)?;
     write_atomic(
         &dir.path("r_vs_signal.csv"),
-        render(&comparison, Format::Csv)?.as_bytes(),
+        render(&comparison, TableFormat::Csv)?.as_bytes(),
     )?;
     comparison_chart(&comparison, &dir.path("r_vs_signal.png"), &EMCCD_LABELS)?;
     comparison_chart(&comparison, &dir.path("r_vs_signal.svg"), &EMCCD_LABELS)?;
@@ -645,7 +646,7 @@ fn compare_models(
                 .map(|n| ModelSpec::parse(n)?.build(params, op.0))
                 .collect::<Result<_>>()?;
             let refs: Vec<&dyn Readout> = built.iter().map(|m| m.as_ref()).collect();
-            for r in run(&cfg, &refs, &|_| {})? {
+            for r in run(&cfg, &refs, &crate::progress::Silent)? {
                 out.push(SimRecord::new(&cfg, params.gain, r));
             }
         }
@@ -677,7 +678,9 @@ fn comparison_chart(records: &[SimRecord], path: &Path, labels: &[(&str, &str)])
     let mut chart = LineChart::new(
         format!(
             "R against signal, {}x{} px, {}",
-            first.subap_px, first.subap_px, first.spot
+            first.config.subap_px,
+            first.config.subap_px,
+            first.config.spot.label()
         ),
         "signal (photons per sub-aperture)",
         "R, mean radial error (px)",
@@ -686,8 +689,8 @@ fn comparison_chart(records: &[SimRecord], path: &Path, labels: &[(&str, &str)])
     chart.log_y = true;
     let mut names: Vec<String> = Vec::new();
     for r in records {
-        if !names.contains(&r.model) {
-            names.push(r.model.clone());
+        if !names.contains(&r.result.model) {
+            names.push(r.result.model.clone());
         }
     }
     chart.series = names
@@ -701,8 +704,8 @@ fn comparison_chart(records: &[SimRecord], path: &Path, labels: &[(&str, &str)])
                 label,
                 records
                     .iter()
-                    .filter(|r| &r.model == n)
-                    .map(|r| (r.signal_photons, r.r_px, r.r_se_px)),
+                    .filter(|r| &r.result.model == n)
+                    .map(|r| (r.config.signal_photons, r.result.r_px, r.result.r_se_px)),
             )
         })
         .collect();

@@ -1,9 +1,9 @@
 //! The report's `index.html`: one self-contained page (relative image links, inline CSS).
 
-use super::effective::EffectiveRecord;
 use super::report::ReportSummary;
-use super::simulate::SimRecord;
+use crate::effective::EffectiveRecord;
 use crate::fit::pdf_fit::PdfFitReport;
+use crate::montecarlo::SimRecord;
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
@@ -23,7 +23,7 @@ fn verdicts(
     (mine, mine_name): (&str, &str),
     (other, other_name): (&str, &str),
 ) -> Vec<(f64, String)> {
-    let mut signals: Vec<f64> = comparison.iter().map(|r| r.signal_photons).collect();
+    let mut signals: Vec<f64> = comparison.iter().map(|r| r.config.signal_photons).collect();
     signals.dedup();
     signals
         .into_iter()
@@ -31,9 +31,9 @@ fn verdicts(
             let get = |m: &str| {
                 comparison
                     .iter()
-                    .find(|r| r.model == m && r.signal_photons == s)
+                    .find(|r| r.result.model == m && r.config.signal_photons == s)
             };
-            let (c, e) = (get(mine)?, get(other)?);
+            let (c, e) = (&get(mine)?.result, &get(other)?.result);
             let ratio = c.r_px / e.r_px;
             let se = ratio * ((c.r_se_px / c.r_px).powi(2) + (e.r_se_px / e.r_px).powi(2)).sqrt();
             let verdict = if (ratio - 1.0).abs() < 2.0 * se {
@@ -205,11 +205,11 @@ pub fn index_html(
     }
     h.push_str("<h2>Effective read noise</h2><table><tr><th>detector model</th><th>sub-aperture (px)</th><th>spot</th><th>signal (photons)</th><th>σ<sub>eff</sub> (e⁻)</th><th>SE (e⁻)</th><th>R (px)</th><th>status</th></tr>");
     for r in effective {
-        let status = serde_json::to_value(r.status)
+        let status = serde_json::to_value(r.effective.status)
             .ok()
             .and_then(|v| v.as_str().map(String::from))
             .unwrap_or_default();
-        let _ = write!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.4}</td><td>{}</td></tr>", esc(&r.model), r.subap_px, esc(&r.spot), r.signal_photons, r.sigma_eff_e, r.sigma_eff_se_e, r.r_px, status);
+        let _ = write!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.4}</td><td>{}</td></tr>", esc(&r.model), r.config.subap_px, esc(&r.config.spot.label()), r.config.signal_photons, r.effective.sigma_eff_e, r.effective.sigma_eff_se_e, r.effective.r_px, status);
     }
     h.push_str("</table><h2>Fitted read-noise distributions</h2><table><tr><th>model</th><th>ln L</th><th>ΔAIC</th><th>max CDF distance</th><th>median (e⁻)</th><th>mean (e⁻)</th><th>rms (e⁻)</th><th>&gt;3× median</th></tr>");
     for (name, m) in &fit.models {

@@ -1,19 +1,20 @@
 //! Output directories: checked before any work, built in a temporary sibling, and moved into
 //! place at the end without ever touching a file detnoise did not write.
 
+use super::atomic::{set_mode, write_json};
 use super::manifest::{files_under, survey, Manifest, Survey, MANIFEST_NAME};
 use super::paths::{refuse_protected_dir, refuse_unexpanded_tilde, resolve, resolve_inputs};
 use super::temps::{self, plain, Kind, Temp};
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
-/// What a command writes into its `--out` directory and what it reads, for the checks done
+/// What a command writes into its `out` directory and what it reads, for the checks done
 /// before any work.
 #[derive(Debug, Clone, Copy)]
 pub struct DirPlan<'a> {
     /// The subcommand, recorded in the manifest.
     pub command: &'a str,
-    /// `--force`: write into a directory that holds other files (never replacing them).
+    /// `force`: write into a directory that holds other files (never replacing them).
     pub force: bool,
     /// Every input file, directory or glob pattern of the run.
     pub inputs: &'a [PathBuf],
@@ -24,7 +25,7 @@ pub struct DirPlan<'a> {
 /// An output directory built in a temporary sibling and moved into place only on success,
 /// so a failed or interrupted run leaves neither a half-written directory nor a damaged
 /// earlier one. It replaces only a directory that detnoise wrote (it carries a manifest and
-/// nothing else); with `--force` it writes beside foreign files without touching them.
+/// nothing else); with `force` it writes beside foreign files without touching them.
 pub struct OutputDir {
     /// The path as the user gave it (for messages).
     shown: PathBuf,
@@ -38,22 +39,22 @@ pub struct OutputDir {
     created: Vec<Temp>,
 }
 
-/// Option name of output directories in messages.
-const OPTION: &str = "--out";
+/// Field of output directories in messages.
+const FIELD: &str = "out";
 
 impl OutputDir {
     /// Check `out` against the rule and create the temporary sibling, before any work: a
-    /// refused or unwritable `--out` is a usage error naming it.
+    /// refused or unwritable `out` is a usage error naming it.
     pub fn prepare(out: &Path, plan: DirPlan) -> Result<Self> {
-        refuse_unexpanded_tilde(out, OPTION)?;
+        refuse_unexpanded_tilde(out, FIELD)?;
         let target = resolve(out);
         let inputs = resolve_inputs(plan.inputs);
-        refuse_protected_dir(out, &target, OPTION, &inputs)?;
+        refuse_protected_dir(out, &target, FIELD, &inputs)?;
         if let Ok(meta) = std::fs::symlink_metadata(&target) {
             if !meta.is_dir() {
                 return Err(usage(
                     out,
-                    "is an existing file, not a directory: choose another --out for the results",
+                    "is an existing file, not a directory: choose another `out` for the results",
                 ));
             }
             check_existing(out, &target, plan)?;
@@ -95,7 +96,7 @@ impl OutputDir {
     }
 
     /// Write the manifest and move the finished directory into place: a new directory, an
-    /// earlier detnoise directory replaced whole, or (`--force`) the new files placed beside
+    /// earlier detnoise directory replaced whole, or (`force`) the new files placed beside
     /// foreign ones. Returns the path as the user gave it.
     pub fn commit(self) -> Result<PathBuf> {
         let tmp = self.tmp.path().to_path_buf();
@@ -104,11 +105,11 @@ impl OutputDir {
             .into_iter()
             .filter(|f| f != Path::new(MANIFEST_NAME))
             .collect();
-        super::write_json(
+        write_json(
             &tmp.join(MANIFEST_NAME),
             &Manifest::new(&self.command, &files),
         )?;
-        super::set_mode(&tmp, 0o755)?;
+        set_mode(&tmp, 0o755)?;
         // Under the lock, an interruption waits until the directory is complete in place.
         let guard = temps::lock();
         let existing = match std::fs::symlink_metadata(&self.target) {
@@ -173,7 +174,7 @@ impl OutputDir {
         Ok(true)
     }
 
-    /// `--force` into a directory with foreign entries: move each new file in (replacing only
+    /// `force` into a directory with foreign entries: move each new file in (replacing only
     /// files the old manifest lists), remove the old run's files this run did not write again.
     fn merge(&self, s: &Survey, files: &[PathBuf]) -> Result<()> {
         if let Some(p) = files.iter().find(|p| collides(&self.target, s, p)) {
@@ -216,7 +217,7 @@ fn collides(target: &Path, s: &Survey, p: &Path) -> bool {
     false
 }
 
-/// Refuse an existing directory that holds files detnoise did not write (unless `--force`,
+/// Refuse an existing directory that holds files detnoise did not write (unless `force`,
 /// and then only if none of them has the name of an output).
 fn check_existing(out: &Path, target: &Path, plan: DirPlan) -> Result<()> {
     let s = survey(target).map_err(|e| usage(out, format!("cannot list it: {}", plain(e))))?;
@@ -273,7 +274,7 @@ fn create_parents(out: &Path, parent: &Path) -> Result<Vec<Temp>> {
 }
 
 fn usage(out: &Path, what: impl std::fmt::Display) -> Error {
-    Error::invalid(OPTION, format!("{}: {what}", out.display()))
+    Error::invalid(FIELD, format!("{}: {what}", out.display()))
 }
 
 fn foreign_error(out: &Path, s: &Survey) -> Error {
@@ -290,8 +291,8 @@ fn foreign_error(out: &Path, s: &Survey) -> Error {
     usage(
         out,
         format!(
-            "exists and holds files detnoise did not write ({}): choose another --out (a new or \
-             empty directory, or one detnoise wrote), or add --force to write beside them \
+            "exists and holds files detnoise did not write ({}): choose another `out` (a new or \
+             empty directory, or one detnoise wrote), or add `force` to write beside them \
              (detnoise never replaces or deletes files it did not write)",
             list.join(", ")
         ),
@@ -303,7 +304,7 @@ fn collision_error(out: &Path, p: &Path) -> Error {
         out,
         format!(
             "holds {} which detnoise did not write and this run would write: move it away or \
-             choose another --out (--force never replaces files detnoise did not write)",
+             choose another `out` (`force` never replaces files detnoise did not write)",
             p.display()
         ),
     )

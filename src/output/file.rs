@@ -1,18 +1,19 @@
 //! Single output files (`simulate --out r.csv --plot r.png`, `synth --out stack.fits`):
 //! checked before any work, written atomically, never replacing an input, and replacing an
-//! existing file only with `--force`.
+//! existing file only with `force`.
 
 use super::paths::{refuse_input_file, refuse_unexpanded_tilde, resolve, resolve_inputs};
 use super::temps::{self, plain, Kind, Temp};
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
-/// One output file named by an option.
+/// One output file named by a setting.
 #[derive(Debug, Clone, Copy)]
 pub struct FileOut<'a> {
     /// The path as given.
     pub path: &'a Path,
-    /// The option that names it, e.g. `--plot`.
+    /// The setting that names it, in messages: a library field (`plot`), which the command
+    /// line shows as its flag.
     pub option: &'a str,
     /// Extensions it may have (lower case, without the dot); empty: any.
     pub exts: &'a [&'a str],
@@ -55,7 +56,7 @@ fn check_resolved(f: &FileOut, force: bool, inputs: &[(PathBuf, PathBuf)]) -> Re
         }
         if !force {
             return Err(usage(
-                "exists: add --force to replace it, or choose another name".into(),
+                "exists: add `force` to replace it, or choose another name".into(),
             ));
         }
     }
@@ -157,7 +158,7 @@ impl StagedFiles {
                 return Err(Error::invalid(
                     &self.option,
                     format!(
-                        "{} appeared during the run: add --force to replace it",
+                        "{} appeared during the run: add `force` to replace it",
                         shown.display()
                     ),
                 ));
@@ -179,7 +180,7 @@ mod tests {
     fn plot(path: &Path) -> FileOut<'_> {
         FileOut {
             path,
-            option: "--plot",
+            option: "plot",
             exts: &["png", "svg"],
             what: "a chart (PNG or SVG)",
         }
@@ -194,7 +195,7 @@ mod tests {
         assert!(check_file(&plot(&d.join("R.PNG")), false, &[]).is_ok());
         std::fs::write(d.join("r.png"), b"old").unwrap();
         let e = check_file(&plot(&d.join("r.png")), false, &[]).unwrap_err();
-        assert!(e.to_string().contains("--force"), "{e}");
+        assert!(e.to_string().contains("`force`"), "{e}");
         assert!(check_file(&plot(&d.join("r.png")), true, &[]).is_ok());
         let e = check_file(&plot(&d.join("r.png")), true, &[d.join("r.png")]).unwrap_err();
         assert!(e.to_string().contains("is the input"), "{e}");
@@ -212,13 +213,13 @@ mod tests {
         let outs = [
             FileOut {
                 path: &a,
-                option: "--out",
+                option: "out",
                 exts: &["fits"],
                 what: "a FITS stack",
             },
             FileOut {
                 path: &b,
-                option: "--out",
+                option: "out",
                 exts: &[],
                 what: "",
             },

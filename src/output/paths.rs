@@ -49,14 +49,16 @@ fn append_lexically<'a>(
 }
 
 /// A path whose first component is a literal `~`: the shell did not expand it.
-pub(crate) fn refuse_unexpanded_tilde(path: &Path, option: &str) -> Result<()> {
+/// `field` names the setting (a library field, or a flag given by command-line code).
+pub(crate) fn refuse_unexpanded_tilde(path: &Path, field: &str) -> Result<()> {
     let first = path.components().next();
     if matches!(first, Some(Component::Normal(n)) if n == "~") {
+        let shown = mention(field);
         return Err(Error::invalid(
-            option,
+            field,
             format!(
                 "{}: `~` was not expanded by the shell (it is only at the start of a separate \
-                 word, e.g. `{option} ~/results`, not `{option}=~/results`); give the full path",
+                 word, e.g. {shown} ~/results, not {shown}=~/results); give the full path",
                 path.display()
             ),
         ));
@@ -64,21 +66,32 @@ pub(crate) fn refuse_unexpanded_tilde(path: &Path, option: &str) -> Result<()> {
     Ok(())
 }
 
-/// Refuse, whatever `--force` says, an output directory that is the current directory, the
+/// A setting as a message mentions it: a library field in backticks (the command line shows
+/// its flag instead), a flag as it is.
+fn mention(field: &str) -> String {
+    if field.starts_with('-') {
+        field.to_string()
+    } else {
+        format!("`{field}`")
+    }
+}
+
+/// Refuse, whatever `force` says, an output directory that is the current directory, the
 /// home directory or the root, or that is or contains one of `inputs` (resolved).
 pub(crate) fn refuse_protected_dir(
     out: &Path,
     resolved: &Path,
-    option: &str,
+    field: &str,
     inputs: &[(PathBuf, PathBuf)],
 ) -> Result<()> {
     let refuse = |what: String| {
         Err(Error::invalid(
-            option,
+            field,
             format!(
                 "{}: {what}; detnoise writes its results into a directory of their own: choose a \
-                 new directory (e.g. {option} {})",
+                 new directory (e.g. {} {})",
                 out.display(),
+                mention(field),
                 suggestion(resolved).display()
             ),
         ))
@@ -107,16 +120,16 @@ pub(crate) fn refuse_protected_dir(
     Ok(())
 }
 
-/// Refuse an output file that is one of `inputs` (resolved), whatever `--force` says.
+/// Refuse an output file that is one of `inputs` (resolved), whatever `force` says.
 pub(crate) fn refuse_input_file(
     out: &Path,
     resolved: &Path,
-    option: &str,
+    field: &str,
     inputs: &[(PathBuf, PathBuf)],
 ) -> Result<()> {
     match inputs.iter().find(|(_, input)| input == resolved) {
         Some((shown, _)) => Err(Error::invalid(
-            option,
+            field,
             format!(
                 "{} is the input {}: choose another name for the output",
                 out.display(),
@@ -183,12 +196,23 @@ mod tests {
         std::fs::write(real.join("data/d.fits"), b"").unwrap();
         let inputs = resolve_inputs(&[real.join("data/*.fits")]);
         assert_eq!(inputs.len(), 1);
-        let e = refuse_protected_dir(&real, &real, "--out", &inputs).unwrap_err();
+        let e = refuse_protected_dir(&real, &real, "out", &inputs).unwrap_err();
         assert!(e.to_string().contains("contains the input"), "{e}");
-        assert!(refuse_protected_dir(&real.join("o"), &real.join("o"), "--out", &inputs).is_ok());
-        let e = refuse_protected_dir(Path::new("/"), Path::new("/"), "--out", &[]).unwrap_err();
+        assert!(refuse_protected_dir(&real.join("o"), &real.join("o"), "out", &inputs).is_ok());
+        let e = refuse_protected_dir(Path::new("/"), Path::new("/"), "out", &[]).unwrap_err();
         assert!(e.to_string().contains("root"), "{e}");
-        assert!(refuse_unexpanded_tilde(Path::new("~/x"), "--out").is_err());
-        assert!(refuse_unexpanded_tilde(Path::new("a/~"), "--out").is_ok());
+        let e = refuse_unexpanded_tilde(Path::new("~/x"), "out").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("e.g. `out` ~/results, not `out`=~/results"),
+            "{e}"
+        );
+        let e = refuse_unexpanded_tilde(Path::new("~/x"), "--out").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("e.g. --out ~/results, not --out=~/results"),
+            "{e}"
+        );
+        assert!(refuse_unexpanded_tilde(Path::new("a/~"), "out").is_ok());
     }
 }

@@ -1,4 +1,4 @@
-//! Effective read noise: the constant sigma whose Monte-Carlo error R equals a detector's.
+//! The solver: the constant sigma whose Monte-Carlo error R equals a detector's.
 //!
 //! R grows monotonically with a constant sigma. A short pilot run on a wide geometric grid
 //! (with sigma = 0, the noiseless readout, at its foot) locates the answer; the full run then
@@ -9,6 +9,7 @@
 
 use crate::detector::{Readout, ScmosConstant};
 use crate::montecarlo::{run, SimConfig, SimResult};
+use crate::progress::{Observer, Silent};
 use crate::{Error, Result};
 
 /// Pilot grid: sigma = 0 (noiseless readout) and 1/4 to 4 times the detector's noise scale.
@@ -55,11 +56,13 @@ pub enum Status {
     Unreachable,
 }
 
-/// Solve for the effective read noise of `detector` in configuration `cfg`.
+/// Solve for the effective read noise of `detector` in configuration `cfg`. `observer` is
+/// advanced by the iterations of the full-length runs (not the pilot); the caller begins and
+/// ends the stage.
 pub fn effective_sigma(
     cfg: &SimConfig,
     detector: &dyn Readout,
-    on_progress: &(dyn Fn(u64) + Sync),
+    observer: &dyn Observer,
 ) -> Result<Effective> {
     let scale = detector.noise_scale_e().max(1e-3);
     let grid_of = |factors: &[f64], s: f64| -> Vec<f64> { factors.iter().map(|f| f * s).collect() };
@@ -73,7 +76,7 @@ pub fn effective_sigma(
         &pilot_cfg,
         detector,
         grid_of(&PILOT_FACTORS, scale),
-        &|_| {},
+        &Silent,
     ) {
         Ok(e) => e.sigma_eff_e,
         Err(Outside::Below) => 0.0,
@@ -81,14 +84,14 @@ pub fn effective_sigma(
         Err(Outside::Failed(e)) => return Err(e),
     };
     if guess > 0.0 {
-        match solve_on_grid(cfg, detector, grid_of(&FINAL_FACTORS, guess), on_progress) {
+        match solve_on_grid(cfg, detector, grid_of(&FINAL_FACTORS, guess), observer) {
             Ok(e) => return Ok(e),
             Err(Outside::Failed(e)) => return Err(e),
             Err(Outside::Below) | Err(Outside::Above) => {}
         }
     }
     let wide = grid_of(&WIDE_FACTORS, scale.max(guess));
-    let (det, consts) = run_grid(cfg, detector, &wide, on_progress)?;
+    let (det, consts) = run_grid(cfg, detector, &wide, observer)?;
     match interpolate(&det, &consts, &wide) {
         Ok(e) => Ok(e),
         Err(Outside::Below) => Ok(bound(&det, &consts, &wide, Status::LowerBound)),
@@ -136,7 +139,7 @@ fn run_grid(
     cfg: &SimConfig,
     detector: &dyn Readout,
     grid: &[f64],
-    on_progress: &(dyn Fn(u64) + Sync),
+    observer: &dyn Observer,
 ) -> Result<(SimResult, Vec<SimResult>)> {
     let constants: Vec<ScmosConstant> = grid
         .iter()
@@ -144,7 +147,7 @@ fn run_grid(
         .collect();
     let mut models: Vec<&dyn Readout> = vec![detector];
     models.extend(constants.iter().map(|c| c as &dyn Readout));
-    let mut results = run(cfg, &models, on_progress)?;
+    let mut results = run(cfg, &models, observer)?;
     let det = results.remove(0);
     Ok((det, results))
 }
@@ -169,9 +172,9 @@ fn solve_on_grid(
     cfg: &SimConfig,
     detector: &dyn Readout,
     grid: Vec<f64>,
-    on_progress: &(dyn Fn(u64) + Sync),
+    observer: &dyn Observer,
 ) -> std::result::Result<Effective, Outside> {
-    let (det, consts) = run_grid(cfg, detector, &grid, on_progress)?;
+    let (det, consts) = run_grid(cfg, detector, &grid, observer)?;
     interpolate(&det, &consts, &grid)
 }
 
@@ -224,7 +227,7 @@ mod tests {
         cfg.iters = 3000;
         for sigma in [0.7, 1.6] {
             let det = ScmosConstant::new(sigma, "det".into());
-            let e = effective_sigma(&cfg, &det, &|_| {}).unwrap();
+            let e = effective_sigma(&cfg, &det, &Silent).unwrap();
             assert!(
                 e.sigma_eff_se_e > 0.0 && e.sigma_eff_se_e < 0.2 * sigma,
                 "se {}",
@@ -244,7 +247,7 @@ mod tests {
         let mut cfg = SimConfig::paper(12);
         cfg.iters = 3000;
         let det = crate::detector::ScmosRandom::new(std::sync::Arc::new(crate::pdf::paper()));
-        let e = effective_sigma(&cfg, &det, &|_| {}).unwrap();
+        let e = effective_sigma(&cfg, &det, &Silent).unwrap();
         assert!(e.sigma_eff_e - 3.0 * e.sigma_eff_se_e > 0.7944, "{e:?}");
     }
 }
