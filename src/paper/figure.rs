@@ -214,3 +214,74 @@ pub(super) fn save_line(ctx: &Ctx, fig: LineFigure) -> Result<FigureInfo> {
             .collect(),
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::montecarlo::{LevelStats, SimResult};
+
+    #[test]
+    fn curves_take_one_record_per_model_from_each_point() {
+        // Records of 3 points x 2 models, R = 10 x point + model: each curve collects its
+        // model's record from every point, at that point's x.
+        let record = |point: usize, model: usize| {
+            let result = SimResult {
+                model: format!("m{model}"),
+                r_px: (10 * point + model) as f64,
+                r_se_px: 0.5,
+                b_opt_e: 0.0,
+                b_at_grid_edge: false,
+                no_eligible_level: false,
+                r0_px: 0.0,
+                r0_se_px: 0.0,
+                zero_frames: 0,
+                levels: Vec::<LevelStats>::new(),
+            };
+            SimRecord::new(&SimConfig::paper(4), 500.0, result)
+        };
+        let records: Vec<SimRecord> = (0..3)
+            .flat_map(|p| (0..2).map(move |m| record(p, m)))
+            .collect();
+        let c = curves(&[20.0, 50.0, 100.0], &records, &strings(&["a", "b"]));
+        assert_eq!(c.len(), 2);
+        assert_eq!(c[0].name, "a");
+        assert_eq!(
+            c[0].points,
+            [(20.0, 0.0, 0.5), (50.0, 10.0, 0.5), (100.0, 20.0, 0.5)]
+        );
+        assert_eq!(
+            c[1].points,
+            [(20.0, 1.0, 0.5), (50.0, 11.0, 0.5), (100.0, 21.0, 0.5)]
+        );
+    }
+
+    #[test]
+    fn a_grid_keeps_the_run_settings_and_varies_its_axes() {
+        let opts = PaperOptions {
+            iters: 300,
+            seed: 7,
+            sampling: Sampling::Point,
+            quick: true,
+        };
+        let ctx = Ctx {
+            opts: &opts,
+            dir: Path::new("."),
+            params: ModelParams::default(),
+        };
+        let configs = ctx
+            .grid(&[4, 16], &[airy(2.0)], &[20.0, 1000.0])
+            .configs()
+            .unwrap();
+        let axes: Vec<(usize, f64)> = configs
+            .iter()
+            .map(|c| (c.subap_px, c.signal_photons))
+            .collect();
+        assert_eq!(axes, [(4, 20.0), (4, 1000.0), (16, 20.0), (16, 1000.0)]);
+        for c in &configs {
+            assert_eq!((c.iters, c.seed, c.sampling), (300, 7, Sampling::Point));
+            assert_eq!(c.spot, airy(2.0));
+            assert_eq!((c.qe, c.max_empty_frac), (1.0, 0.01));
+        }
+        assert_eq!(ctx.signals(), [20.0, 200.0, 1000.0]);
+    }
+}

@@ -54,3 +54,38 @@ pub fn write_index(
     write_atomic(&m, md.as_bytes())?;
     Ok(vec![h, m])
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn index_lists_every_figure_with_its_files_escaped() {
+        let figures = [FigureInfo {
+            number: 12,
+            title: "Effective noise <sCMOS>".into(),
+            caption: "sigma & R".into(),
+            files: vec!["fig12-a.png".into(), "fig12-a.csv".into()],
+        }];
+        let opts = PaperOptions {
+            iters: 200,
+            seed: 3,
+            sampling: Sampling::Integrated,
+            quick: true,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let written = write_index(dir.path(), &figures, &opts).unwrap();
+        assert_eq!(
+            written,
+            [dir.path().join("index.html"), dir.path().join("README.md")]
+        );
+        let html = std::fs::read_to_string(&written[0]).unwrap();
+        assert!(html.contains("<h2>Fig. 12: Effective noise &lt;sCMOS&gt;</h2>"));
+        assert!(html.contains("<img src=\"fig12-a.png\""));
+        assert!(html.contains("<a href=\"fig12-a.csv\">fig12-a.csv</a>"));
+        assert!(html.contains("200 iterations per point, seed 3, integrated sampling (quick"));
+        let md = std::fs::read_to_string(&written[1]).unwrap();
+        assert!(md.contains("## Fig. 12: Effective noise <sCMOS>\n\nsigma & R\n"));
+        assert!(md.contains("![Effective noise <sCMOS>](fig12-a.png)"));
+    }
+}

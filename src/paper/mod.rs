@@ -82,3 +82,41 @@ pub fn generate(
     observer.end();
     out
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::progress::Recorder;
+    use crate::spot::Sampling;
+    use std::sync::atomic::Ordering::Relaxed;
+
+    #[test]
+    fn quick_generation_writes_every_figure_and_reports_each_step() {
+        let opts = PaperOptions {
+            iters: 20,
+            seed: 1,
+            sampling: Sampling::Point,
+            quick: true,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let recorder = Recorder::default();
+        let figures = generate(&opts, dir.path(), &recorder).unwrap();
+        let numbers: Vec<u32> = figures.iter().map(|f| f.number).collect();
+        assert_eq!(numbers, (1..=14).collect::<Vec<u32>>());
+        for f in &figures {
+            for file in &f.files {
+                assert!(dir.path().join(file).is_file(), "{file}");
+            }
+        }
+        let work = 20 * PIXEL_FRAMES_PER_ITER.1 + 14 * PIXEL_FRAMES_PER_FIGURE;
+        assert_eq!(
+            *recorder.stages.lock().unwrap(),
+            [("paper".to_string(), 14, work)]
+        );
+        let steps = recorder.steps.lock().unwrap();
+        assert_eq!(steps.len(), 14);
+        assert_eq!(steps[11], "Fig. 12 effective read noise");
+        assert_eq!(recorder.advanced.load(Relaxed), 14);
+        assert_eq!(recorder.ended.load(Relaxed), 1);
+    }
+}
