@@ -502,6 +502,12 @@ fn a_map_given_as_pdf_says_what_pdf_expects() {
             "`model` scmos-map `map` FILE",
         ],
     );
+    // The command line names the options the library names as fields.
+    let shown = detnoise::cli::fields::to_cli(load_pdf_fit(&p, None).unwrap_err()).to_string();
+    assert!(
+        shown.contains("--pdf takes") && shown.contains("--model scmos-map --map FILE"),
+        "{shown}"
+    );
     let d = tempfile::tempdir().unwrap();
     let junk = file(d.path(), "junk.json", &[0xff, 0xfe, 0x00, 0x41]);
     names_file(

@@ -32,8 +32,9 @@ impl Unit {
 }
 
 /// A 2-D map (rows x cols) of f64 values in row-major order, in `unit`. Non-finite values
-/// mark pixels without a value (flagged, or read as NaN from a file).
-#[derive(Clone, Debug, PartialEq)]
+/// mark pixels without a value (flagged, or read as NaN from a file). Two maps are equal when
+/// they hold the same values in the same unit, wherever they came from.
+#[derive(Clone, Debug)]
 pub struct Map {
     /// Number of rows.
     pub rows: usize,
@@ -46,6 +47,13 @@ pub struct Map {
     /// Where the map came from (the file read, or the input it was computed from), for
     /// messages; empty when unknown.
     pub source: String,
+}
+
+impl PartialEq for Map {
+    fn eq(&self, other: &Map) -> bool {
+        (self.rows, self.cols, self.unit) == (other.rows, other.cols, other.unit)
+            && self.data == other.data
+    }
 }
 
 impl Map {
@@ -183,6 +191,16 @@ mod tests {
         m.write_fits(&p, &[]).unwrap();
         let r = Map::read(&p, Unit::Adu).unwrap();
         assert_eq!(r.shape(), (2, 3));
+        // Equal values from another source are the same map; another unit is not.
+        let finite = |m: &Map| Map::new(2, 3, m.data.iter().map(|v| v.max(0.0)).collect(), m.unit);
+        assert_eq!(finite(&r).with_source("x"), finite(&m));
+        assert_ne!(
+            Map {
+                unit: Unit::Electrons,
+                ..finite(&m)
+            },
+            finite(&m)
+        );
         assert_eq!(r.source, p.display().to_string());
         for (a, b) in m.data.iter().zip(&r.data) {
             assert!(a == b || (a.is_nan() && b.is_nan()));

@@ -154,3 +154,53 @@ pub(crate) fn widen<T: Copy + Into<f64>>(
 pub(crate) fn to_u16(x: f64) -> u16 {
     x.round().clamp(0.0, u16::MAX as f64) as u16
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn raw_layouts_decode_both_byte_orders_with_scale_and_zero() {
+        // FITS unsigned 16-bit: int16 with BZERO 32768, big-endian.
+        let be = RawLayout {
+            kind: RawKind::I16,
+            big_endian: true,
+            scale: 1.0,
+            zero: 32768.0,
+        };
+        let mut out = [0.0; 2];
+        be.decode(&[0x80, 0x00, 0x7f, 0xff], &mut out);
+        assert_eq!(out, [0.0, 65535.0]);
+        let le = RawLayout {
+            kind: RawKind::I32,
+            big_endian: false,
+            scale: 0.5,
+            zero: -1.0,
+        };
+        let mut out = [0.0; 1];
+        le.decode(&(-6i32).to_le_bytes(), &mut out);
+        assert_eq!(out, [-4.0]);
+        let widths = [RawKind::U8, RawKind::I16, RawKind::I32, RawKind::I64]
+            .map(|kind| RawLayout { kind, ..be }.width());
+        assert_eq!(widths, [1, 2, 4, 8]);
+        let u8s = RawLayout {
+            kind: RawKind::U8,
+            scale: 2.0,
+            zero: 1.0,
+            ..be
+        };
+        let mut f = FrameData::Raw(vec![1, 2], u8s);
+        f.decode_in_place();
+        assert_eq!(f.values(), [3.0, 5.0]);
+    }
+
+    #[test]
+    fn stored_integers_round_and_clamp() {
+        let got = [-3.0, 1.5, 2.4, 70000.0].map(to_u16);
+        assert_eq!(got, [0, 2, 2, 65535]);
+        let mut out = [0.0; 2];
+        assert!(widen(Path::new("a.tif"), 3, &[1u16], &mut out).is_err());
+        widen(Path::new("a.tif"), 3, &[1u16, 7], &mut out).unwrap();
+        assert_eq!(out, [1.0, 7.0]);
+    }
+}

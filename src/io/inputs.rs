@@ -62,3 +62,34 @@ pub fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn directories_and_globs_expand_in_name_order() {
+        let d = tempfile::tempdir().unwrap();
+        for n in ["b.fits", "a.FITS", "c.txt", "d.tif"] {
+            std::fs::write(d.path().join(n), b"x").unwrap();
+        }
+        let names = |v: Vec<PathBuf>| -> Vec<String> {
+            v.iter()
+                .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
+                .collect()
+        };
+        // A directory: its stack files (any case of the extension), sorted by name.
+        let got = expand_inputs(&[d.path().to_path_buf()]).unwrap();
+        assert_eq!(names(got), ["a.FITS", "b.fits", "d.tif"]);
+        // A glob: its matches (case-sensitive), sorted; files keep the order given.
+        let glob = d.path().join("*.fits");
+        assert_eq!(names(expand_inputs(&[glob]).unwrap()), ["b.fits"]);
+        let files = [d.path().join("d.tif"), d.path().join("b.fits")];
+        assert_eq!(names(expand_inputs(&files).unwrap()), ["d.tif", "b.fits"]);
+        assert!(matches!(expand_inputs(&[]), Err(Error::Usage { .. })));
+        let none = d.path().join("none*.fits");
+        assert!(matches!(expand_inputs(&[none]), Err(Error::Input { .. })));
+        let missing = d.path().join("missing.fits");
+        assert!(matches!(expand_inputs(&[missing]), Err(Error::Io { .. })));
+    }
+}

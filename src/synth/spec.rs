@@ -143,3 +143,39 @@ pub fn rms_pdf(spec: &str) -> Result<Box<dyn RmsPdf>> {
         .ok_or_else(|| Error::input(spec, "frame 0: noise map has no finite value"))?;
     Ok(Box::new(pdf))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shapes_parse_within_the_pixel_limit() {
+        assert_eq!(parse_shape("64x48"), Ok((64, 48)));
+        assert_eq!(parse_shape(" 2 X 3"), Ok((2, 3)));
+        assert_eq!(parse_shape("4096x4096"), Ok((4096, 4096)));
+        assert!(parse_shape("0x8").unwrap_err().contains("empty"));
+        assert!(parse_shape("8").unwrap_err().contains("ROWSxCOLS"));
+        assert!(parse_shape("4097x4096")
+            .unwrap_err()
+            .contains("16777216 pixels"));
+    }
+
+    #[test]
+    fn rms_pdfs_by_name_constant_or_map() {
+        assert_eq!(rms_pdf("paper").unwrap().label(), "paper [0, 10] e-");
+        let c = rms_pdf("1.5").unwrap();
+        assert_eq!((c.median(), c.mean()), (1.5, 1.5));
+        match rms_pdf("-1") {
+            Err(Error::Usage { field, .. }) => assert_eq!(field, "rms_pdf"),
+            other => panic!("{other:?}"),
+        }
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("rms_e.fits");
+        Map::new(1, 4, vec![1.0, 2.0, f64::NAN, 3.0], Unit::Electrons)
+            .write_fits(&p, &[])
+            .unwrap();
+        let m = rms_pdf(p.to_str().unwrap()).unwrap();
+        assert_eq!(m.median(), 2.0);
+        assert!(rms_pdf(d.path().join("none.fits").to_str().unwrap()).is_err());
+    }
+}

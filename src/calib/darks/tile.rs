@@ -208,3 +208,61 @@ pub(super) fn sample_std(n: f64, m2: f64) -> f64 {
         f64::NAN
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// (n, mean, M2) of both parities merged, for pixel 0.
+    fn total(t: &Tile) -> (f64, f64, f64) {
+        merge(
+            (t.n[0][0], t.mean[0][0], t.m2[0][0]),
+            (t.n[1][0], t.mean[1][0], t.m2[1][0]),
+        )
+    }
+
+    #[test]
+    fn block_sums_and_merges_give_the_exact_moments() {
+        // Samples 3, 5, 4, 10, 6, 2: even frames 3, 4, 6 (mean 13/3, M2 = 61 - 169/3 = 14/3),
+        // odd frames 5, 10, 2 (mean 17/3, M2 = 129 - 289/3 = 98/3); all six: mean 5, M2 40.
+        // Blocks of 2 then 1 frame per parity exercise the Chan merge.
+        let mut t = Tile::new(0, 1, 0);
+        for (k, x) in [3.0, 5.0, 4.0, 10.0, 6.0, 2.0].into_iter().enumerate() {
+            t.add(&[x], k % 2, k == 0, 0, 0..1);
+            if k == 3 {
+                t.flush(0, 2.0);
+                t.flush(1, 2.0);
+            }
+        }
+        t.flush(0, 1.0);
+        t.flush(1, 1.0);
+        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
+        assert!(close(t.mean[0][0], 13.0 / 3.0) && close(t.m2[0][0], 14.0 / 3.0));
+        assert!(close(t.mean[1][0], 17.0 / 3.0) && close(t.m2[1][0], 98.0 / 3.0));
+        let (n, m, m2) = total(&t);
+        assert!(n == 6.0 && close(m, 5.0) && close(m2, 40.0));
+        assert!(close(sample_std(n, m2), 8f64.sqrt()));
+        assert!(sample_std(1.0, 0.0).is_nan());
+        // Squared successive differences 4 + 1 + 36 + 16 + 16; largest sample 10.
+        assert_eq!((t.vn[0], t.max[0]), (73.0, 10.0));
+    }
+
+    #[test]
+    fn extremes_are_tracked_and_removed_exactly() {
+        // Samples 1, 2, 3, 100 with one extreme kept at each end: 100 (odd) and 1 (even) are
+        // removed, leaving 3 (even) and 2 (odd): mean 2.5, M2 0.5.
+        let mut t = Tile::new(0, 1, 1);
+        for (k, x) in [1.0, 2.0, 3.0, 100.0].into_iter().enumerate() {
+            t.add(&[x], k % 2, k == 0, 1, 0..1);
+        }
+        t.flush(0, 2.0);
+        t.flush(1, 2.0);
+        assert_eq!((t.hi[0], t.lo[0]), ((100.0, 1), (1.0, 0)));
+        for (v, p) in [t.hi[0], t.lo[0]] {
+            t.remove(0, p as usize, v);
+        }
+        assert_eq!((t.n[0][0], t.mean[0][0], t.m2[0][0]), (1.0, 3.0, 0.0));
+        assert_eq!((t.n[1][0], t.mean[1][0], t.m2[1][0]), (1.0, 2.0, 0.0));
+        assert_eq!(total(&t), (2.0, 2.5, 0.5));
+    }
+}

@@ -118,3 +118,30 @@ fn files_of(stack: &FrameStack, frames: &[usize]) -> String {
         n => format!("{} and {} more", names[..3].join(", "), n - 3),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_split_into_clean_levels() {
+        // Levels near 100 and 400 adu acquired out of order. Successive differences 1, 2,
+        // 301, 2, 4, 297.5 have median 3: noise 1.4826 x 3 / sqrt 2 = 3.1 adu, so a gap must
+        // exceed max(5 % of the brighter, 31 adu): only 101 -> 398 does.
+        let l = light_levels(&[100.0, 101.0, 99.0, 400.0, 402.0, 398.0, 100.5]);
+        assert_eq!(l.len(), 2);
+        assert_eq!(
+            (l[0].frames.as_slice(), l[1].frames.as_slice()),
+            (&[0, 1, 2, 6][..], &[3, 4, 5][..])
+        );
+        assert!((l[0].mean_adu - 100.125).abs() < 1e-12);
+        assert_eq!(
+            (l[0].range_adu, l[1].range_adu),
+            ((99.0, 101.0), (398.0, 402.0))
+        );
+        assert!(clean(&l));
+        // A level of a single frame is not clean; a 3 % spread is one level.
+        assert!(!clean(&light_levels(&[100.0, 101.0, 100.5, 99.5, 400.0])));
+        assert_eq!(light_levels(&[100.0, 102.0, 101.0, 103.0]).len(), 1);
+    }
+}

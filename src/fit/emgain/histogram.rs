@@ -235,3 +235,34 @@ impl ValueHistogram {
         acc / self.total()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn values_fall_in_bins_centred_on_multiples_of_the_width() {
+        // Keys floor(v / w + 1/2): 0.9 and 1.1 -> 1, 2.0 and 2.49 -> 2, 2.51 -> 3.
+        let h = ValueHistogram::from_values(&[0.9, 1.1, 2.0, 2.49, 2.51], 1.0).unwrap();
+        assert_eq!(h.counts(), [2.0, 2.0, 1.0]);
+        assert_eq!((h.centre(0), h.centre(2), h.total()), (1.0, 3.0, 5.0));
+        // Moments of the values themselves: mean 9/5, unbiased variance 2.3202 / 4.
+        let (m, v) = h.mean_var();
+        assert!(
+            (m - 1.8).abs() < 1e-12 && (v - 0.58005).abs() < 1e-12,
+            "{m} {v}"
+        );
+        // Half-width bins: 0.9 -> key 2 (centre 1.0), 1.1 -> 2, 2.0 -> 4 (centre 2.0).
+        let h = ValueHistogram::from_values(&[0.9, 1.1, 2.0], 0.5).unwrap();
+        assert_eq!((h.counts(), h.centre(0)), (&[2.0, 0.0, 1.0][..], 1.0));
+    }
+
+    #[test]
+    fn far_outliers_are_counted_outside_and_non_finite_values_refused() {
+        let mut h = ValueHistogram::from_values(&[1.0, 1e300], 1.0).unwrap();
+        assert_eq!((h.counts(), h.outside()), (&[1.0][..], 1.0));
+        h.add_all(&[2.0, 0.0]).unwrap();
+        assert_eq!(h.counts(), [1.0, 1.0, 1.0]);
+        assert!(h.add_all(&[f64::INFINITY]).is_err());
+    }
+}
