@@ -93,7 +93,8 @@ impl RawLayout {
     }
 }
 
-/// One frame as delivered by [`StackReader::next_frame_data`]: decoded values, or stored
+/// One frame as a stack reader delivers it
+/// ([`next_frame_data`](super::StackReader::next_frame_data)): decoded values, or stored
 /// integer bytes with their layout (decoded later, where the values are used).
 #[derive(Clone, Debug)]
 pub enum FrameData {

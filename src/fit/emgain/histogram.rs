@@ -7,8 +7,8 @@ use crate::error::{Error, Result};
 /// A histogram of pixel values (adu) on bins of width `width` centred on multiples of it,
 /// filled one frame at a time (memory O(range), not O(stack)).
 ///
-/// The bins cover a window of at most [`MAX_HIST_BINS`] bins, placed around the bulk of the
-/// first frame (its median) and grown towards later values while it fits; values outside
+/// The bins cover a window of at most 2^22 bins (`MAX_HIST_BINS`), placed around the bulk of
+/// the first frame (its median) and grown towards later values while it fits; values outside
 /// the window are far outliers (a hot pixel, a corrupt sample), only counted. So one wild
 /// sample costs neither memory nor time.
 #[derive(Debug, Clone)]

@@ -196,7 +196,7 @@ fn is_plain_fits(path: &Path) -> bool {
 
 impl FitsFrames {
     /// Open `path` and list its image HDUs; all must have one frame shape. The headers are
-    /// checked first ([`super::header`]), so CFITSIO never sees an unchecked size.
+    /// checked first (module `header`), so CFITSIO never sees an unchecked size.
     pub fn open(path: &Path) -> Result<FitsFrames> {
         let images = header::check(path)?;
         let mut file = FitsFile::open(path)
