@@ -91,7 +91,7 @@ fn main() {
     let c_maps = cpu_seconds() - c;
     let (_, inputs) = detnoise::calib::summary::with_inputs_hashed(&stack, || Ok(())).unwrap();
     let t_hash = t.elapsed().as_secs_f64() - t_maps;
-    detnoise::cli::darks::write_outputs(
+    detnoise::calib::darks::write_outputs(
         &dir.path().join("out"),
         &stack,
         &maps,

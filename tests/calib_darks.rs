@@ -7,9 +7,8 @@ use detnoise::calib::darks::{
     dark_maps, Clip, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_RTS, FLAG_SATURATED,
 };
 use detnoise::io::FrameStack;
-use detnoise::synth::{
-    draw_truth, frame, write_synthetic, Camera, ScmosParams, StackFormat, SynthSpec,
-};
+use detnoise::io::StackFormat;
+use detnoise::synth::{draw_truth, frame, write_synthetic, Camera, ScmosParams, SynthSpec};
 
 fn spec(frames: usize, u16_samples: bool) -> SynthSpec {
     SynthSpec {
@@ -275,7 +274,7 @@ fn common_mode_removal_restores_the_pixel_noise() {
     // The frame median of P = 1280 pixels carries noise ~1.25 sigma_typ / sqrt(P) = 0.035
     // sigma_typ, added in quadrature to each pixel (sigma >= 0.4 sigma_typ): under 0.4 %
     // of the variance; 1 % on the median rms is a safe bound.
-    let med = |v: &[f64]| detnoise::calib::darks::median(v);
+    let med = |v: &[f64]| detnoise::stats::median(v);
     let (b, r, c) = (
         med(&base.rms_adu.data),
         med(&raw.rms_adu.data),

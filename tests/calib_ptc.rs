@@ -10,9 +10,8 @@ use std::path::{Path, PathBuf};
 use detnoise::calib::darks::{pixel_stats, Clip};
 use detnoise::calib::ptc::{photon_transfer, DarkReference, PtcOptions};
 use detnoise::io::FrameStack;
-use detnoise::synth::{
-    draw_truth, frame, write_synthetic, Camera, ScmosParams, StackFormat, SynthSpec,
-};
+use detnoise::io::StackFormat;
+use detnoise::synth::{draw_truth, frame, write_synthetic, Camera, ScmosParams, SynthSpec};
 
 const LEVELS: [f64; 4] = [100.0, 400.0, 1600.0, 6400.0];
 

@@ -8,8 +8,8 @@ use common::detnoise;
 
 use std::path::{Path, PathBuf};
 
+use detnoise::calib::{Map, Unit};
 use detnoise::fit::load_pdf_fit;
-use detnoise::maps::{write_fits_map, Map};
 use detnoise::pdf::{paper, EmpiricalPdf, RmsPdf};
 use detnoise::rng::stream;
 
@@ -24,7 +24,9 @@ fn fit_pdf_writes_json_chart_and_the_loader_rebuilds_every_model() {
     let mut rng = stream(21, 0, 0);
     let values: Vec<f64> = (0..64 * 64).map(|_| p.sample(&mut rng)).collect();
     let map_path = dir.path().join("rms_e.fits");
-    write_fits_map(&map_path, &Map::new(64, 64, values.clone()), "e", &[]).unwrap();
+    Map::new(64, 64, values.clone(), Unit::Electrons)
+        .write_fits(&map_path, &[])
+        .unwrap();
     let out = dir.path().join("fit");
     detnoise()
         .arg("fit-pdf")
@@ -78,7 +80,9 @@ fn fit_pdf_writes_json_chart_and_the_loader_rebuilds_every_model() {
 fn fit_pdf_refuses_adu_map_without_gain() {
     let dir = tempfile::tempdir().unwrap();
     let map_path = dir.path().join("rms_adu.fits");
-    write_fits_map(&map_path, &Map::filled(8, 8, 1.0), "adu", &[]).unwrap();
+    Map::filled(8, 8, 1.0, Unit::Adu)
+        .write_fits(&map_path, &[])
+        .unwrap();
     let out = dir.path().join("fit");
     let a = detnoise()
         .arg("fit-pdf")
@@ -245,20 +249,12 @@ fn fit_pdf_converts_adu_and_excludes_flagged_pixels() {
         adu[i * 7] = 1000.0;
         flags[i * 7] = 1.0;
     }
-    write_fits_map(
-        &dir.path().join("rms_adu.fits"),
-        &Map::new(32, 32, adu.clone()),
-        "adu",
-        &[],
-    )
-    .unwrap();
-    write_fits_map(
-        &dir.path().join("flags.fits"),
-        &Map::new(32, 32, flags),
-        "",
-        &[],
-    )
-    .unwrap();
+    Map::new(32, 32, adu.clone(), Unit::Adu)
+        .write_fits(&dir.path().join("rms_adu.fits"), &[])
+        .unwrap();
+    Map::new(32, 32, flags, Unit::Flags)
+        .write_fits(&dir.path().join("flags.fits"), &[])
+        .unwrap();
     let out = dir.path().join("fit");
     detnoise()
         .arg("fit-pdf")

@@ -9,12 +9,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use detnoise::calib::darks::{dark_maps, DarkOptions};
-use detnoise::cli::emgain::accumulate;
-use detnoise::fit::emgain::{fit_emgain_of_stack, EmGainOptions, ValueHistogram};
+use detnoise::calib::{Map, Unit};
+use detnoise::fit::emgain::{accumulate, fit_emgain_of_stack, EmGainOptions, ValueHistogram};
 use detnoise::fit::pdf_fit::{fit_pdf_of_map, load_pdf_fit};
 use detnoise::fit::PdfFitOptions;
 use detnoise::io::FrameStack;
-use detnoise::maps::read_map;
 use detnoise::Error;
 use mutants::bytes::put;
 use mutants::fixtures::{crop, write, Kind};
@@ -188,7 +187,8 @@ fn tiff_width_ffffffff_is_refused_in_fit_pdf() {
     let b = tiff_entry(&tiff_map(d.path()), 256, 0xffff_ffff, None);
     let p = file(d.path(), "wide.tif", &b);
     let (r, largest) = guarded("ImageWidth 0xFFFFFFFF", || {
-        read_map(&p).and_then(|m| fit_pdf_of_map(&p, &m.data, &PdfFitOptions::default()))
+        Map::read(&p, Unit::Electrons)
+            .and_then(|m| fit_pdf_of_map(&p, &m.data, &PdfFitOptions::default()))
     });
     names_file(&r.unwrap_err(), &p, &["frame 0"]);
     assert!(largest < SMALL, "allocated {largest} bytes");
@@ -208,7 +208,9 @@ fn tiff_tag_count_2_32_is_refused_before_the_decoder() {
     let mut b2 = b.clone();
     put(&mut b2, e.at + 4, 4, l.big, 0xffff_ffff);
     let p = file(d.path(), "count.tif", &b2);
-    let (r, largest) = guarded("RowsPerStrip count 2^32-1", || read_map(&p));
+    let (r, largest) = guarded("RowsPerStrip count 2^32-1", || {
+        Map::read(&p, Unit::Electrons)
+    });
     names_file(&r.unwrap_err(), &p, &["tag 278", "beyond the file"]);
     assert!(largest < SMALL, "allocated {largest} bytes");
 }
@@ -277,7 +279,7 @@ fn pdf_fit_of_a_map_with_extreme_values_is_not_a_panic() {
         "hot.fits",
         &write(d.path(), "hot", Kind::Fits, (16, 16), &[map], false),
     );
-    let m = read_map(&p).unwrap();
+    let m = Map::read(&p, Unit::Electrons).unwrap();
     let r = fit_pdf_of_map(&p, &m.data, &PdfFitOptions::default());
     match r {
         Ok(report) => {
@@ -288,7 +290,7 @@ fn pdf_fit_of_a_map_with_extreme_values_is_not_a_panic() {
                 report.failures
             );
             let svg = d.path().join("c.svg");
-            detnoise::cli::fit_pdf::chart(&report, &m.data, &svg).unwrap();
+            detnoise::fit::pdf_fit::chart(&report, &m.data, &svg).unwrap();
         }
         Err(e) => names_file(&e, &p, &[]),
     }
@@ -380,7 +382,7 @@ fn errors_reached_from_a_file_name_it() {
             false,
         ),
     );
-    let m = read_map(&p).unwrap();
+    let m = Map::read(&p, Unit::Electrons).unwrap();
     names_file(
         &fit_pdf_of_map(&p, &m.data, &PdfFitOptions::default()).unwrap_err(),
         &p,
@@ -404,7 +406,7 @@ fn errors_reached_from_a_file_name_it() {
         },
     )
     .unwrap();
-    detnoise::cli::fit_pdf::chart(&report, &values, &d.path().join("c.svg")).unwrap();
+    detnoise::fit::pdf_fit::chart(&report, &values, &d.path().join("c.svg")).unwrap();
     // Samples beyond 2^53 adu (a corrupt BSCALE) are refused by the reader, naming the file.
     let p = file(
         d.path(),
@@ -427,7 +429,8 @@ fn emgain_bias_map_with_a_nan_names_the_map() {
         &write(d.path(), "bias", Kind::Fits, (32, 48), &[bias], false),
     );
     let s = FrameStack::open(&[stack]).unwrap();
-    let e = accumulate(&s, Some(&p), None).unwrap_err();
+    let bias = Map::read(&p, Unit::Adu).unwrap();
+    let e = accumulate(&s, Some(&bias), None).unwrap_err();
     names_file(&e, &p, &["row 1, column 1"]);
 }
 
@@ -496,8 +499,14 @@ fn a_map_given_as_pdf_says_what_pdf_expects() {
             "pdf_fit.json",
             "fit-pdf",
             "paper",
-            "--model scmos-map --map",
+            "`model` scmos-map `map` FILE",
         ],
+    );
+    // The command line names the options the library names as fields.
+    let shown = detnoise::cli::fields::to_cli(load_pdf_fit(&p, None).unwrap_err()).to_string();
+    assert!(
+        shown.contains("--pdf takes") && shown.contains("--model scmos-map --map FILE"),
+        "{shown}"
     );
     let d = tempfile::tempdir().unwrap();
     let junk = file(d.path(), "junk.json", &[0xff, 0xfe, 0x00, 0x41]);

@@ -5,7 +5,8 @@ use std::process::Command;
 
 use detnoise::calib::darks::{dark_maps, DarkOptions};
 use detnoise::io::FrameStack;
-use detnoise::synth::{write_synthetic, Camera, ScmosParams, StackFormat, SynthSpec};
+use detnoise::io::StackFormat;
+use detnoise::synth::{write_synthetic, Camera, ScmosParams, SynthSpec};
 
 const SCRIPT: &str = r#"
 import json, sys
@@ -47,7 +48,7 @@ fn astropy_reads_our_maps() {
     let maps = dark_maps(&stack, &opts).unwrap();
     let out = d.path().join("out");
     let inputs = detnoise::calib::summary::inputs(&stack).unwrap();
-    detnoise::cli::darks::write_outputs(
+    detnoise::calib::darks::write_outputs(
         &out,
         &stack,
         &maps,

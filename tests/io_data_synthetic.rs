@@ -7,8 +7,8 @@ use common::data;
 
 use detnoise::calib::darks::{dark_maps, pixel_stats, Clip, DarkOptions};
 use detnoise::calib::ptc::{photon_transfer, DarkReference, PtcOptions};
+use detnoise::calib::{Map, Unit};
 use detnoise::io::FrameStack;
-use detnoise::maps::read_map;
 
 fn open(name: &str) -> FrameStack {
     FrameStack::open(&[data(name)]).unwrap()
@@ -29,7 +29,7 @@ fn scmos_darks_agree_across_formats_and_with_truth() {
     assert_eq!(maps[0].rms_adu, maps[1].rms_adu);
     assert_eq!(maps[0].rms_adu, maps[2].rms_adu);
     assert_eq!(maps[0].offset_adu, maps[2].offset_adu);
-    let truth = read_map(data("scmos-darks-64x64.truth-rms_adu.fits")).unwrap();
+    let truth = Map::read(data("scmos-darks-64x64.truth-rms_adu.fits"), Unit::Adu).unwrap();
     // Quantisation adds 1/12 adu^2. Sample std from n = 100 frames: standard error
     // sigma / sqrt(2 (n - 1)) = 7 %; the mean z-score over 4096 pixels has standard error
     // 1/64 = 0.016, bound at 5 of them plus 0.02 for the small-n bias of the std.
@@ -57,7 +57,11 @@ fn scmos_flat_series_gives_the_true_gain() {
         .map(|l| open(&format!("scmos-flat-64x64-{l}e.fits")))
         .collect();
     let r = photon_transfer(&flats, &dark, &PtcOptions::default()).unwrap();
-    let g = read_map(data("scmos-darks-64x64.truth-gain_e_per_adu.fits")).unwrap();
+    let g = Map::read(
+        data("scmos-darks-64x64.truth-gain_e_per_adu.fits"),
+        Unit::EPerAdu,
+    )
+    .unwrap();
     let truth = g.data.iter().map(|g| 1.0 / g).sum::<f64>()
         / g.data.iter().map(|g| 1.0 / (g * g)).sum::<f64>();
     // Within 3 stated standard errors.
@@ -76,7 +80,7 @@ fn emccd_stacks_read() {
         assert_eq!((s.shape, s.frames), ((32, 48), 200));
         let m = dark_maps(&s, &DarkOptions::default()).unwrap();
         // Bias 500 adu plus CIC/light electrons amplified x300 at 10 e/adu.
-        let med = detnoise::calib::darks::median(&m.offset_adu.data);
+        let med = detnoise::stats::median(&m.offset_adu.data);
         assert!(med > 500.0 && med < 520.0, "{name}: median offset {med}");
     }
 }

@@ -93,7 +93,8 @@ fn openexr_variants_read_identically() {
 
 #[test]
 fn read_map_gives_first_frame_row_major() {
-    let m = detnoise::maps::read_map(dir().join("astropy-mef.fits")).unwrap();
+    let m = detnoise::calib::Map::read(dir().join("astropy-mef.fits"), detnoise::calib::Unit::Adu)
+        .unwrap();
     assert_eq!((m.rows, m.cols), (ROWS, COLS));
     assert_eq!(m.data, reference_u16()[..ROWS * COLS]);
     // Row-major: element (r, c) is reference[r * COLS + c]; (0, 1) holds 65535 by construction.

@@ -137,7 +137,8 @@ fn unmutated_seeds_are_read_in_full() {
                 }
             }
             Role::Map => {
-                let map = detnoise::maps::read_map(&path).unwrap();
+                let map =
+                    detnoise::calib::Map::read(&path, detnoise::calib::Unit::Electrons).unwrap();
                 let r = detnoise::fit::fit_pdf(&map.data, &Default::default())
                     .unwrap_or_else(|e| panic!("{}: {e}", seed.name));
                 assert!(r.failures.is_empty(), "{}: {:?}", seed.name, r.failures);

@@ -10,10 +10,11 @@ use std::time::{Duration, Instant};
 
 use detnoise::calib::darks::{dark_maps, pixel_stats, Clip, DarkOptions, Illumination};
 use detnoise::calib::ptc::{light_levels, photon_transfer, DarkReference, PtcOptions};
-use detnoise::fit::em_signature::{EmSignature, Verdict};
+use detnoise::fit::emgain::{EmSignature, Verdict};
 use detnoise::io::FrameStack;
+use detnoise::io::StackFormat;
 use detnoise::synth::{
-    draw_truth, frame, write_synthetic, Camera, EmccdParams, ScmosParams, StackFormat, SynthSpec,
+    draw_truth, frame, write_synthetic, Camera, EmccdParams, ScmosParams, SynthSpec,
 };
 
 const FLATS: [&str; 4] = [

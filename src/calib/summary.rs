@@ -6,9 +6,9 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
-use super::darks::percentile_sorted as percentile;
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
+use crate::stats::percentile_sorted as percentile;
 
 /// Distribution figures of a map's finite values (in the map's unit).
 #[derive(Clone, Debug, Serialize)]
@@ -73,7 +73,7 @@ pub struct InputFile {
     /// Frames read from it.
     pub frames: usize,
     /// Format.
-    pub format: crate::io::Format,
+    pub format: crate::io::StackFormat,
     /// Stored sample type.
     pub sample_type: crate::io::SampleType,
 }

@@ -6,11 +6,12 @@ use std::path::PathBuf;
 use super::args::{real, whole};
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
 use crate::detector::EmRegister;
-use crate::error::{Error, Result};
+use crate::error::Result;
+use crate::io::StackFormat;
 use crate::output::{FileOut, StagedFiles};
-use crate::pdf::RmsPdf;
 use crate::synth::{
-    output_files, write_synthetic_in, Camera, EmccdParams, ScmosParams, StackFormat, SynthSpec,
+    output_files, parse_shape, rms_pdf, write_synthetic_in, Camera, EmccdParams, ScmosParams,
+    SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
 };
 
 /// Detector family to simulate.
@@ -87,13 +88,6 @@ pub struct SynthArgs {
     pub cic_e: f64,
 }
 
-/// Most frames `synth` writes.
-const MAX_FRAMES: u64 = 1_000_000;
-/// Most pixels per frame: frames are generated 32 at a time in memory, 8 bytes a pixel.
-const MAX_PIXELS: usize = 1 << 24;
-/// Most light (and CIC) per pixel per frame, e-: above the full well of any pixel.
-const MAX_LIGHT_E: f64 = 1e6;
-
 impl SynthArgs {
     /// Check the options together before anything is written (single values are
     /// range-checked while parsing; `--rms-pdf` when the pdf is built).
@@ -103,54 +97,6 @@ impl SynthArgs {
         }
         Ok(())
     }
-}
-
-/// Parse `ROWSxCOLS`.
-pub fn parse_shape(s: &str) -> std::result::Result<(usize, usize), String> {
-    let (r, c) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("expected ROWSxCOLS, got {s}"))?;
-    let r: usize = r
-        .trim()
-        .parse()
-        .map_err(|_| format!("bad row count in {s}"))?;
-    let c: usize = c
-        .trim()
-        .parse()
-        .map_err(|_| format!("bad column count in {s}"))?;
-    if r == 0 || c == 0 {
-        return Err(format!("empty shape {s}"));
-    }
-    if r.checked_mul(c).is_none_or(|n| n > MAX_PIXELS) {
-        return Err(format!(
-            "{s} is more than {MAX_PIXELS} pixels (4096x4096): frames are generated 32 at a time in memory"
-        ));
-    }
-    Ok((r, c))
-}
-
-/// Build the read-noise pdf named by `--rms-pdf`.
-pub fn rms_pdf(spec: &str) -> Result<Box<dyn RmsPdf>> {
-    if spec == "paper" {
-        return Ok(Box::new(crate::pdf::paper()));
-    }
-    if let Ok(v) = spec.parse::<f64>() {
-        if !(v >= 0.0 && v.is_finite()) {
-            return Err(Error::invalid(
-                "--rms-pdf",
-                format!("constant read noise {v} must be finite and >= 0 e-"),
-            ));
-        }
-        return Ok(Box::new(
-            crate::pdf::EmpiricalPdf::new(&[v], &format!("constant {v} e-"))
-                .ok_or_else(|| Error::invalid("--rms-pdf", "bad constant"))?,
-        ));
-    }
-    let map = crate::maps::read_map(spec)?;
-    let values: Vec<f64> = map.data.into_iter().filter(|v| v.is_finite()).collect();
-    let pdf = crate::pdf::EmpiricalPdf::new(&values, &format!("map {spec}"))
-        .ok_or_else(|| Error::input(spec, "frame 0: noise map has no finite value"))?;
-    Ok(Box::new(pdf))
 }
 
 /// Build the simulation spec from the options.
@@ -202,11 +148,12 @@ pub fn run(args: &SynthArgs) -> Result<()> {
 
 /// Check the stack path and the files beside it before any work, and stage them.
 fn prepare_outputs(args: &SynthArgs) -> Result<StagedFiles> {
-    let (exts, what): (&[&str], &str) = match args.format {
-        StackFormat::Fits => (&["fits", "fit"], "a FITS stack (--format fits)"),
-        StackFormat::Tiff => (&["tif", "tiff"], "a TIFF stack (--format tiff)"),
-        StackFormat::Exr => (&["exr"], "an OpenEXR stack (--format exr)"),
+    let what = match args.format {
+        StackFormat::Fits => "a FITS stack (--format fits)",
+        StackFormat::Tiff => "a TIFF stack (--format tiff)",
+        StackFormat::Exr => "an OpenEXR stack (--format exr)",
     };
+    let exts = args.format.extensions();
     let files = output_files(&args.out);
     let outs: Vec<FileOut> = files
         .iter()

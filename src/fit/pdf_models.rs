@@ -5,6 +5,7 @@
 //! the user fixes it). Parameters are held in natural units; the optimiser works on
 //! unbounded internal coordinates (log for positive, logit for fractions) so bounds hold.
 
+use crate::error::{Error, Result};
 use crate::pdf::{paper_shape, TabulatedPdf};
 
 /// Median of the paper's pdf on [0, 10] e- (notes 3.1), used for start values.
@@ -84,6 +85,26 @@ impl PdfModel {
     /// The model called `name`, if any.
     pub fn from_name(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|m| m.name() == name)
+    }
+
+    /// The models named in `names` (surrounding spaces ignored); every model when empty. An
+    /// unknown name is an error of the `models` setting listing the known ones.
+    pub fn parse_list(names: &[String]) -> Result<Vec<PdfModel>> {
+        if names.is_empty() {
+            return Ok(Self::ALL.to_vec());
+        }
+        names
+            .iter()
+            .map(|m| {
+                Self::from_name(m.trim()).ok_or_else(|| {
+                    let known: Vec<&str> = Self::ALL.iter().map(|m| m.name()).collect();
+                    Error::invalid(
+                        "models",
+                        format!("unknown model {m:?} ({})", known.join(", ")),
+                    )
+                })
+            })
+            .collect()
     }
 
     /// Free parameters (name with unit, transform) in the order of the parameter vector.
@@ -290,6 +311,23 @@ pub(crate) fn tabulate(model: PdfModel, p: &[f64], upper: f64) -> Option<Tabulat
 mod tests {
     use super::*;
     use crate::pdf::RmsPdf;
+
+    #[test]
+    fn model_lists_parse_by_name() {
+        let names = |v: &[&str]| v.iter().map(|s| s.to_string()).collect::<Vec<_>>();
+        assert_eq!(PdfModel::parse_list(&[]).unwrap(), PdfModel::ALL);
+        assert_eq!(
+            PdfModel::parse_list(&names(&[" empirical", "paper-scaled"])).unwrap(),
+            [PdfModel::Empirical, PdfModel::PaperScaled]
+        );
+        match PdfModel::parse_list(&names(&["nope"])) {
+            Err(Error::Usage { field, message }) => {
+                assert_eq!(field, "models");
+                assert!(message.contains("\"nope\"") && message.contains("lognormal+tail"));
+            }
+            other => panic!("{other:?}"),
+        }
+    }
 
     #[test]
     fn paper_family_contains_the_scaled_paper_pdf() {

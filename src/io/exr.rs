@@ -12,7 +12,9 @@ use exr::meta::attribute::SampleType as ExrType;
 use exr::meta::MetaData;
 use exr::prelude::*;
 
-use super::{compressed_size_error, frame_error, widen, FileFrames, SampleType, MAX_EXPANSION};
+use super::checks::{compressed_size_error, frame_error, MAX_EXPANSION};
+use super::format::SampleType;
+use super::frame::{to_u16, widen, FileFrames};
 use crate::error::{Error, Result};
 
 fn map_type(t: ExrType) -> SampleType {
@@ -179,12 +181,7 @@ pub fn write_layers(
         .map(|k| {
             let frame = next();
             let samples = if u16_samples {
-                FlatSamples::U32(
-                    frame
-                        .iter()
-                        .map(|x| super::fits::to_u16(*x) as u32)
-                        .collect(),
-                )
+                FlatSamples::U32(frame.iter().map(|x| to_u16(*x) as u32).collect())
             } else {
                 FlatSamples::F32(frame.iter().map(|x| *x as f32).collect())
             };

@@ -14,7 +14,9 @@ use tiff::decoder::{Decoder, DecodingResult, Limits};
 use tiff::tags::{ByteOrder, CompressionMethod, Tag};
 use tiff::ColorType;
 
-use super::{compressed_size_error, frame_error, widen, FileFrames, SampleType, MAX_EXPANSION};
+use super::checks::{compressed_size_error, frame_error, MAX_EXPANSION};
+use super::format::SampleType;
+use super::frame::{to_u16, widen, FileFrames};
 use crate::error::{Error, Result};
 
 type Dec = Decoder<BufReader<File>>;
@@ -503,7 +505,7 @@ pub fn write_pages(
         for _ in 0..frames {
             let frame = next();
             let r = if u16_samples {
-                let v: Vec<u16> = frame.iter().map(|x| super::fits::to_u16(*x)).collect();
+                let v: Vec<u16> = frame.iter().map(|x| to_u16(*x)).collect();
                 enc.write_image::<colortype::Gray16>(w, h, &v)
             } else {
                 let v: Vec<f32> = frame.iter().map(|x| *x as f32).collect();

@@ -9,12 +9,11 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use detnoise::calib::darks::{dark_maps, DarkOptions};
-use detnoise::cli::emgain::accumulate;
-use detnoise::fit::emgain::{fit_emgain_of_stack, EmGainOptions};
+use detnoise::calib::{Map, Unit};
+use detnoise::fit::emgain::{accumulate, fit_emgain_of_stack, EmGainOptions};
 use detnoise::fit::pdf_fit::fit_pdf_of_map;
 use detnoise::fit::PdfFitOptions;
 use detnoise::io::{FrameStack, MAX_EXPANSION};
-use detnoise::maps::read_map;
 use detnoise::Error;
 
 use super::alloc;
@@ -48,9 +47,9 @@ fn stack_entry_points(path: &Path) -> Vec<(&'static str, Result<(), Error>)> {
 
 /// `fit-pdf`: read the map, fit every model, draw the chart (SVG, into `scratch`).
 fn map_entry_point(path: &Path, scratch: &Path) -> Vec<(&'static str, Result<(), Error>)> {
-    let r = read_map(path).and_then(|map| {
+    let r = Map::read(path, Unit::Electrons).and_then(|map| {
         let report = fit_pdf_of_map(path, &map.data, &PdfFitOptions::default())?;
-        detnoise::cli::fit_pdf::chart(&report, &map.data, &scratch.join("pdf_fit.svg"))
+        detnoise::fit::pdf_fit::chart(&report, &map.data, &scratch.join("pdf_fit.svg"))
     });
     vec![("fit-pdf", r)]
 }

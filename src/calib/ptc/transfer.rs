@@ -1,4 +1,5 @@
-//! Photon transfer: conversion gain (e per adu) from flat stacks at several light levels.
+//! The photon-transfer analysis: conversion gain (e per adu) from flat stacks at several
+//! light levels.
 //!
 //! For each level and pixel, the dark-subtracted mean m = mean(flat) - offset and the
 //! dark-subtracted variance v = var(flat) - var(dark) obey v = m F^2 g / K for a camera of
@@ -19,10 +20,12 @@
 
 use serde::Serialize;
 
-use super::darks::{median, pixel_stats_of, FrameHook, PixelStats};
+use super::levels::{clean, describe_levels, light_levels};
+use crate::calib::darks::{pixel_stats_of, Clip, FrameHook, PixelStats};
+use crate::calib::{Map, Unit};
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
-use crate::maps::Map;
+use crate::stats::{mean_var, median};
 
 /// Dark reference: per-pixel offset (adu) and variance (adu^2) with the frames behind it.
 #[derive(Clone, Debug)]
@@ -165,7 +168,7 @@ pub fn flat_stats_of(
     };
     let record = |_k: usize, f: &mut [f64]| mean_signal(f);
     let hook: FrameHook = if opts.flicker { &normalise } else { &record };
-    let mut stats = pixel_stats_of(stack, super::darks::Clip::None, Some(hook), select)?;
+    let mut stats = pixel_stats_of(stack, Clip::None, Some(hook), select)?;
     let frame_means = stats.per_frame.clone();
     if opts.flicker {
         let big_m = frame_means.iter().sum::<f64>() / frame_means.len() as f64;
@@ -194,12 +197,6 @@ pub fn flat_stats_of(
     Ok((stats, frame_means))
 }
 
-fn variance(v: &[f64]) -> f64 {
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0).max(1.0)
-}
-
 /// Photon-transfer analysis of `flats` (one stack per light level) against `dark`.
 pub fn photon_transfer(
     flats: &[FrameStack],
@@ -207,7 +204,7 @@ pub fn photon_transfer(
     opts: &PtcOptions,
 ) -> Result<PtcResult> {
     if flats.is_empty() {
-        return Err(Error::invalid("--flats", "need at least one flat stack"));
+        return Err(Error::invalid("flats", "need at least one flat stack"));
     }
     let (rows, cols) = (dark.offset_adu.rows, dark.offset_adu.cols);
     let npix = rows * cols;
@@ -295,9 +292,9 @@ pub fn photon_transfer(
         slope,
         intercept_adu2: intercept,
         reduced_chi2: chi2,
-        gain_map: Map::new(rows, cols, gain_map),
-        gain_err_map: Map::new(rows, cols, gain_err_map),
-        read_noise_e_map: Map::new(rows, cols, rn),
+        gain_map: Map::new(rows, cols, gain_map, Unit::EPerAdu),
+        gain_err_map: Map::new(rows, cols, gain_err_map, Unit::EPerAdu),
+        read_noise_e_map: Map::new(rows, cols, rn, Unit::Electrons),
         read_noise_e_median: median(&dark_rms) * gain,
         notes,
     })
@@ -350,7 +347,7 @@ fn level_of(
     let var_err_adu2 = (tot / u) * (2.0 / (n - 1.0)).sqrt() / u.sqrt();
     let big_m = frame_means.iter().sum::<f64>() / frame_means.len() as f64;
     let expected = (tot / u) / npix as f64;
-    let excess = variance(frame_means) - expected;
+    let excess = mean_var(frame_means).1 - expected;
     let flicker_fraction = if big_m > 0.0 && excess > 0.0 {
         excess.sqrt() / big_m
     } else {
@@ -366,121 +363,6 @@ fn level_of(
         saturated_pixels: saturated,
     };
     Ok((level, (pm, pv, n)))
-}
-
-/// Frames of one stack at one light level.
-#[derive(Clone, Debug, PartialEq)]
-pub struct LightLevel {
-    /// Stack frame indices, in order.
-    pub frames: Vec<usize>,
-    /// Mean of their mean signals above the dark (adu).
-    pub mean_adu: f64,
-    /// Smallest and largest frame mean signal (adu).
-    pub range_adu: (f64, f64),
-}
-
-/// Levels differ by more than this fraction of the brighter one (lamp flicker is ~1 %).
-const LEVEL_RELATIVE_GAP: f64 = 0.05;
-/// ... and by more than this many frame-to-frame standard deviations of the mean signal.
-const LEVEL_NOISE_GAP: f64 = 10.0;
-
-/// Group frames by their mean signal (adu above the dark) into light levels, dimmest first:
-/// sorted signals split wherever neighbours differ by more than `LEVEL_RELATIVE_GAP` of the
-/// brighter and `LEVEL_NOISE_GAP` frame-to-frame deviations. The deviation comes from
-/// successive frames (robust: 1.4826 x median |difference| / sqrt 2), so a few jumps between
-/// levels acquired one after the other do not inflate it.
-pub fn light_levels(frame_signal_adu: &[f64]) -> Vec<LightLevel> {
-    let diffs: Vec<f64> = frame_signal_adu
-        .windows(2)
-        .map(|w| (w[1] - w[0]).abs())
-        .collect();
-    let noise = 1.4826 * median(&diffs) / std::f64::consts::SQRT_2;
-    let noise = if noise.is_finite() { noise } else { 0.0 };
-    let mut order: Vec<usize> = (0..frame_signal_adu.len()).collect();
-    order.sort_by(|a, b| frame_signal_adu[*a].total_cmp(&frame_signal_adu[*b]));
-    let mut groups: Vec<Vec<usize>> = Vec::new();
-    for (j, &k) in order.iter().enumerate() {
-        let starts_new = j == 0 || {
-            let (lo, hi) = (frame_signal_adu[order[j - 1]], frame_signal_adu[k]);
-            hi - lo > (LEVEL_RELATIVE_GAP * hi.abs()).max(LEVEL_NOISE_GAP * noise)
-        };
-        if starts_new {
-            groups.push(Vec::new());
-        }
-        groups.last_mut().expect("pushed above").push(k);
-    }
-    groups
-        .into_iter()
-        .map(|mut frames| {
-            frames.sort_unstable();
-            let v: Vec<f64> = frames.iter().map(|k| frame_signal_adu[*k]).collect();
-            LightLevel {
-                mean_adu: v.iter().sum::<f64>() / v.len() as f64,
-                range_adu: (
-                    v.iter().copied().fold(f64::INFINITY, f64::min),
-                    v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                ),
-                frames,
-            }
-        })
-        .collect()
-}
-
-/// Levels are clean when each has at least 2 frames, a mean signal above the dark and a spread
-/// under half the gap to either neighbour.
-fn clean(levels: &[LightLevel]) -> bool {
-    levels.iter().enumerate().all(|(i, l)| {
-        let spread = l.range_adu.1 - l.range_adu.0;
-        let gap_below = i
-            .checked_sub(1)
-            .map_or(f64::INFINITY, |j| l.range_adu.0 - levels[j].range_adu.1);
-        let gap_above = levels
-            .get(i + 1)
-            .map_or(f64::INFINITY, |n| n.range_adu.0 - l.range_adu.1);
-        l.frames.len() >= 2 && l.mean_adu > 0.0 && spread < 0.5 * gap_below.min(gap_above)
-    })
-}
-
-/// "50 frame(s) at 400.1 adu above the dark (398.3 to 401.2) from a.fits; ..." for messages.
-fn describe_levels(stack: &FrameStack, levels: &[LightLevel]) -> String {
-    levels
-        .iter()
-        .map(|l| {
-            format!(
-                "{} frame(s) at {:.1} adu above the dark ({:.1} to {:.1}) from {}",
-                l.frames.len(),
-                l.mean_adu,
-                l.range_adu.0,
-                l.range_adu.1,
-                files_of(stack, &l.frames)
-            )
-        })
-        .collect::<Vec<_>>()
-        .join("; ")
-}
-
-/// Names of the files holding stack frames `frames` (ascending): up to three, then a count.
-fn files_of(stack: &FrameStack, frames: &[usize]) -> String {
-    let mut names: Vec<String> = Vec::new();
-    let (mut file, mut end) = (0, stack.sources[0].frames);
-    for &k in frames {
-        while k >= end && file + 1 < stack.sources.len() {
-            file += 1;
-            end += stack.sources[file].frames;
-        }
-        let p = &stack.sources[file].path;
-        let name = p.file_name().map_or_else(
-            || p.display().to_string(),
-            |n| n.to_string_lossy().into_owned(),
-        );
-        if names.last() != Some(&name) {
-            names.push(name);
-        }
-    }
-    match names.len() {
-        0..=3 => names.join(", "),
-        n => format!("{} and {} more", names[..3].join(", "), n - 3),
-    }
 }
 
 /// Weighted fit v = a + b m over levels: (b, se(b), a, reduced chi2). One level: a = 0.

@@ -12,8 +12,11 @@ use std::path::{Path, PathBuf};
 use fitsio::sys;
 use fitsio::FitsFile;
 
-use super::{frame_error, FileFrames, RawKind, SampleType};
+use super::header;
 use crate::error::{Error, Result};
+use crate::io::checks::{frame_error, MAX_SAMPLE_ABS};
+use crate::io::format::SampleType;
+use crate::io::frame::{FileFrames, RawKind, RawLayout};
 
 const IMAGE_HDU: c_int = 0;
 const KEY_NO_EXIST: c_int = 202;
@@ -45,16 +48,16 @@ fn check(path: &Path, status: c_int, what: &str) -> Result<()> {
     }
 }
 
-/// Raw decoding facts of an uncompressed HDU.
+/// Where and how the samples of an uncompressed HDU are stored.
 #[derive(Clone, Copy, Debug)]
-struct RawLayout {
+struct HduData {
     datastart: u64,
     bitpix: i32,
     bscale: f64,
     bzero: f64,
 }
 
-impl RawLayout {
+impl HduData {
     /// Whether every stored integer maps to a finite value within the sample range, so
     /// frames need no per-sample check.
     fn within_sample_range(&self) -> bool {
@@ -64,7 +67,46 @@ impl RawLayout {
             32 => 2_147_483_648.0,
             _ => return false,
         };
-        (max_stored * self.bscale.abs() + self.bzero.abs()) <= super::MAX_SAMPLE_ABS
+        (max_stored * self.bscale.abs() + self.bzero.abs()) <= MAX_SAMPLE_ABS
+    }
+
+    /// The integer layout of the samples (None for floats): the one big-endian integer
+    /// decoder serves the raw frames and this reader.
+    fn integer_layout(&self) -> Option<RawLayout> {
+        let kind = match self.bitpix {
+            8 => RawKind::U8,
+            16 => RawKind::I16,
+            32 => RawKind::I32,
+            64 => RawKind::I64,
+            _ => return None,
+        };
+        Some(RawLayout {
+            kind,
+            big_endian: true,
+            scale: self.bscale,
+            zero: self.bzero,
+        })
+    }
+
+    /// Decode the stored bytes of one frame into `out`.
+    fn decode(&self, bytes: &[u8], out: &mut [f64]) {
+        if let Some(layout) = self.integer_layout() {
+            return layout.decode(bytes, out);
+        }
+        let (scale, zero) = (self.bscale, self.bzero);
+        macro_rules! dec {
+            ($t:ty, $n:expr) => {
+                for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
+                    *o = <$t>::from_be_bytes(c.try_into().expect("chunk size")) as f64 * scale
+                        + zero;
+                }
+            };
+        }
+        match self.bitpix {
+            -32 => dec!(f32, 4),
+            -64 => dec!(f64, 8),
+            _ => unreachable!("bitpix checked at open"),
+        }
     }
 }
 
@@ -75,7 +117,7 @@ struct HduFrames {
     /// Index within the file of this HDU's first frame.
     first: usize,
     frames: usize,
-    raw: Option<RawLayout>,
+    raw: Option<HduData>,
 }
 
 /// The frames of one FITS file.
@@ -154,9 +196,9 @@ fn is_plain_fits(path: &Path) -> bool {
 
 impl FitsFrames {
     /// Open `path` and list its image HDUs; all must have one frame shape. The headers are
-    /// checked first ([`super::fits_header`]), so CFITSIO never sees an unchecked size.
+    /// checked first (module `header`), so CFITSIO never sees an unchecked size.
     pub fn open(path: &Path) -> Result<FitsFrames> {
-        let images = super::fits_header::check(path)?;
+        let images = header::check(path)?;
         let mut file = FitsFile::open(path)
             .map_err(|e| Error::input(path, format!("frame 0: cannot open as FITS: {e}")))?;
         // SAFETY: the pointer stays owned by `file`, which outlives every use below.
@@ -261,12 +303,7 @@ fn cfitsio_dims(path: &Path, fptr: *mut sys::fitsfile, hdu: c_int) -> Result<Vec
         .collect())
 }
 
-fn raw_layout(
-    path: &Path,
-    fptr: *mut sys::fitsfile,
-    hdu: c_int,
-    bitpix: c_int,
-) -> Result<RawLayout> {
+fn raw_layout(path: &Path, fptr: *mut sys::fitsfile, hdu: c_int, bitpix: c_int) -> Result<HduData> {
     let (mut head, mut data, mut end) = (0i64, 0i64, 0i64);
     let mut status = 0;
     unsafe { sys::ffghadll(fptr, &mut head, &mut data, &mut end, &mut status) };
@@ -274,7 +311,7 @@ fn raw_layout(
     let bad = |s| Error::input(path, format!("HDU {hdu}: {}", status_text(s)));
     let bscale = read_key_f64(fptr, "BSCALE", 1.0).map_err(bad)?;
     let bzero = read_key_f64(fptr, "BZERO", 0.0).map_err(bad)?;
-    Ok(RawLayout {
+    Ok(HduData {
         datastart: data as u64,
         bitpix,
         bscale,
@@ -288,25 +325,6 @@ pub fn scan(path: &Path) -> Result<(usize, (usize, usize), SampleType)> {
     Ok((f.frames(), f.shape, f.sample_type))
 }
 
-fn decode_be(bitpix: i32, bytes: &[u8], scale: f64, zero: f64, out: &mut [f64]) {
-    macro_rules! dec {
-        ($t:ty, $n:expr) => {
-            for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
-                *o = <$t>::from_be_bytes(c.try_into().expect("chunk size")) as f64 * scale + zero;
-            }
-        };
-    }
-    match bitpix {
-        8 => dec!(u8, 1),
-        16 => dec!(i16, 2),
-        32 => dec!(i32, 4),
-        64 => dec!(i64, 8),
-        -32 => dec!(f32, 4),
-        -64 => dec!(f64, 8),
-        _ => unreachable!("bitpix checked at open"),
-    }
-}
-
 impl FitsFrames {
     fn hdu_of(&self, k: usize) -> Option<&HduFrames> {
         self.hdus
@@ -316,21 +334,10 @@ impl FitsFrames {
 }
 
 impl FileFrames for FitsFrames {
-    fn raw_layout(&self, k: usize) -> Option<super::RawLayout> {
+    fn raw_layout(&self, k: usize) -> Option<RawLayout> {
         let raw = self.hdu_of(k)?.raw?;
-        let kind = match raw.bitpix {
-            8 => RawKind::U8,
-            16 => RawKind::I16,
-            32 => RawKind::I32,
-            64 => RawKind::I64,
-            _ => return None,
-        };
-        (raw.bscale.is_finite() && raw.bzero.is_finite()).then_some(super::RawLayout {
-            kind,
-            big_endian: true,
-            scale: raw.bscale,
-            zero: raw.bzero,
-        })
+        raw.integer_layout()
+            .filter(|_| raw.bscale.is_finite() && raw.bzero.is_finite())
     }
 
     fn read_raw(&mut self, k: usize, bytes: &mut Vec<u8>) -> Result<()> {
@@ -367,7 +374,7 @@ impl FileFrames for FitsFrames {
             let offset = raw.datastart + local * (npix * width) as u64;
             file.read_exact_at(&mut self.bytes, offset)
                 .map_err(|e| frame_error(&self.path, k, format!("cannot read data: {e}")))?;
-            decode_be(raw.bitpix, &self.bytes, raw.bscale, raw.bzero, out);
+            raw.decode(&self.bytes, out);
             return Ok(());
         }
         // SAFETY: fptr is owned by self.file; `out` has npix elements (checked by the caller).
@@ -397,56 +404,4 @@ impl FileFrames for FitsFrames {
         }
         Ok(())
     }
-}
-
-/// Write frames as one FITS cube (NAXIS3 = frames), atomically. `u16` stores unsigned
-/// 16-bit integers (int16 + BZERO 32768, values rounded and clamped), otherwise 32-bit floats.
-pub fn write_cube(
-    path: &Path,
-    shape: (usize, usize),
-    frames: usize,
-    u16_samples: bool,
-    next: &mut dyn FnMut() -> Vec<f64>,
-    keys: &[crate::maps::Keyword],
-) -> Result<()> {
-    use fitsio::images::{ImageDescription, ImageType};
-    let fits_err =
-        |p: &Path, e: fitsio::errors::Error| Error::io(p, std::io::Error::other(e.to_string()));
-    crate::output::write_atomic_with(path, |tmp| {
-        let data_type = if u16_samples {
-            ImageType::UnsignedShort
-        } else {
-            ImageType::Float
-        };
-        let desc = ImageDescription {
-            data_type,
-            dimensions: &[frames, shape.0, shape.1],
-        };
-        let mut f = FitsFile::create(tmp)
-            .with_custom_primary(&desc)
-            .overwrite()
-            .open()
-            .map_err(|e| fits_err(tmp, e))?;
-        let hdu = f.primary_hdu().map_err(|e| fits_err(tmp, e))?;
-        let npix = shape.0 * shape.1;
-        for k in 0..frames {
-            let frame = next();
-            let r = if u16_samples {
-                let v: Vec<u16> = frame.iter().map(|x| to_u16(*x)).collect();
-                hdu.write_section(&mut f, k * npix, (k + 1) * npix, &v)
-            } else {
-                let v: Vec<f32> = frame.iter().map(|x| *x as f32).collect();
-                hdu.write_section(&mut f, k * npix, (k + 1) * npix, &v)
-            };
-            r.map_err(|e| fits_err(tmp, e))?;
-        }
-        let mut all = crate::maps::provenance();
-        all.extend_from_slice(keys);
-        crate::maps::write_keys(&mut f, tmp, &all)
-    })
-}
-
-/// Round and clamp to the u16 range.
-pub(crate) fn to_u16(x: f64) -> u16 {
-    x.round().clamp(0.0, u16::MAX as f64) as u16
 }

@@ -1,4 +1,4 @@
-//! Small exact samplers and summary statistics shared by the simulation and calibration code.
+//! Exact samplers of the discrete laws the simulation draws from (Poisson, Binomial(k, 1/2)).
 
 use crate::rng::SimRng;
 use rand::RngExt;
@@ -51,18 +51,11 @@ pub fn binomial_half(k: u32, rng: &mut SimRng) -> u32 {
     total
 }
 
-/// Mean and unbiased variance of a slice (NaN for fewer than two values).
-pub fn mean_var(xs: &[f64]) -> (f64, f64) {
-    let n = xs.len() as f64;
-    let m = xs.iter().sum::<f64>() / n;
-    let v = xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0);
-    (m, v)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::rng::stream;
+    use crate::stats::mean_var;
 
     #[test]
     fn poisson_moments_both_regimes() {

@@ -10,7 +10,8 @@
 
 use serde::Serialize;
 
-use super::emgain::{start_values, ValueHistogram};
+use super::histogram::ValueHistogram;
+use super::start::start_values;
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 

@@ -1,0 +1,167 @@
+//! The check that a dark stack saw no light: shot noise makes a pixel's variance grow with
+//! its level across the pixels of a flat, not of a dark.
+
+use serde::Serialize;
+
+use super::maps::DarkMaps;
+use crate::error::{Error, Result};
+use crate::io::FrameStack;
+use crate::stats::{median, percentile, robust_slope};
+
+/// Photon-transfer slopes with fewer standard errors than this are not evidence of light.
+const LIGHT_SLOPE_T: f64 = 5.0;
+/// Fewest photoelectrons per pixel and frame the slope must imply for light to matter (a
+/// shot noise of 2 e-, above typical sCMOS read noise).
+const LIGHT_MIN_ELECTRONS: f64 = 4.0;
+/// Range of the fraction of the level a photon-transfer slope attributes to signal for a
+/// flat: below, the correlation comes from rare events on a dark level (EMCCD clock-induced
+/// charge: ~0.3 % of the level); above, the slope is too shallow for shot noise.
+const LIGHT_SIGNAL_FRACTION: (f64, f64) = (0.05, 2.0);
+/// A dark level above this fraction of the stored integer range is light (dark offsets sit a
+/// few percent above zero to keep the dynamic range).
+const LIGHT_LEVEL_FRACTION: f64 = 0.25;
+/// Fewest pixels for the photon-transfer test across pixels.
+const LIGHT_MIN_PIXELS: usize = 64;
+
+/// Evidence that a dark stack saw light, from its per-pixel offset and read-noise maps.
+///
+/// Shot noise makes a pixel's temporal variance grow with its signal: across the pixels of a
+/// flat, variance against mean has the photon-transfer slope (1/gain for illumination
+/// differences, 2/gain for gain differences; adu), while a dark's variance does not follow
+/// its offset. The slope b and the median variance v then imply the photoelectrons per pixel
+/// and frame (v / b^2) and the signal (v / b, adu), which for a flat is a large part of the
+/// level.
+#[derive(Clone, Debug, Serialize)]
+pub struct Illumination {
+    /// Pixels used for the slope (central 98 % of the means, variance below its 99th percentile).
+    pub pixels: usize,
+    /// Median per-pixel mean (adu).
+    pub level_adu: f64,
+    /// The level as a fraction of the stored integer type's largest value (None for floats).
+    pub level_fraction_of_range: Option<f64>,
+    /// Median per-pixel variance (adu^2).
+    pub variance_adu2: f64,
+    /// Slope of per-pixel variance against per-pixel mean across pixels (adu).
+    pub slope_adu: f64,
+    /// The slope in units of its (heteroscedasticity-robust) standard error.
+    pub slope_t: f64,
+    /// Photoelectrons per pixel and frame the slope implies: variance / slope^2 (e-).
+    pub implied_electrons: f64,
+    /// Signal the slope implies as a fraction of the level: variance / (slope x level).
+    pub implied_signal_fraction: f64,
+    /// True when the frames look illuminated.
+    pub illuminated: bool,
+}
+
+impl Illumination {
+    /// Measure the evidence from per-pixel offsets (adu) and read noise (adu) of a stack whose
+    /// stored type saturates at `type_max` (None for floats).
+    pub fn measure(offset_adu: &[f64], rms_adu: &[f64], type_max: Option<f64>) -> Illumination {
+        let var: Vec<f64> = rms_adu.iter().map(|r| r * r).collect();
+        let level_adu = median(offset_adu);
+        let variance_adu2 = median(&var);
+        let level_fraction_of_range = type_max.map(|m| level_adu / m);
+        let (lo, hi, vmax) = (
+            percentile(offset_adu, 1.0),
+            percentile(offset_adu, 99.0),
+            percentile(&var, 99.0),
+        );
+        let (x, y): (Vec<f64>, Vec<f64>) = offset_adu
+            .iter()
+            .zip(&var)
+            .filter(|(m, v)| **m >= lo && **m <= hi && v.is_finite() && **v <= vmax)
+            .map(|(m, v)| (*m, *v))
+            .unzip();
+        let (slope_adu, slope_t) = if x.len() >= LIGHT_MIN_PIXELS {
+            robust_slope(&x, &y)
+        } else {
+            (f64::NAN, f64::NAN)
+        };
+        let implied_electrons = variance_adu2 / (slope_adu * slope_adu);
+        let implied_signal_fraction = variance_adu2 / (slope_adu * level_adu);
+        let (f_lo, f_hi) = LIGHT_SIGNAL_FRACTION;
+        let follows_light = slope_t >= LIGHT_SLOPE_T
+            && implied_electrons >= LIGHT_MIN_ELECTRONS
+            && (f_lo..=f_hi).contains(&implied_signal_fraction);
+        let too_high = level_fraction_of_range.is_some_and(|f| f >= LIGHT_LEVEL_FRACTION);
+        Illumination {
+            pixels: x.len(),
+            level_adu,
+            level_fraction_of_range,
+            variance_adu2,
+            slope_adu,
+            slope_t,
+            implied_electrons,
+            implied_signal_fraction,
+            illuminated: follows_light || too_high,
+        }
+    }
+
+    /// What was seen, in numbers (one sentence).
+    pub fn describe(&self) -> String {
+        let range = self
+            .level_fraction_of_range
+            .map(|f| format!(" ({:.1} % of the stored type's range)", 100.0 * f))
+            .unwrap_or_default();
+        let slope = if self.slope_t.is_finite() {
+            format!(
+                "across {} pixels the variance grows with the mean at {:.3} adu ({:.1} standard errors; darks show no such slope, flats about 1/gain to 2/gain): shot noise of {} photoelectrons per pixel and frame, a signal of {:.0} % of the level",
+                self.pixels,
+                self.slope_adu,
+                self.slope_t,
+                significant(self.implied_electrons),
+                100.0 * self.implied_signal_fraction
+            )
+        } else {
+            format!(
+                "too few pixels ({}) to compare variance with mean",
+                self.pixels
+            )
+        };
+        format!(
+            "median level {:.1} adu{range}, median variance {} adu^2; {slope}",
+            self.level_adu,
+            significant(self.variance_adu2)
+        )
+    }
+}
+
+/// `x` with three significant digits, without exponent for everyday magnitudes.
+fn significant(x: f64) -> String {
+    let digits = if x.abs() >= 100.0 || !x.is_finite() {
+        0
+    } else {
+        (2 - x.abs().log10().floor() as i32).clamp(0, 6) as usize
+    };
+    format!("{x:.digits$}")
+}
+
+/// Refuse a dark stack that looks illuminated (naming the file and what was seen) unless
+/// `accept_illuminated`; when illuminated frames are accepted, returns a warning to print.
+pub fn require_dark(
+    stack: &FrameStack,
+    maps: &DarkMaps,
+    accept_illuminated: bool,
+) -> Result<Option<String>> {
+    let seen = Illumination::measure(
+        &maps.offset_adu.data,
+        &maps.rms_adu.data,
+        stack.saturation_value(),
+    );
+    let path = &stack.sources[0].path;
+    match (seen.illuminated, accept_illuminated) {
+        (false, _) => Ok(None),
+        (true, true) => Ok(Some(format!(
+            "{}: these frames look illuminated ({}); used as darks because of --accept-illuminated",
+            path.display(),
+            seen.describe()
+        ))),
+        (true, false) => Err(Error::input(
+            path,
+            format!(
+                "these frames look illuminated, not dark: {}. Give frames taken without light (shutter closed, same exposure), or --accept-illuminated to use these anyway",
+                seen.describe()
+            ),
+        )),
+    }
+}

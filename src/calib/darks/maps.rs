@@ -1,0 +1,64 @@
+//! The maps of a dark stack: offset and read noise (adu), pixel flags, split-half correlation
+//! and the common-mode offsets removed.
+
+use super::accumulate::{pixel_stats, FrameHook, PixelStats};
+use super::flags::flag_pixels;
+use super::options::DarkOptions;
+use crate::calib::{Map, Unit};
+use crate::error::Result;
+use crate::io::FrameStack;
+use crate::stats::{correlation, median};
+
+/// Dark-stack calibration: offset and read-noise maps, flags and summary figures.
+#[derive(Clone, Debug)]
+pub struct DarkMaps {
+    /// Per-pixel statistics.
+    pub stats: PixelStats,
+    /// Per-pixel offset (adu), including the mean common-mode level when removed.
+    pub offset_adu: Map,
+    /// Per-pixel read noise (adu).
+    pub rms_adu: Map,
+    /// Flag bits per pixel (`FLAG_*`).
+    pub flags: Vec<i32>,
+    /// Correlation of the even-frame and odd-frame noise maps.
+    pub split_half_correlation: f64,
+    /// Per-frame common-mode offsets removed (adu; empty when not requested).
+    pub common_mode_adu: Vec<f64>,
+}
+
+/// Compute dark maps of `stack` with `opts`.
+pub fn dark_maps(stack: &FrameStack, opts: &DarkOptions) -> Result<DarkMaps> {
+    let cm = |_k: usize, f: &mut [f64]| {
+        let m = median(f);
+        f.iter_mut().for_each(|v| *v -= m);
+        m
+    };
+    let hook: Option<FrameHook> = if opts.common_mode { Some(&cm) } else { None };
+    let stats = pixel_stats(stack, opts.clip, hook)?;
+    let common_mode_adu = stats.per_frame.clone();
+    let cm_mean = if common_mode_adu.is_empty() {
+        0.0
+    } else {
+        common_mode_adu.iter().sum::<f64>() / common_mode_adu.len() as f64
+    };
+    let offset: Vec<f64> = stats.mean.data.iter().map(|m| m + cm_mean).collect();
+    let source = stack.sources[0].path.display().to_string();
+    let offset_adu =
+        Map::new(stats.mean.rows, stats.mean.cols, offset, Unit::Adu).with_source(&source);
+    let rms_adu = stats.rms.clone().with_source(source);
+    let flags = flag_pixels(
+        &stats,
+        &offset_adu.data,
+        stack.saturation_value().map(|s| s - cm_mean.max(0.0)),
+        opts,
+    );
+    let split_half_correlation = correlation(&stats.rms_even.data, &stats.rms_odd.data);
+    Ok(DarkMaps {
+        stats,
+        offset_adu,
+        rms_adu,
+        flags,
+        split_half_correlation,
+        common_mode_adu,
+    })
+}

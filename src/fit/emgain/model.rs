@@ -1,0 +1,216 @@
+//! The EMCCD histogram model: exact bin probabilities from the characteristic function
+//! (one FFT per evaluation), the excess noise factor of the single-electron law, and the
+//! model curve of a fit for its chart.
+
+use std::sync::Arc;
+
+use rustfft::{num_complex::Complex64, Fft, FftPlanner};
+
+use super::histogram::ValueHistogram;
+use super::options::EmShape;
+use super::result::EmGainFit;
+
+/// Largest FFT used for the model (2^18 points: an 8-fold margin over the grids of real
+/// EMCCD histograms, 4096 to 32768 cells).
+pub(super) const MAX_FFT: usize = 1 << 18;
+
+/// The exact bin probabilities of the model on a fine periodic grid.
+pub(super) struct Model {
+    pub(super) shape: EmShape,
+    pub(super) conv: f64,
+    /// Lower edge of the grid (adu).
+    pub(super) x0: f64,
+    /// Fine cell width (adu).
+    pub(super) h: f64,
+    pub(super) fft: Arc<dyn Fft<f64>>,
+    pub(super) m: usize,
+}
+
+impl Model {
+    /// Fine cell probabilities for (b, s, G, lambda) and a rate `cic` of serial CIC
+    /// electrons (born at a uniformly random stage, register model only), or `None`
+    /// outside the domain.
+    pub(super) fn cells(&self, b: f64, s: f64, g: f64, lambda: f64, cic: f64) -> Option<Vec<f64>> {
+        let m = self.m;
+        let period = m as f64 * self.h;
+        let reg = match self.shape {
+            EmShape::Register { stages } => {
+                let ge = g * self.conv;
+                if ge < 1.0 {
+                    return None;
+                }
+                Some((ge.powf(1.0 / stages as f64) - 1.0, stages))
+            }
+            EmShape::Gamma => None,
+        };
+        let mut a = vec![Complex64::new(0.0, 0.0); m];
+        // Frequencies beyond 9/s carry < e^-40 of the Gaussian factor: left at zero.
+        let kmax = ((9.0 / s) * period / (2.0 * std::f64::consts::PI)).ceil() as usize;
+        let kmax = kmax.min(m / 2 - 1);
+        for k in 0..=kmax {
+            let t = 2.0 * std::f64::consts::PI * k as f64 / period;
+            // phi1: one input electron through the whole register; phis: one electron
+            // born at stage k = 1..N (uniform), which passes the N - k stages after it.
+            let (phi1, phis) = match reg {
+                None => (
+                    Complex64::new(1.0, 0.0) / Complex64::new(1.0, -t * g),
+                    Complex64::new(1.0, 0.0),
+                ),
+                Some((p, stages)) => {
+                    let z = Complex64::from_polar(1.0, t / self.conv);
+                    let mut v = z;
+                    let mut partial = Complex64::new(0.0, 0.0);
+                    for _ in 0..stages {
+                        partial += v;
+                        v *= (1.0 - p) + p * v;
+                    }
+                    (v, partial / stages as f64)
+                }
+            };
+            let x = t * (self.h * 0.5);
+            let sinc = if x == 0.0 { 1.0 } else { x.sin() / x };
+            let log_phi = Complex64::new(-0.5 * s * s * t * t, t * (b - self.x0 - 0.5 * self.h))
+                + lambda * (phi1 - 1.0)
+                + cic * (phis - 1.0);
+            let v = log_phi.exp() * sinc;
+            a[k] = v;
+            if k > 0 {
+                a[m - k] = v.conj();
+            }
+        }
+        self.fft.process(&mut a);
+        Some(a.iter().map(|v| v.re / m as f64).collect())
+    }
+}
+
+/// Excess noise factor squared of the single-electron law at gain `g_e` (e-/e-).
+///
+/// For the register this is the formula of `EmRegister::excess_noise_factor_sq`
+/// (1 + var1 / g^2, var1 = (1 - p)(1 + p)^(N-1)((1 + p)^N - 1)), evaluated without building a
+/// register: `EmRegister::new` tabulates the single-electron output (about 40 x gain entries,
+/// up to a second) and refuses gains outside [1, 10,000], while the fit needs the factor at
+/// every trial gain the start values and moments give (a gain below 1 has p = 0 and F^2 = 1).
+/// A test pins the two to each other.
+pub fn excess_noise_factor_sq(shape: EmShape, g_e: f64) -> f64 {
+    match shape {
+        EmShape::Gamma => 2.0,
+        EmShape::Register { stages } => {
+            let p = g_e.max(1.0).powf(1.0 / stages as f64) - 1.0;
+            let m = 1.0 + p;
+            let n = stages as i32;
+            1.0 + (1.0 - p) * m.powi(n - 1) * (m.powi(n) - 1.0) / (g_e * g_e)
+        }
+    }
+}
+
+/// One bin of the chart of a fit: data and model counts (pixel-samples).
+#[derive(Debug, Clone, Copy)]
+pub struct CurveBin {
+    /// Bin centre (adu).
+    pub x_adu: f64,
+    /// Observed pixel-samples.
+    pub data: f64,
+    /// Expected pixel-samples of the fitted model.
+    pub model: f64,
+    /// Expected pixel-samples with no input electron (bias + read noise only).
+    pub zero_electron: f64,
+}
+
+/// The data and the fitted model on at most `max_bins` bins (whole histogram bins merged)
+/// up to the fit's upper limit, with the zero-electron component.
+pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<CurveBin> {
+    let (b, s, g, l) = (
+        fit.bias_adu,
+        fit.read_noise_adu,
+        fit.gain_adu_per_e,
+        fit.lambda_e,
+    );
+    let w = h.width();
+    // From 10 read noises below the bias (lower values are far outliers) to the cut.
+    let first = h
+        .counts()
+        .iter()
+        .enumerate()
+        .position(|(i, _)| h.centre(i) >= b - 10.0 * s)
+        .unwrap_or(0);
+    let counts = &h.counts()[first..];
+    let used = (0..counts.len())
+        .take_while(|i| h.centre(first + i) <= fit.max_value_adu)
+        .count()
+        .max(1)
+        .min(counts.len());
+    let group = used.div_ceil(max_bins.max(1));
+    let lo = h.centre(first) - 0.5 * w;
+    let per_bin = ((4.5 * w / s).ceil() as usize).clamp(1, 1024);
+    let hfine = w / per_bin as f64;
+    let span = used as f64 * w + (10.0 * s).max(100.0 * g);
+    let m = ((span / hfine).ceil().min(MAX_FFT as f64) as usize)
+        .max(2)
+        .next_power_of_two();
+    let model = Model {
+        shape: fit.shape,
+        conv: fit.gain_e_per_adu.unwrap_or(1.0),
+        x0: lo,
+        h: hfine,
+        fft: FftPlanner::new().plan_fft_forward(m),
+        m,
+    };
+    let zeros = vec![0.0; m];
+    let cic = fit.serial_cic_e.unwrap_or(0.0);
+    let total = model
+        .cells(b, s, g, l, cic)
+        .unwrap_or_else(|| zeros.clone());
+    // No input and no serial-CIC electron: the bias peak alone.
+    let gauss = model.cells(b, s, g, 0.0, 0.0).unwrap_or(zeros);
+    let n = fit.n_samples;
+    let sum = |v: &[f64], i0: usize, i1: usize| -> f64 {
+        v.get(i0 * per_bin..(i1 * per_bin).min(v.len()))
+            .map_or(0.0, |c| c.iter().sum())
+    };
+    (0..used)
+        .step_by(group)
+        .map(|i0| {
+            let i1 = (i0 + group).min(used);
+            CurveBin {
+                x_adu: lo + 0.5 * (i0 + i1) as f64 * w,
+                data: counts[i0..i1].iter().sum(),
+                model: n * sum(&total, i0, i1),
+                zero_electron: n * (-l - cic).exp() * sum(&gauss, i0, i1),
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::detector::EmRegister;
+
+    #[test]
+    fn register_excess_noise_is_the_registers_own() {
+        for (gain, stages) in [(1.0, 1), (2.0, 1), (5.0, 512), (300.0, 520), (1000.0, 512)] {
+            let reg = EmRegister::new(gain, stages).unwrap();
+            let ours = excess_noise_factor_sq(EmShape::Register { stages }, gain);
+            let theirs = reg.excess_noise_factor_sq();
+            assert!(
+                (ours / theirs - 1.0).abs() < 1e-12,
+                "{gain} {stages}: {ours} {theirs}"
+            );
+        }
+        // (1 + p)^N = g gives F^2 = 1 + (1 - p)(g - 1) / (g (1 + p)): 2 - O(p) at high gain,
+        // the Gamma model's 2 in the limit of many stages.
+        let (g, n) = (5000.0f64, 2000u32);
+        let p = g.powf(1.0 / n as f64) - 1.0;
+        let f2 = excess_noise_factor_sq(EmShape::Register { stages: n }, g);
+        assert!(
+            (f2 - (1.0 + (1.0 - p) * (g - 1.0) / (g * (1.0 + p)))).abs() < 1e-9,
+            "{f2}"
+        );
+        assert!((f2 - 2.0).abs() < 0.01);
+        assert_eq!(
+            excess_noise_factor_sq(EmShape::Register { stages: 10 }, 0.5),
+            1.0
+        );
+        assert_eq!(excess_noise_factor_sq(EmShape::Gamma, 300.0), 2.0);
+    }
+}

@@ -1,0 +1,99 @@
+//! The result of an EM-gain fit (the content of `emgain.json`), its start values and the
+//! cross-check routes to the gain.
+
+use serde::{Deserialize, Serialize};
+
+use super::options::EmShape;
+
+/// Start values of the fit (notes 6.2).
+#[derive(Debug, Clone, Copy, Serialize, Deserialize)]
+pub struct EmStart {
+    /// Bias: leftmost significant peak of the smoothed histogram (adu).
+    pub bias_adu: f64,
+    /// Read noise: rms of the values below the bias (adu).
+    pub read_noise_adu: f64,
+    /// Gain: mean excess over bias + 6 read noise (tail memorylessness) at low light,
+    /// else (mean - bias) / lambda (adu per e-).
+    pub gain_adu_per_e: f64,
+    /// Mean input electrons from the fraction below the bias: -ln(2 P(x < b)).
+    pub lambda_e: f64,
+}
+
+/// Cross-check routes to the gain, beside the histogram fit.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct EmCrossChecks {
+    /// Excess noise factor squared used (2 for the Gamma model).
+    pub excess_noise_factor_sq: f64,
+    /// (variance - read noise^2) / ((mean - bias) F^2): photon transfer with the ENF (adu/e-).
+    pub mean_variance_gain_adu_per_e: f64,
+    /// The same ignoring the excess noise factor (what a naive photon transfer gives).
+    pub mean_variance_gain_no_enf_adu_per_e: f64,
+    /// Mean signal above bias (adu) and variance (adu^2) of the fitted values.
+    pub mean_signal_adu: f64,
+    /// Variance of the fitted values (adu^2).
+    pub variance_adu2: f64,
+}
+
+/// The result of an EM-gain fit: the content of `emgain.json`.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+pub struct EmGainFit {
+    /// EM gain in `em_gain_units`.
+    pub em_gain: f64,
+    /// Its standard error.
+    pub em_gain_se: f64,
+    /// "e-/e-" (output electrons per input electron, conversion gain given) or "adu/e-".
+    pub em_gain_units: String,
+    /// Gain in adu per input electron (G = g / conversion).
+    pub gain_adu_per_e: f64,
+    /// Its standard error (adu/e-).
+    pub gain_adu_per_e_se: f64,
+    /// Bias (adu).
+    pub bias_adu: f64,
+    /// Its standard error (adu).
+    pub bias_adu_se: f64,
+    /// Read noise (adu rms).
+    pub read_noise_adu: f64,
+    /// Its standard error (adu).
+    pub read_noise_adu_se: f64,
+    /// Read noise referred to the input (e- rms) = read noise / G.
+    pub read_noise_input_e: f64,
+    /// Mean input electrons per pixel-sample (photo + dark + parallel CIC).
+    pub lambda_e: f64,
+    /// Its standard error.
+    pub lambda_e_se: f64,
+    /// Serial CIC electrons per pixel-sample (born inside the register), if fitted.
+    pub serial_cic_e: Option<f64>,
+    /// Its standard error.
+    pub serial_cic_e_se: Option<f64>,
+    /// The conversion gain used (e- per adu), if given.
+    pub gain_e_per_adu: Option<f64>,
+    /// Single-electron law of the model.
+    pub shape: EmShape,
+    /// Whether Nelder-Mead converged (always true: a failed fit is an error).
+    pub converged: bool,
+    /// Nelder-Mead iterations.
+    pub iterations: u64,
+    /// Maximised multinomial log-likelihood of the binned values.
+    pub log_likelihood: f64,
+    /// Pixel-samples fitted.
+    pub n_samples: f64,
+    /// Pixel-samples excluded (above `max_value_adu`).
+    pub n_excluded: f64,
+    /// Upper limit of the fitted values (adu).
+    pub max_value_adu: f64,
+    /// Width of the fitted bins (adu).
+    pub bin_width_adu: f64,
+    /// Correlations of the free parameters among (bias, ln read noise, ln G, ln lambda,
+    /// ln serial CIC), in that order.
+    pub correlations: Option<Vec<Vec<f64>>>,
+    /// Start values.
+    pub start: EmStart,
+    /// Other routes to the gain.
+    pub cross_checks: EmCrossChecks,
+}
+
+/// The ratio-of-means route: EM gain (e-/e-) from the mean signal above bias at gain and
+/// at unity EM gain under the same light (both adu).
+pub fn gain_from_mean_ratio(signal_adu: f64, reference_signal_adu: f64) -> f64 {
+    signal_adu / reference_signal_adu
+}

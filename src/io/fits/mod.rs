@@ -1,0 +1,9 @@
+//! FITS: frames read through CFITSIO (`fitsio` crate, bundled library) after the headers are
+//! checked in Rust (`header`), and cubes and images written with BUNIT and provenance keywords.
+
+mod header;
+mod read;
+mod write;
+
+pub use read::{scan, FitsFrames};
+pub use write::{key, provenance, write_cube, write_image, ImageData, KeyValue, Keyword};

@@ -1,0 +1,194 @@
+//! A stack of frames of one shape spread over one or more files of one format and sample
+//! type: opened from files, directories or glob patterns, headers only.
+
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::file::{scan_file, SourceFile};
+use super::format::SampleType;
+use super::inputs::expand_inputs;
+use crate::error::{Error, Result};
+
+/// A stack of frames of one shape spread over one or more files; frames are read on demand.
+#[derive(Clone, Debug, Serialize)]
+pub struct FrameStack {
+    /// The files, in stack order.
+    pub sources: Vec<SourceFile>,
+    /// Frame shape (rows, cols).
+    pub shape: (usize, usize),
+    /// Total number of frames.
+    pub frames: usize,
+    /// Sample type (one per stack).
+    pub sample_type: SampleType,
+}
+
+impl FrameStack {
+    /// Open a stack from files, directories or glob patterns, reading headers only.
+    /// Fails (naming file and frame) when a file is unreadable, and (listing what was
+    /// found) when the files mix formats, frame shapes or sample types: the same frames
+    /// saved as .fits, .tif and .exr in one directory are not a stack three times as long.
+    pub fn open(inputs: &[PathBuf]) -> Result<FrameStack> {
+        let files = expand_inputs(inputs)?;
+        let sources = files
+            .iter()
+            .map(|p| scan_file(p))
+            .collect::<Result<Vec<SourceFile>>>()?;
+        check_uniform(inputs, &sources)?;
+        let shape = sources[0].shape;
+        let sample_type = sources[0].sample_type;
+        Ok(FrameStack {
+            frames: sources.iter().map(|s| s.frames).sum(),
+            sources,
+            shape,
+            sample_type,
+        })
+    }
+
+    /// Pixels per frame.
+    pub fn pixels(&self) -> usize {
+        self.shape.0 * self.shape.1
+    }
+
+    /// The file holding stack frame `k` (the last file if `k` is past the end).
+    pub fn source_of(&self, k: usize) -> &Path {
+        let mut start = 0;
+        for s in &self.sources {
+            if k < start + s.frames {
+                return &s.path;
+            }
+            start += s.frames;
+        }
+        &self.sources[self.sources.len() - 1].path
+    }
+
+    /// Source file paths, in order.
+    pub fn paths(&self) -> Vec<PathBuf> {
+        self.sources.iter().map(|s| s.path.clone()).collect()
+    }
+
+    /// Total bytes of sample data as stored (used for throughput figures).
+    pub fn stored_bytes(&self) -> u64 {
+        self.sources
+            .iter()
+            .map(|s| {
+                let b = match s.sample_type {
+                    SampleType::U8 | SampleType::I8 => 1,
+                    SampleType::U16 | SampleType::I16 | SampleType::F16 => 2,
+                    SampleType::U32 | SampleType::I32 | SampleType::F32 | SampleType::Scaled => 4,
+                    SampleType::I64 | SampleType::F64 => 8,
+                };
+                (b * s.frames * s.shape.0 * s.shape.1) as u64
+            })
+            .sum()
+    }
+
+    /// Largest integer sample value of the stored type (None for floats), for saturation checks.
+    pub fn saturation_value(&self) -> Option<f64> {
+        self.sources
+            .iter()
+            .map(|s| s.sample_type.max_value())
+            .try_fold(f64::INFINITY, |m, v| v.map(|v| m.min(v)))
+    }
+
+    /// Fail unless the stack has at least `n` frames (variances need 2).
+    pub fn require_frames(&self, n: usize, what: &str) -> Result<()> {
+        if self.frames < n {
+            return Err(Error::input(
+                &self.sources[0].path,
+                format!(
+                    "frame {}: stack has {} frame(s), {what} needs at least {n}",
+                    self.frames, self.frames
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The stack arguments for a message: the first three, then how many more.
+fn shown(inputs: &[PathBuf]) -> String {
+    let mut s: Vec<String> = inputs
+        .iter()
+        .take(3)
+        .map(|p| p.display().to_string())
+        .collect();
+    if inputs.len() > 3 {
+        s.push(format!("and {} more", inputs.len() - 3));
+    }
+    s.join(" ")
+}
+
+/// Files of one kind (format, shape or sample type) in a stack: how many, and the first.
+fn groups<K: PartialEq + std::fmt::Debug>(
+    sources: &[SourceFile],
+    key: impl Fn(&SourceFile) -> K,
+) -> Vec<(K, usize, &Path)> {
+    let mut out: Vec<(K, usize, &Path)> = Vec::new();
+    for s in sources {
+        let k = key(s);
+        match out.iter_mut().find(|g| g.0 == k) {
+            Some(g) => g.1 += 1,
+            None => out.push((k, 1, &s.path)),
+        }
+    }
+    out
+}
+
+/// One format, one frame shape and one sample type per stack, or an error listing each
+/// kind found with its file count and first file.
+fn check_uniform(inputs: &[PathBuf], sources: &[SourceFile]) -> Result<()> {
+    fn list<K>(g: &[(K, usize, &Path)], name: impl Fn(&K) -> String) -> String {
+        g.iter()
+            .map(|(k, n, p)| {
+                let files = if *n == 1 { "file" } else { "files" };
+                format!("{} ({n} {files}, first {})", name(k), p.display())
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+    let formats = groups(sources, |s| s.format);
+    let shapes = groups(sources, |s| s.shape);
+    let types = groups(sources, |s| s.sample_type);
+    let mut found = Vec::new();
+    if formats.len() > 1 {
+        found.push(format!(
+            "formats {}",
+            list(&formats, |f| format!("{f:?}").to_uppercase())
+        ));
+    }
+    if shapes.len() > 1 {
+        found.push(format!(
+            "frame shapes {}",
+            list(&shapes, |s| format!("{}x{}", s.0, s.1))
+        ));
+    }
+    if types.len() > 1 {
+        found.push(format!(
+            "sample types {}",
+            list(&types, |t| format!("{t:?}").to_lowercase())
+        ));
+    }
+    if found.is_empty() {
+        return Ok(());
+    }
+    // Name the first file that differs from the first one, with its stack frame.
+    let first = &sources[0];
+    let odd = sources
+        .iter()
+        .position(|s| {
+            (s.format, s.shape, s.sample_type) != (first.format, first.shape, first.sample_type)
+        })
+        .expect("some file differs");
+    let start: usize = sources[..odd].iter().map(|s| s.frames).sum();
+    Err(Error::input(
+        &sources[odd].path,
+        format!(
+            "frame 0 (stack frame {start}): differs from {}; the {} files of {} are not one stack: {}. A stack is frames of one camera in one format, shape and sample type (the same frames saved as .fits, .tif and .exr would be read three times): give one kind, e.g. DIR/*.fits",
+            first.path.display(),
+            sources.len(),
+            shown(inputs),
+            found.join("; ")
+        ),
+    ))
+}

@@ -1,0 +1,118 @@
+//! Order statistics of samples: the median, percentiles with linear interpolation, and the
+//! robust sigma (scaled median absolute deviation). Non-finite values are left out.
+
+/// `lo` and `hi` interpolated at fraction `f` of the way: the one formula behind every
+/// percentile here, so that [`median`] and [`percentile`] at 50 give the same bits.
+fn between(lo: f64, hi: f64, f: f64) -> f64 {
+    lo * (1.0 - f) + hi * f
+}
+
+/// Median of the finite values, interpolating between the two middle values of an even count
+/// (NaN if none). Found by selection in O(n) (frames of millions of pixels, once per frame);
+/// the result is bit for bit `percentile(values, 50.0)`.
+pub fn median(values: &[f64]) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    let n = v.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    // percentile_sorted at p = 50: position (n - 1) / 2, between v[i] and v[i + 1].
+    let i = (n - 1) / 2;
+    let (_, lo, upper) = v.select_nth_unstable_by(i, f64::total_cmp);
+    let lo = *lo;
+    let Some(hi) = upper.iter().copied().min_by(f64::total_cmp) else {
+        return lo;
+    };
+    between(lo, hi, if n % 2 == 0 { 0.5 } else { 0.0 })
+}
+
+/// Percentile `p` (0..100) of the finite values, linear interpolation (NaN if none).
+pub fn percentile(values: &[f64], p: f64) -> f64 {
+    let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    percentile_sorted(&v, p)
+}
+
+/// Percentile `p` (0..100) of ascending finite values, linear interpolation (NaN if empty).
+pub fn percentile_sorted(v: &[f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let pos = p / 100.0 * (v.len() - 1) as f64;
+    let (i, f) = (pos.floor() as usize, pos.fract());
+    if i + 1 < v.len() {
+        between(v[i], v[i + 1], f)
+    } else {
+        v[i]
+    }
+}
+
+/// Robust sigma of the finite values: 1.4826 x the median absolute deviation from the median
+/// (the standard deviation for Gaussian values, unmoved by a few outliers).
+pub fn robust_sigma(values: &[f64]) -> f64 {
+    let m = median(values);
+    let dev: Vec<f64> = values.iter().map(|v| (v - m).abs()).collect();
+    1.4826 * median(&dev)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::stream;
+    use rand::RngExt;
+
+    #[test]
+    fn median_interpolates_and_skips_non_finite_values() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 3.0, 2.0]), 2.5);
+        assert_eq!(median(&[5.0]), 5.0);
+        assert_eq!(median(&[1.0, f64::NAN, 7.0, f64::INFINITY]), 4.0);
+        assert!(median(&[]).is_nan());
+        assert!(median(&[f64::NAN]).is_nan());
+    }
+
+    #[test]
+    fn median_is_percentile_50_bit_for_bit() {
+        let mut rng = stream(3, 0, 0);
+        for n in 1..60 {
+            let v: Vec<f64> = (0..n)
+                .map(|_| (rng.random::<f64>() * 10.0).round() / 3.0 - 1.0)
+                .collect();
+            assert_eq!(
+                median(&v).to_bits(),
+                percentile(&v, 50.0).to_bits(),
+                "{v:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn percentiles_interpolate_linearly() {
+        let v = [10.0, 20.0, 30.0, 40.0, 50.0];
+        assert_eq!(percentile(&v, 0.0), 10.0);
+        assert_eq!(percentile(&v, 100.0), 50.0);
+        assert_eq!(percentile(&v, 25.0), 20.0);
+        // Position 0.1 x 4 = 0.4: 10 + 0.4 x 10.
+        assert!((percentile(&v, 10.0) - 14.0).abs() < 1e-12);
+        assert!((percentile_sorted(&v, 90.0) - 46.0).abs() < 1e-12);
+        assert!(percentile(&[f64::NAN], 50.0).is_nan());
+        assert!(percentile_sorted(&[], 50.0).is_nan());
+    }
+
+    #[test]
+    fn robust_sigma_is_the_scaled_mad() {
+        // Median 3, absolute deviations 2, 1, 0, 1, 97: MAD 1.
+        assert_eq!(robust_sigma(&[1.0, 2.0, 3.0, 4.0, 100.0]), 1.4826);
+        // Gaussian values: 1.4826 MAD estimates sigma; its SE is about 1.17 sigma / sqrt(n)
+        // (0.37 % at n = 1e5), so 2 % is more than 5 SE.
+        let normal = rand_distr::Normal::new(5.0, 2.0).unwrap();
+        let mut rng = stream(8, 0, 0);
+        let v: Vec<f64> = (0..100_000)
+            .map(|_| rand_distr::Distribution::sample(&normal, &mut rng))
+            .collect();
+        assert!((robust_sigma(&v) / 2.0 - 1.0).abs() < 0.02);
+    }
+}

@@ -1,0 +1,22 @@
+//! Synthetic frame stacks with known truth: sCMOS darks/flats (per-pixel offset, gain and
+//! read noise drawn from an rms pdf) and EMCCD darks/low-light frames (exact EM register).
+//!
+//! Per-pixel truth is drawn from `stream(seed, pixel, PURPOSE_PIXELS)`, so stacks made
+//! with one seed at several light levels share their pixels (a photon-transfer series);
+//! frame noise comes from `stream(seed, frame, purpose)` with a purpose that depends on
+//! the light level, so each level has independent noise. Results do not depend on the
+//! thread count.
+//!
+//! Layout: `spec` says what to simulate, `truth` draws the pixels and frames, `write` writes
+//! the stack, its truth maps and its manifest.
+
+mod spec;
+mod truth;
+mod write;
+
+pub use spec::{
+    parse_shape, rms_pdf, Camera, EmccdParams, ScmosParams, SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
+    MAX_PIXELS,
+};
+pub use truth::{draw_truth, frame, Truth};
+pub use write::{output_files, stack_stem, write_synthetic, write_synthetic_in, Manifest};
