@@ -4,7 +4,7 @@
 
 use std::time::Instant;
 
-use detnoise::pp::{PpCache, PpConfig, PpRule};
+use detnoise::detector::pp::{PpCache, PpConfig, PpRule};
 
 fn main() -> detnoise::Result<()> {
     let rule_a = PpConfig::new(PpRule::PoissonPrior, 500.0, 50.0)?;

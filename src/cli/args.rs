@@ -207,7 +207,7 @@ impl DetectorArgs {
     /// Check the detector options together (single values are checked while parsing), before
     /// any file is read; `specs` are the models the run will build.
     pub fn validate(&self, specs: &[ModelSpec]) -> Result<()> {
-        EmRegister::check(self.gain, self.stages, "--gain")?;
+        EmRegister::check(self.gain, self.stages, "gain")?;
         if self.pdf == "paper" && self.pdf_model.is_some() {
             return Err(Error::invalid(
                 "--pdf-model",
@@ -237,9 +237,9 @@ impl DetectorArgs {
             pattern_seed: self.pattern_seed,
             map: self.noise_map()?,
             pp_rule: if self.pp_rule == "equal-density" {
-                crate::pp::PpRule::EqualDensity
+                crate::detector::pp::PpRule::EqualDensity
             } else {
-                crate::pp::PpRule::PoissonPrior
+                crate::detector::pp::PpRule::PoissonPrior
             },
             pp_lambda: self.pp_lambda,
         })

@@ -51,6 +51,15 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("frames", "--frames"),
     ("rms_pdf", "--rms-pdf"),
     ("em_gain", "--em-gain"),
+    // Readout models (detector): `ModelParams` fields, the model list, and the map.
+    ("gain", "--gain"),
+    ("emccd_read_noise_e", "--emccd-read-noise"),
+    ("gaussian_switch_e", "--gaussian-switch"),
+    ("cascade_register", "--register"),
+    ("sigma_e", "--sigma"),
+    ("pattern_seed", "--pattern-seed"),
+    ("pp_rule", "--pp-rule"),
+    ("pp_lambda", "--pp-lambda"),
 ];
 
 /// Fields of library-only settings (chart building blocks) that no option sets: errors about
@@ -63,6 +72,9 @@ pub const LIBRARY_ONLY_FIELDS: &[&str] = &[
     "image_grid",
     "chart_path",
     "chart_size_px",
+    // Readout models (detector): `PpConfig` settings that no option sets.
+    "pp_lambda_max",
+    "pp_zero_one",
 ];
 
 /// The flag of library field `field`, if it has one.

@@ -1,251 +1,123 @@
 //! Detector readout models: photo-electrons in, an image in electrons out.
 //!
-//! Every model implements [`Readout`]; a new detector is one new type. Users name models
-//! with [`ModelSpec`], which builds a readout for one sub-aperture size.
+//! Every model implements [`Readout`]. Users name models with [`ModelSpec`], which builds a
+//! readout for one sub-aperture size. One readout per file (rand_distr's layout), each with its
+//! exact test; the registry [`MODELS`] below lists every model's [`ModelEntry`] (name, argument,
+//! one-line help, the [`ModelParams`] fields it reads, parser and builder), and
+//! [`MODEL_NAMES`], [`models_help`] and [`ModelSpec::parse`] are generated from it.
+//!
+//! Adding a detector is two edits:
+//! 1. a new file `src/detector/NAME.rs` with the readout type, its [`Readout`] impl, its exact
+//!    test and `pub const ENTRY: ModelEntry` (with `parse: ModelSpec::registered`, its builder
+//!    reading the argument from [`RegisteredModel::arg`]);
+//! 2. one line `NAME: [ENTRY],` in the `readout_models!` list below (it declares the module
+//!    and registers the entry).
+//!
+//! The other files: `readout` (the trait), `spec` (specs and entries), `params`, `noise_map`,
+//! `register` (the exact EM register), `pp` (Poisson-probability thresholds of `emccd-pp`),
+//! `registry` (names, help and parsing over the table).
 
-mod emccd;
-mod pp;
+mod noise_map;
+mod params;
+pub mod pp;
+mod readout;
 pub mod register;
-mod scmos;
+mod registry;
+mod spec;
 
-pub use emccd::{EmccdDistribution, EmccdSimple, EmccdStochastic};
-pub use pp::EmccdPp;
+pub use emccd_distribution::EmccdDistribution;
+pub use emccd_pp::EmccdPp;
+pub use emccd_simple::EmccdSimple;
+pub use emccd_stochastic::EmccdStochastic;
+pub use noise_map::NoiseMap;
+pub use params::ModelParams;
+pub use readout::{FrameInput, Readout};
 pub use register::EmRegister;
-pub use scmos::{NoiseMap, PerPixelSigma, ScmosConstant, ScmosMap, ScmosRandom};
+pub use scmos_constant::ScmosConstant;
+pub use scmos_fixed::PerPixelSigma;
+pub use scmos_map::ScmosMap;
+pub use scmos_random::ScmosRandom;
+pub use spec::{ModelEntry, ModelSpec, RegisteredModel, Sensor};
 
-use crate::pdf::RmsPdf;
-use crate::rng::SimRng;
-use crate::{Error, Result};
-use std::sync::Arc;
+use crate::Result;
 
-/// What a readout sees of one frame.
-#[derive(Debug, Clone, Copy)]
-pub struct FrameInput<'a> {
-    /// Sub-aperture side (pixels); images are row-major n x n.
-    pub subap_px: usize,
-    /// Expected photo-electrons per pixel (noiseless spot x signal x QE).
-    pub expected_e: &'a [f64],
-    /// Photo-electrons per pixel after shot noise (shared by all models of a sweep).
-    pub photo_e: &'a [u32],
+/// Declares each readout module and lists its entries, in order, in [`MODELS`].
+macro_rules! readout_models {
+    ($($module:ident: [$($entry:ident),+],)+) => {
+        $(pub mod $module;)+
+        /// The registry: every readout model, in the order of [`MODEL_NAMES`] and the help.
+        pub const MODELS: &[ModelEntry] = &[$($($module::$entry),+),+];
+    };
 }
 
-/// A detector readout model. Output is in electrons referred to the input (EMCCD output is
-/// divided by the mean gain), so all models share one background scale.
-pub trait Readout: Send + Sync {
-    /// Model name as reported in tables, e.g. `emccd-stochastic` or `scmos-fixed:3`.
-    fn name(&self) -> String;
-    /// Read one frame into `out` (e-). `noise` drives the per-frame read noise and is the same
-    /// stream for every model of a sweep; `aux` drives model-specific draws (per-pixel sigmas).
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]);
-    /// Typical per-pixel read noise (e-), used to size the default background grid.
-    fn noise_scale_e(&self) -> f64;
+readout_models! {
+    emccd_simple: [ENTRY],
+    emccd_stochastic: [ENTRY],
+    emccd_distribution: [ENTRY],
+    emccd_pp: [CORRECTED, UNCORRECTED],
+    scmos_constant: [CONSTANT, MEDIAN, MEAN],
+    scmos_fixed: [ENTRY],
+    scmos_random: [ENTRY],
+    scmos_map: [ENTRY],
 }
 
-/// Parameters shared by the models of a run.
-#[derive(Debug, Clone)]
-pub struct ModelParams {
-    /// EMCCD mean gain (output e- per input e-); paper default 500.
-    pub gain: f64,
-    /// EM register stages; paper default 520.
-    pub stages: u32,
-    /// EMCCD read noise before division by the gain (e-); paper default 50.
-    pub emccd_read_noise_e: f64,
-    /// Above this many input electrons `emccd-distribution` uses N(n g, n g^2); None = exact Gamma.
-    pub gaussian_switch_e: Option<u32>,
-    /// Use the per-stage binomial cascade instead of the tabulated register (reference, slow).
-    pub cascade_register: bool,
-    /// sigma (e-) for a bare `scmos-constant`.
-    pub sigma_e: f64,
-    /// Distribution of per-pixel rms for the sCMOS models.
-    pub pdf: Arc<dyn RmsPdf>,
-    /// Seed of the fixed sCMOS noise patterns (pattern K uses stream K of it).
-    pub pattern_seed: u64,
-    /// Measured noise map for `scmos-map`.
-    pub map: Option<Arc<NoiseMap>>,
-    /// Threshold rule of `emccd-pp`.
-    pub pp_rule: crate::pp::PpRule,
-    /// Fixed reference light level of `emccd-pp` (photo-electrons per pixel); None = sub-aperture mean.
-    pub pp_lambda: Option<f64>,
-}
+/// [`MODEL_NAMES`] as bytes, joined at compile time.
+const NAMES: [u8; registry::names_len(MODELS)] = registry::names(MODELS);
 
-impl Default for ModelParams {
-    fn default() -> Self {
-        ModelParams {
-            gain: 500.0,
-            stages: 520,
-            emccd_read_noise_e: 50.0,
-            gaussian_switch_e: None,
-            cascade_register: false,
-            sigma_e: 1.0,
-            pdf: Arc::new(crate::pdf::paper()),
-            pattern_seed: 2015,
-            map: None,
-            pp_rule: crate::pp::PpRule::PoissonPrior,
-            pp_lambda: None,
-        }
-    }
-}
+/// Every model name accepted by [`ModelSpec::parse`], with its argument syntax, for help texts:
+/// `emccd-simple, ..., scmos-constant[:SIGMA_E], ...`.
+pub const MODEL_NAMES: &str = registry::as_str(&NAMES);
 
-/// A readout model named on the command line.
-#[derive(Debug, Clone, PartialEq)]
-pub enum ModelSpec {
-    /// Half the flux, Poisson, + Normal(0, 0.1 e-).
-    EmccdSimple,
-    /// Exact 520-stage register + Normal(0, 50 e-), divided by the gain.
-    EmccdStochastic,
-    /// `emccd-stochastic` then Poisson-probability thresholding; `true` = photometrically corrected.
-    EmccdPp(bool),
-    /// Gamma(k, g) register + Normal(0, 50 e-), divided by the gain.
-    EmccdDistribution,
-    /// One sigma for all pixels (e-); None takes the run's `--sigma`.
-    ScmosConstant(Option<f64>),
-    /// Constant sigma equal to the pdf's median.
-    ScmosMedian,
-    /// Constant sigma equal to the pdf's mean.
-    ScmosMean,
-    /// Per-pixel sigma drawn once from the pdf; the number selects the seeded pattern.
-    ScmosFixed(u32),
-    /// Per-pixel sigma drawn anew from the pdf every frame.
-    ScmosRandom,
-    /// Per-pixel sigma from a random window of a measured noise map (`--map FILE`).
-    ScmosMap,
+/// One line per model for the `model` option's help: its syntax, what it simulates, and the
+/// [`ModelParams`] fields it reads as `` `field` ``.
+pub fn models_help() -> String {
+    registry::help(MODELS)
 }
-
-/// Every model name accepted by [`ModelSpec::parse`], for help texts.
-pub const MODEL_NAMES: &str =
-    "emccd-simple, emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
-scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map";
 
 impl ModelSpec {
     /// Parse a model name such as `scmos-fixed:3` or `scmos-constant:1.2`.
     pub fn parse(text: &str) -> Result<Self> {
-        let (head, arg) = match text.split_once(':') {
-            Some((h, a)) => (h, Some(a)),
-            None => (text, None),
-        };
-        let bad = || {
-            Error::invalid(
-                "--model",
-                format!("unknown model '{text}' (known: {MODEL_NAMES})"),
-            )
-        };
-        let no_arg = |spec: ModelSpec| if arg.is_some() { Err(bad()) } else { Ok(spec) };
-        match head.trim() {
-            "emccd-simple" => no_arg(ModelSpec::EmccdSimple),
-            "emccd-stochastic" => no_arg(ModelSpec::EmccdStochastic),
-            "emccd-distribution" => no_arg(ModelSpec::EmccdDistribution),
-            "emccd-pp" => no_arg(ModelSpec::EmccdPp(true)),
-            "emccd-pp-uncorrected" => no_arg(ModelSpec::EmccdPp(false)),
-            "scmos-median" => no_arg(ModelSpec::ScmosMedian),
-            "scmos-mean" => no_arg(ModelSpec::ScmosMean),
-            "scmos-random" => no_arg(ModelSpec::ScmosRandom),
-            "scmos-map" => no_arg(ModelSpec::ScmosMap),
-            "scmos-constant" => match arg {
-                None => Ok(ModelSpec::ScmosConstant(None)),
-                Some(a) => match a.parse::<f64>() {
-                    Ok(s) if s.is_finite() && s >= 0.0 => Ok(ModelSpec::ScmosConstant(Some(s))),
-                    _ => Err(Error::invalid(
-                        "--model",
-                        format!("'{text}': sigma must be a number >= 0 (e-)"),
-                    )),
-                },
-            },
-            "scmos-fixed" => match arg {
-                None => Ok(ModelSpec::ScmosFixed(0)),
-                Some(a) => a.parse::<u32>().map(ModelSpec::ScmosFixed).map_err(|_| {
-                    Error::invalid(
-                        "--model",
-                        format!("'{text}': pattern must be a whole number"),
-                    )
-                }),
-            },
-            _ => Err(bad()),
+        registry::parse(MODELS, MODEL_NAMES, text)
+    }
+
+    /// The model's registry entry.
+    pub fn entry(&self) -> &'static ModelEntry {
+        match self {
+            ModelSpec::Registered(r) => r.entry(),
+            _ => registry::find(MODELS, self.name()).expect("every variant has an entry"),
         }
     }
 
     /// Build the readout for `subap_px` x `subap_px` sub-apertures.
     pub fn build(&self, params: &ModelParams, subap_px: usize) -> Result<Box<dyn Readout>> {
-        let constant = |sigma: f64, name: String| -> Box<dyn Readout> {
-            Box::new(ScmosConstant::new(sigma, name))
-        };
-        Ok(match self {
-            ModelSpec::EmccdSimple => Box::new(EmccdSimple::paper()),
-            ModelSpec::EmccdStochastic => Box::new(EmccdStochastic::new(
-                EmRegister::new(params.gain, params.stages)?,
-                params.emccd_read_noise_e,
-                params.cascade_register,
-            )),
-            ModelSpec::EmccdPp(corrected) => Box::new(EmccdPp::new(
-                EmRegister::new(params.gain, params.stages)?,
-                params.emccd_read_noise_e,
-                crate::pp::PpConfig::new(params.pp_rule, params.gain, params.emccd_read_noise_e)?,
-                params.pp_lambda,
-                *corrected,
-            )?),
-            ModelSpec::EmccdDistribution => Box::new(EmccdDistribution::new(
-                params.gain,
-                params.emccd_read_noise_e,
-                params.gaussian_switch_e,
-            )),
-            ModelSpec::ScmosConstant(s) => {
-                let sigma = s.unwrap_or(params.sigma_e);
-                constant(sigma, format!("scmos-constant:{sigma}"))
-            }
-            ModelSpec::ScmosMedian => constant(params.pdf.median(), "scmos-median".into()),
-            ModelSpec::ScmosMean => constant(params.pdf.mean(), "scmos-mean".into()),
-            ModelSpec::ScmosFixed(k) => Box::new(PerPixelSigma::fixed_pattern(
-                params.pdf.as_ref(),
-                subap_px,
-                params.pattern_seed,
-                *k,
-            )),
-            ModelSpec::ScmosRandom => Box::new(ScmosRandom::new(params.pdf.clone())),
-            ModelSpec::ScmosMap => match &params.map {
-                Some(map) => Box::new(ScmosMap::new(map.clone(), subap_px)?),
-                None => {
-                    return Err(Error::invalid(
-                        "--model",
-                        "scmos-map needs a measured noise map: give --map FILE",
-                    ))
-                }
-            },
-        })
+        (self.entry().build)(self, params, subap_px)
+    }
+
+    /// The camera the model simulates.
+    pub fn sensor(&self) -> Sensor {
+        self.entry().sensor
+    }
+
+    /// Whether it is an EMCCD model.
+    pub fn is_emccd(&self) -> bool {
+        self.sensor() == Sensor::Emccd
+    }
+
+    /// Whether it is an sCMOS model.
+    pub fn is_scmos(&self) -> bool {
+        self.sensor() == Sensor::Scmos
+    }
+
+    /// Whether its builder reads the [`ModelParams`] field `field` (e.g. `"map"`).
+    pub fn uses(&self, field: &str) -> bool {
+        self.entry().params.contains(&field)
+    }
+
+    /// Whether it draws from the per-pixel rms pdf (`pdf`).
+    pub fn uses_pdf(&self) -> bool {
+        self.uses("pdf")
     }
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn parses_every_model_and_rejects_unknown() {
-        for name in [
-            "emccd-simple",
-            "emccd-stochastic",
-            "emccd-distribution",
-            "emccd-pp",
-            "emccd-pp-uncorrected",
-            "scmos-constant",
-            "scmos-constant:1.5",
-            "scmos-median",
-            "scmos-mean",
-            "scmos-fixed",
-            "scmos-fixed:4",
-            "scmos-random",
-        ] {
-            let spec = ModelSpec::parse(name).unwrap();
-            let built = spec.build(&ModelParams::default(), 4).unwrap();
-            assert!(built.name().starts_with(name.split(':').next().unwrap()));
-        }
-        for bad in [
-            "emccd",
-            "scmos-constant:-1",
-            "scmos-fixed:x",
-            "emccd-simple:2",
-            "",
-        ] {
-            let err = ModelSpec::parse(bad).unwrap_err();
-            assert_eq!(err.exit_code(), 2, "{bad}");
-        }
-    }
-}
+mod tests;

@@ -1,4 +1,5 @@
-//! The EMCCD multiplication register: exact sampling of its output.
+//! The EMCCD multiplication register: exact sampling of its output (used by `emccd-stochastic`
+//! and `emccd-pp`, and by `synth` for EMCCD frames).
 
 use crate::rng::SimRng;
 use rand::RngExt;
@@ -39,7 +40,7 @@ impl EmRegister {
     /// Register with mean gain `gain` (1 ..= [`MAX_EM_GAIN`]) and `stages` stages
     /// (1 ..= [`MAX_STAGES`], and enough that p <= 1: see [`EmRegister::check`]).
     pub fn new(gain: f64, stages: u32) -> crate::Result<Self> {
-        Self::check(gain, stages, "--gain")?;
+        Self::check(gain, stages, "gain")?;
         // p can exceed 1 by round-off when gain is exactly 2^stages.
         let p = (gain.powf(1.0 / stages as f64) - 1.0).clamp(0.0, 1.0);
         let pmf = single_electron_pmf(p, stages, gain);
@@ -62,13 +63,13 @@ impl EmRegister {
         n
     }
 
-    /// Check a register's gain and stage count; errors name `gain_option` (the caller's
-    /// spelling of the gain option, e.g. `--gain` or `--em-gain`) and `--stages`.
-    pub fn check(gain: f64, stages: u32, gain_option: &str) -> crate::Result<()> {
+    /// Check a register's gain and stage count; errors name the field `gain_field` (the
+    /// caller's name of the gain, e.g. `gain` or `em_gain`) and `stages`.
+    pub fn check(gain: f64, stages: u32, gain_field: &str) -> crate::Result<()> {
         use crate::Error;
         if !(gain.is_finite() && (1.0..=MAX_EM_GAIN).contains(&gain)) {
             return Err(Error::invalid(
-                gain_option,
+                gain_field,
                 format!(
                     "EM gain {gain} must be in [1, {MAX_EM_GAIN}] e-/e-: cameras run at most at a few thousand, \
                      and the exact register table grows with the gain (40 x gain entries)"
@@ -77,7 +78,7 @@ impl EmRegister {
         }
         if !(1..=MAX_STAGES).contains(&stages) {
             return Err(Error::invalid(
-                "--stages",
+                "stages",
                 format!(
                     "{stages} stages: must be 1 to {MAX_STAGES} (real registers have 400 to 1100)"
                 ),
@@ -88,9 +89,9 @@ impl EmRegister {
             let n = Self::min_stages(gain);
             let g_max = 2f64.powi(stages as i32);
             return Err(Error::invalid(
-                format!("--stages/{gain_option}"),
+                "stages",
                 format!(
-                    "--stages {stages} cannot give {gain_option} {gain}: each stage multiplies an \
+                    "`stages` {stages} cannot give `{gain_field}` {gain}: each stage multiplies an \
                      electron with probability p = gain^(1/stages) - 1, here {p:.3}, but p is at \
                      most 1 (a stage at most doubles the charge). Gain {gain} needs at least {n} \
                      stages; {stages} stages reach a gain of at most {g_max}"
@@ -99,6 +100,7 @@ impl EmRegister {
         }
         Ok(())
     }
+
     /// Mean gain (output e- per input e-).
     pub fn gain(&self) -> f64 {
         self.gain
@@ -127,7 +129,7 @@ impl EmRegister {
     }
 
     /// Output electrons for `k` input electrons (exact, fast): a sum of k table draws, or the
-    /// per-stage cascade above [`CASCADE_ABOVE_E`] input electrons, where it is cheaper.
+    /// per-stage cascade above `CASCADE_ABOVE_E` (8192) input electrons, where it is cheaper.
     pub fn sample(&self, k: u64, rng: &mut SimRng) -> f64 {
         if k > CASCADE_ABOVE_E {
             return self.sample_cascade(k, rng);
@@ -216,6 +218,7 @@ impl AliasTable {
 mod tests {
     use super::*;
     use crate::rng::stream;
+    use crate::stats::mean_var;
 
     #[test]
     fn analytic_moments_for_paper_register() {
@@ -302,8 +305,8 @@ mod tests {
             let msg = err.to_string();
             let n = EmRegister::min_stages(gain);
             assert!(
-                msg.contains("--stages")
-                    && msg.contains("--gain")
+                msg.contains("`stages`")
+                    && msg.contains("`gain`")
                     && msg.contains(&format!("at least {n} stages")),
                 "{msg}"
             );
@@ -367,15 +370,6 @@ mod tests {
             (v - var).abs() < 4.0 * var * (2.5 / n as f64).sqrt(),
             "var {v} vs {var}"
         );
-    }
-
-    fn mean_var(xs: &[f64]) -> (f64, f64) {
-        let n = xs.len() as f64;
-        let m = xs.iter().sum::<f64>() / n;
-        (
-            m,
-            xs.iter().map(|x| (x - m).powi(2)).sum::<f64>() / (n - 1.0),
-        )
     }
 
     fn ks_distance(a: &mut [f64], b: &mut [f64]) -> f64 {

@@ -1,0 +1,142 @@
+//! What fixes a PP readout besides the reference light level: the rule, the 0|1 boundary, the
+//! gain and read noise, and the light range covered; it builds thresholds and counters.
+
+use super::correction::PhotometricCorrection;
+use super::counter::PpCounter;
+use super::thresholds::{
+    check_lambda, output_span_over_g, rule_a_thresholds, rule_b_thresholds, zero_one_threshold_e,
+    PpThresholds,
+};
+use crate::error::{Error, Result};
+
+/// Which boundaries between photon counts are used (see the module documentation).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum PpRule {
+    /// Rule A: MAP boundaries under a Poisson prior of mean `lambda_ref`, `t_n / g = n (n + 1) / lambda_ref`.
+    PoissonPrior,
+    /// Rule B: fixed boundaries where the output densities of light levels `n` and `n + 1` are equal.
+    EqualDensity,
+}
+
+/// How the 0|1 boundary is placed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ZeroOneRule {
+    /// The rule's own equal-probability (Rule A) or equal-density (Rule B) boundary.
+    Equal,
+    /// A fixed boundary at `k` times the read noise (output electrons).
+    KSigma(f64),
+}
+
+/// Everything that fixes a PP readout except the reference light level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PpConfig {
+    /// Threshold rule.
+    pub rule: PpRule,
+    /// Placement of the 0|1 boundary.
+    pub zero_one: ZeroOneRule,
+    /// Mean EM gain g (output electrons per photo-electron).
+    pub gain: f64,
+    /// Read noise in output electrons rms (before division by g).
+    pub read_noise_e: f64,
+    /// Largest mean photo-electrons per pixel the correction must cover; brighter pixels saturate.
+    pub lambda_max: f64,
+}
+
+impl PpConfig {
+    /// Default largest light level covered by the thresholds and the correction, photo-electrons per pixel.
+    pub const DEFAULT_LAMBDA_MAX: f64 = 256.0;
+    /// Reference light levels below this (photo-electrons per pixel) are raised to it (Rule A).
+    pub const LAMBDA_MIN: f64 = 1e-6;
+
+    /// A configuration with the rule's own 0|1 boundary and the default `lambda_max`; checks the values.
+    pub fn new(rule: PpRule, gain: f64, read_noise_e: f64) -> Result<Self> {
+        let cfg = PpConfig {
+            rule,
+            zero_one: ZeroOneRule::Equal,
+            gain,
+            read_noise_e,
+            lambda_max: Self::DEFAULT_LAMBDA_MAX,
+        };
+        cfg.validate()?;
+        Ok(cfg)
+    }
+
+    /// Checks that gain, read noise, `lambda_max` and `k` are finite and in range.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.gain.is_finite() && self.gain > 0.0) {
+            return Err(Error::invalid(
+                "gain",
+                format!("EM gain must be > 0, got {}", self.gain),
+            ));
+        }
+        if !(self.read_noise_e.is_finite() && self.read_noise_e >= 0.0) {
+            return Err(Error::invalid(
+                "emccd_read_noise_e",
+                format!("read noise must be >= 0 e-, got {}", self.read_noise_e),
+            ));
+        }
+        if !(self.lambda_max.is_finite() && self.lambda_max > 0.0 && self.lambda_max <= 1e5) {
+            return Err(Error::invalid(
+                "pp_lambda_max",
+                format!(
+                    "must be in (0, 1e5] photo-electrons, got {}",
+                    self.lambda_max
+                ),
+            ));
+        }
+        if let ZeroOneRule::KSigma(k) = self.zero_one {
+            if !(k.is_finite() && k > 0.0) || self.read_noise_e == 0.0 {
+                return Err(Error::invalid(
+                    "pp_zero_one",
+                    format!(
+                        "k*sigma threshold needs k > 0 and `emccd_read_noise_e` > 0, got k = {k}"
+                    ),
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    /// The thresholds for reference light level `lambda_ref` (photo-electrons per pixel, >= 0;
+    /// ignored by Rule B).
+    pub fn thresholds(&self, lambda_ref: f64) -> Result<PpThresholds> {
+        self.validate()?;
+        let u_max = output_span_over_g(self.lambda_max);
+        let mut t = match self.rule {
+            PpRule::PoissonPrior => {
+                check_lambda(lambda_ref, "pp_lambda")?;
+                // A dark frame (lambda 0) gets the thresholds of a very faint one: practically
+                // everything counts 0, which is the MAP answer.
+                let lambda = lambda_ref.max(Self::LAMBDA_MIN);
+                let t0 = zero_one_threshold_e(lambda, self.gain, self.read_noise_e)? / self.gain;
+                rule_a_thresholds(t0, lambda, u_max)
+            }
+            PpRule::EqualDensity => rule_b_thresholds(self.gain, self.read_noise_e, u_max)?,
+        };
+        if let ZeroOneRule::KSigma(k) = self.zero_one {
+            t[0] = k * self.read_noise_e / self.gain;
+            if t.len() > 1 && t[0] >= t[1] {
+                return Err(Error::invalid(
+                    "pp_zero_one",
+                    format!("{k} sigma lies above the 1|2 boundary ({:.3} g)", t[1]),
+                ));
+            }
+        }
+        Ok(PpThresholds {
+            t_over_g: t,
+            gain: self.gain,
+            read_noise_e: self.read_noise_e,
+        })
+    }
+
+    /// Thresholds plus photometric correction for `lambda_ref` (photo-electrons per pixel).
+    pub fn counter(&self, lambda_ref: f64) -> Result<PpCounter> {
+        let thresholds = self.thresholds(lambda_ref)?;
+        let correction = PhotometricCorrection::new(&thresholds, self.lambda_max)?;
+        Ok(PpCounter {
+            lambda_ref,
+            thresholds,
+            correction,
+        })
+    }
+}

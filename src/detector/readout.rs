@@ -1,0 +1,82 @@
+//! The readout interface: what a model sees of a frame and what it must provide.
+
+use crate::rng::SimRng;
+
+/// What a readout sees of one frame.
+#[derive(Debug, Clone, Copy)]
+pub struct FrameInput<'a> {
+    /// Sub-aperture side (pixels); images are row-major n x n.
+    pub subap_px: usize,
+    /// Expected photo-electrons per pixel (noiseless spot x signal x QE).
+    pub expected_e: &'a [f64],
+    /// Photo-electrons per pixel after shot noise (shared by all models of a sweep).
+    pub photo_e: &'a [u32],
+}
+
+/// A detector readout model. Output is in electrons referred to the input (EMCCD output is
+/// divided by the mean gain), so all models share one background scale.
+pub trait Readout: Send + Sync {
+    /// Model name as reported in tables, e.g. `emccd-stochastic` or `scmos-fixed:3`.
+    fn name(&self) -> String;
+    /// Read one frame into `out` (e-). `noise` drives the per-frame read noise and is the same
+    /// stream for every model of a sweep; `aux` drives model-specific draws (per-pixel sigmas).
+    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]);
+    /// Typical per-pixel read noise (e-), used to size the default background grid.
+    fn noise_scale_e(&self) -> f64;
+}
+
+/// Samplers shared by the readouts' exact tests.
+#[cfg(test)]
+pub(super) mod sampling {
+    use super::{FrameInput, Readout};
+    use crate::rng::stream;
+    use crate::stats::poisson;
+
+    /// `n` one-pixel frames of Poisson(`lambda`) photo-electrons read by `model` (seed 21).
+    pub fn pixel_samples(model: &dyn Readout, lambda: f64, n: usize) -> Vec<f64> {
+        let mut rng = stream(21, 0, 0);
+        let mut noise = stream(21, 0, 1);
+        let mut aux = stream(21, 0, 2);
+        let expected = [lambda];
+        let mut out = [0.0];
+        (0..n)
+            .map(|_| {
+                let k = [poisson(lambda, &mut rng)];
+                let input = FrameInput {
+                    subap_px: 1,
+                    expected_e: &expected,
+                    photo_e: &k,
+                };
+                model.read(&input, &mut noise, &mut aux, &mut out);
+                out[0]
+            })
+            .collect()
+    }
+
+    /// `frames` dark frames of `subap_px` x `subap_px` pixels read by `model`, as one
+    /// vector of samples per pixel.
+    pub fn dark_samples(
+        model: &dyn Readout,
+        subap_px: usize,
+        frames: usize,
+        seed: u64,
+    ) -> Vec<Vec<f64>> {
+        let (mut noise, mut aux) = (stream(seed, 0, 0), stream(seed, 0, 1));
+        let npx = subap_px * subap_px;
+        let (zeros, expected) = (vec![0u32; npx], vec![0.0; npx]);
+        let input = FrameInput {
+            subap_px,
+            expected_e: &expected,
+            photo_e: &zeros,
+        };
+        let mut out = vec![0.0; npx];
+        let mut per_px = vec![Vec::with_capacity(frames); npx];
+        for _ in 0..frames {
+            model.read(&input, &mut noise, &mut aux, &mut out);
+            for (px, &o) in per_px.iter_mut().zip(&out) {
+                px.push(o);
+            }
+        }
+        per_px
+    }
+}

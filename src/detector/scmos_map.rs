@@ -1,0 +1,156 @@
+//! `scmos-map`: per-pixel read-noise sigmas from random windows of a measured noise map.
+
+use std::sync::Arc;
+
+use rand_distr::{Distribution, StandardNormal};
+
+use super::noise_map::NoiseMap;
+use super::readout::{FrameInput, Readout};
+use super::spec::{ModelEntry, ModelSpec, Sensor};
+use crate::rng::SimRng;
+
+/// The registry entry of `scmos-map`.
+pub const ENTRY: ModelEntry = ModelEntry {
+    name: "scmos-map",
+    arg: None,
+    help: "sCMOS with per-pixel sigmas from a random window of a measured noise map, every frame",
+    sensor: Sensor::Scmos,
+    params: &["map"],
+    parse: |_, _| Ok(ModelSpec::ScmosMap),
+    build: |_, p, subap_px| match &p.map {
+        Some(map) => Ok(Box::new(ScmosMap::new(map.clone(), subap_px)?)),
+        None => Err(crate::Error::invalid(
+            "map",
+            "scmos-map needs a measured noise map: give `map` FILE",
+        )),
+    },
+};
+
+/// `scmos-map`: each frame reads through an n x n window of a measured noise map at a random
+/// place, so the simulation sees the camera's own spatial mix of quiet and noisy pixels.
+#[derive(Debug, Clone)]
+pub struct ScmosMap {
+    map: Arc<NoiseMap>,
+    n: usize,
+    rms_e: f64,
+}
+
+impl ScmosMap {
+    /// Windows of `n` x `n` pixels of `map`; the map must be at least that large.
+    pub fn new(map: Arc<NoiseMap>, n: usize) -> crate::Result<Self> {
+        if map.rows < n || map.cols < n {
+            return Err(crate::Error::input(
+                &map.source,
+                format!(
+                    "noise map is {}x{} px, smaller than the {n}x{n} px sub-aperture",
+                    map.rows, map.cols
+                ),
+            ));
+        }
+        // Excluded (non-finite) pixels read as the map's median: a flagged pixel is replaced
+        // the way a pipeline would interpolate it, rather than breaking the frame.
+        let finite: Vec<f64> = map
+            .rms_e
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
+        if finite.is_empty() {
+            return Err(crate::Error::input(
+                &map.source,
+                "noise map has no finite pixel",
+            ));
+        }
+        let rms_e = (finite.iter().map(|v| v * v).sum::<f64>() / finite.len() as f64).sqrt();
+        Ok(ScmosMap { map, n, rms_e })
+    }
+}
+
+impl Readout for ScmosMap {
+    fn name(&self) -> String {
+        "scmos-map".into()
+    }
+
+    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
+        use rand::RngExt;
+        let n = self.n;
+        let r0 = aux.random_range(0..=self.map.rows - n);
+        let c0 = aux.random_range(0..=self.map.cols - n);
+        for (i, (orow, krow)) in out
+            .chunks_exact_mut(n)
+            .zip(input.photo_e.chunks_exact(n))
+            .enumerate()
+        {
+            let mrow = &self.map.rms_e[(r0 + i) * self.map.cols + c0..][..n];
+            for ((o, &k), &s) in orow.iter_mut().zip(krow).zip(mrow) {
+                let z: f64 = StandardNormal.sample(noise);
+                let s = if s.is_finite() { s } else { self.rms_e };
+                *o = k as f64 + s * z;
+            }
+        }
+    }
+
+    fn noise_scale_e(&self) -> f64 {
+        self.rms_e
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::detector::readout::sampling::dark_samples;
+    use crate::stats::mean_var;
+
+    #[test]
+    fn map_windows_cover_the_map_and_reproduce_its_noise_power() {
+        // A 3x4 map with two noise levels; 2x2 windows. Zero light: output variance over
+        // many frames = mean of sigma^2 over the window positions' pixels.
+        let map = NoiseMap {
+            rows: 3,
+            cols: 4,
+            rms_e: vec![1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0],
+            source: "t".into(),
+        };
+        let m = ScmosMap::new(Arc::new(map), 2).unwrap();
+        let n = 100_000;
+        let left = dark_samples(&m, 2, n, 8).remove(0);
+        // Top-left pixel of a window sits in column 0, 1 or 2: sigma^2 = 1, 1, 9 equally often.
+        let (_, v) = mean_var(&left);
+        let expect = (1.0 + 1.0 + 9.0) / 3.0;
+        // Mixture variance SE from its 4th moment: E[x^4] = 3 E[s^4] = 3 (1 + 1 + 81)/3.
+        let se = ((83.0 - expect * expect) / n as f64).sqrt();
+        assert!((v - expect).abs() < 4.0 * se, "{v} vs {expect}");
+        let small = NoiseMap {
+            rows: 1,
+            cols: 8,
+            rms_e: vec![1.0; 8],
+            source: "small.fits".into(),
+        };
+        let err = ScmosMap::new(Arc::new(small), 2).unwrap_err();
+        assert!(err.to_string().contains("small.fits"));
+    }
+
+    #[test]
+    fn excluded_pixels_read_with_the_map_rms() {
+        // A 2x2 map with one NaN pixel and a 2x2 window: the NaN pixel reads with the rms of
+        // the finite ones, sqrt((4 + 4 + 16) / 3) = sqrt(8); variance within 4 SE, SE = v sqrt(2/N).
+        let map = NoiseMap {
+            rows: 2,
+            cols: 2,
+            rms_e: vec![2.0, f64::NAN, 2.0, 4.0],
+            source: "t".into(),
+        };
+        let m = ScmosMap::new(Arc::new(map), 2).unwrap();
+        assert_eq!(m.noise_scale_e(), 8f64.sqrt());
+        let n = 50_000;
+        let (_, v) = mean_var(&dark_samples(&m, 2, n, 3)[1]);
+        assert!((v - 8.0).abs() < 4.0 * 8.0 * (2.0 / n as f64).sqrt(), "var {v}");
+        let dark = NoiseMap {
+            rows: 2,
+            cols: 2,
+            rms_e: vec![f64::NAN; 4],
+            source: "nan.fits".into(),
+        };
+        assert!(ScmosMap::new(Arc::new(dark), 2).is_err());
+    }
+}

@@ -1,0 +1,166 @@
+//! Tests of the registry: every entry parses, builds and names itself; the names, the help and
+//! the parser agree with the table.
+
+use super::*;
+
+/// `name` plus an argument where the entry takes one.
+fn examples(entry: &ModelEntry) -> Vec<String> {
+    let mut names = vec![entry.name.to_string()];
+    match entry.arg {
+        Some("SIGMA_E") => names.push(format!("{}:1.5", entry.name)),
+        Some("PATTERN") => names.push(format!("{}:4", entry.name)),
+        Some(other) => panic!("add an example argument for {other}"),
+        None => {}
+    }
+    names
+}
+
+#[test]
+fn every_entry_parses_builds_and_names_itself() {
+    let map = NoiseMap {
+        rows: 8,
+        cols: 8,
+        rms_e: vec![1.5; 64],
+        source: "map.fits".into(),
+    };
+    let params = ModelParams {
+        map: Some(std::sync::Arc::new(map)),
+        ..ModelParams::default()
+    };
+    let fields = format!("{params:?}");
+    for entry in MODELS {
+        for text in examples(entry) {
+            let spec = ModelSpec::parse(&text).unwrap();
+            assert_eq!(spec.name(), entry.name, "{text}");
+            assert_eq!(spec.entry().syntax(), entry.syntax(), "{text}");
+            assert_eq!(spec.is_emccd(), entry.name.starts_with("emccd-"), "{text}");
+            assert_eq!(spec.is_scmos(), !spec.is_emccd(), "{text}");
+            let built = spec.build(&params, 4).unwrap();
+            assert!(
+                built.name().starts_with(entry.name),
+                "{text}: {}",
+                built.name()
+            );
+            if text.contains(':') {
+                assert_eq!(built.name(), text);
+            }
+            assert!(built.noise_scale_e() > 0.0, "{text}");
+        }
+        assert_eq!(MODELS.iter().filter(|m| m.name == entry.name).count(), 1);
+        for field in entry.params {
+            assert!(
+                fields.contains(&format!(" {field}: ")),
+                "{}: {field}",
+                entry.name
+            );
+        }
+        assert!(!entry.help.is_empty() && !entry.help.contains('\n'));
+    }
+}
+
+#[test]
+fn names_and_help_list_every_entry() {
+    let help = models_help();
+    assert_eq!(help.lines().count(), MODELS.len());
+    let syntaxes: Vec<String> = MODELS.iter().map(ModelEntry::syntax).collect();
+    assert_eq!(MODEL_NAMES, syntaxes.join(", "));
+    for (line, entry) in help.lines().zip(MODELS) {
+        assert!(line.starts_with(&format!("{} ", entry.syntax())), "{line}");
+        assert!(line.contains(entry.help));
+        for field in entry.params {
+            assert!(line.contains(&format!("`{field}`")), "{line}");
+        }
+    }
+    // The names as they were written by hand before the registry.
+    assert_eq!(
+        MODEL_NAMES,
+        "emccd-simple, emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
+scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map"
+    );
+}
+
+#[test]
+fn properties_come_from_the_entry() {
+    let spec = |t: &str| ModelSpec::parse(t).unwrap();
+    assert!(spec("emccd-pp").is_emccd() && spec("emccd-simple").is_emccd());
+    assert!(spec("scmos-map").is_scmos() && spec("scmos-map").uses("map"));
+    for t in [
+        "scmos-random",
+        "scmos-median",
+        "scmos-mean",
+        "scmos-fixed:2",
+    ] {
+        assert!(spec(t).uses_pdf(), "{t}");
+    }
+    for t in ["scmos-constant", "scmos-map", "emccd-stochastic"] {
+        assert!(!spec(t).uses_pdf(), "{t}");
+    }
+    assert_eq!(spec("scmos-fixed"), ModelSpec::ScmosFixed(0));
+    assert_eq!(
+        spec("scmos-constant:2"),
+        ModelSpec::ScmosConstant(Some(2.0))
+    );
+    assert_eq!(spec("emccd-pp-uncorrected"), ModelSpec::EmccdPp(false));
+    assert_eq!(spec(" scmos-mean"), ModelSpec::ScmosMean);
+}
+
+#[test]
+fn parses_every_model_and_rejects_unknown() {
+    for name in [
+        "emccd-simple",
+        "emccd-stochastic",
+        "emccd-distribution",
+        "emccd-pp",
+        "emccd-pp-uncorrected",
+        "scmos-constant",
+        "scmos-constant:1.5",
+        "scmos-median",
+        "scmos-mean",
+        "scmos-fixed",
+        "scmos-fixed:4",
+        "scmos-random",
+    ] {
+        let spec = ModelSpec::parse(name).unwrap();
+        let built = spec.build(&ModelParams::default(), 4).unwrap();
+        assert!(built.name().starts_with(name.split(':').next().unwrap()));
+    }
+    for bad in [
+        "emccd",
+        "scmos-constant:-1",
+        "scmos-fixed:x",
+        "emccd-simple:2",
+        "",
+    ] {
+        let err = ModelSpec::parse(bad).unwrap_err();
+        assert_eq!(err.exit_code(), 2, "{bad}");
+    }
+}
+
+#[test]
+fn errors_name_the_model_and_map_fields() {
+    let unknown = ModelSpec::parse("ccd-magic").unwrap_err().to_string();
+    assert_eq!(
+        unknown,
+        format!("invalid `model`: unknown model 'ccd-magic' (known: {MODEL_NAMES})")
+    );
+    let bad = ModelSpec::parse("scmos-constant:-1")
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        bad,
+        "invalid `model`: 'scmos-constant:-1': sigma must be a number >= 0 (e-)"
+    );
+    let bad = ModelSpec::parse("scmos-fixed:x").unwrap_err().to_string();
+    assert_eq!(
+        bad,
+        "invalid `model`: 'scmos-fixed:x': pattern must be a whole number"
+    );
+    let Err(no_map) = ModelSpec::ScmosMap.build(&ModelParams::default(), 4) else {
+        panic!("scmos-map built without a map")
+    };
+    assert_eq!(no_map.exit_code(), 2);
+    assert!(
+        no_map.to_string().starts_with("invalid `map`: "),
+        "{no_map}"
+    );
+}
