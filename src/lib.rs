@@ -23,6 +23,9 @@ pub mod pdf;
 pub mod plot;
 pub mod pp;
 pub mod progress;
+// The report still borrows records and charts from `cli` until issue 10's moves land.
+#[cfg(feature = "cli")]
+pub mod report;
 pub mod rng;
 pub mod spot;
 pub mod stats;

@@ -12,6 +12,14 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("force", "--force"),
     ("qe", "--qe"),
     ("stacks", "STACK"),
+    // report (crate::report::ReportOptions)
+    ("darks_paths", "--darks"),
+    ("flats_paths", "--flats"),
+    ("gain_e_per_adu", "--gain-e-per-adu"),
+    ("subaps_px", "--subap"),
+    ("spots", "--spot"),
+    ("signals_photons", "--signal"),
+    ("qe_emccd", "--qe-emccd"),
 ];
 
 /// Fields of library-only settings (chart building blocks) that no option sets: errors about

@@ -11,7 +11,6 @@ pub mod paper;
 pub mod progress;
 pub mod ptc;
 pub mod report;
-mod report_page;
 pub mod simulate;
 pub mod synth;
 
