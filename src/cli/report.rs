@@ -179,7 +179,6 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
 mod tests {
     use super::*;
     use crate::report::{DEFAULT_AIRY_DIAMETERS_PX, DEFAULT_SIGNALS_PHOTONS, DEFAULT_SUBAPS_PX};
-    use crate::spot::Spot;
 
     #[test]
     fn the_default_lists_are_the_librarys_full_grid() {
@@ -187,10 +186,8 @@ mod tests {
             parse_list::<usize>(DEFAULT_SUBAP, "--subap").unwrap(),
             DEFAULT_SUBAPS_PX
         );
-        let spots: Vec<Spot> = DEFAULT_AIRY_DIAMETERS_PX
-            .iter()
-            .map(|&diameter_px| Spot::Airy { diameter_px })
-            .collect();
+        let airy = |&diameter_px: &f64| crate::spot::Spot::Airy { diameter_px };
+        let spots: Vec<_> = DEFAULT_AIRY_DIAMETERS_PX.iter().map(airy).collect();
         assert_eq!(parse_spots(&[DEFAULT_SPOT.into()]).unwrap(), spots);
         assert_eq!(
             parse_list::<f64>(DEFAULT_SIGNAL, "--signal").unwrap(),
