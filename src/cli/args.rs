@@ -1,6 +1,7 @@
 //! Argument groups shared by the Monte-Carlo commands, list parsing, and the value parsers
 //! that check every numeric option's range while the command line is parsed.
 
+use crate::calib::{Map, Unit};
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
 use crate::detector::{EmRegister, ModelParams, ModelSpec, MODEL_NAMES};
 use crate::montecarlo::{BgGrid, Grid, SimConfig};
@@ -263,17 +264,11 @@ impl DetectorArgs {
     }
 
     /// The measured noise map named by `--map`, if any.
-    fn noise_map(&self) -> Result<Option<Arc<crate::detector::NoiseMap>>> {
-        let Some(path) = &self.map else {
-            return Ok(None);
-        };
-        let m = crate::maps::read_map(path)?;
-        Ok(Some(Arc::new(crate::detector::NoiseMap {
-            rows: m.rows,
-            cols: m.cols,
-            rms_e: m.data,
-            source: path.display().to_string(),
-        })))
+    fn noise_map(&self) -> Result<Option<Arc<Map>>> {
+        self.map
+            .as_ref()
+            .map(|path| Ok(Arc::new(Map::read(path, Unit::Electrons)?)))
+            .transpose()
     }
 }
 

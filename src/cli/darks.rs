@@ -9,7 +9,6 @@ use crate::error::Result;
 use crate::progress::Observer;
 
 /// Kept for `cli::report` until the merge points it at the library path.
-pub use crate::calib::darks::write_outputs;
 
 /// Options of `detnoise darks`.
 #[derive(clap::Args, Debug)]

@@ -15,7 +15,7 @@ use std::path::PathBuf;
 #[command(mut_arg("signal", |a| a.default_value("20,50,100,200,500,1000")))]
 pub struct EffectiveArgs {
     /// The detector whose effective read noise is wanted: scmos-random (the rms pdf, default),
-    /// scmos-map (needs --map), scmos-fixed:K, or any other model name.
+    /// scmos-map (needs --map), or any other model (every model is listed with --help).
     #[arg(long, default_value = "scmos-random")]
     pub model: String,
     /// The Monte-Carlo sweep: sub-aperture sizes (px), spots, signals (photons), iterations, seed.
@@ -54,7 +54,7 @@ impl EffectiveArgs {
 /// Write the table (CSV, JSON) and the heatmaps into `dir`; returns the heatmaps' paths.
 pub fn write_outputs(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
     write_tables(records, &dir.path(""))?;
-    super::charts::effective_heatmaps(records, dir)
+    crate::report::charts::effective_heatmaps(records, dir)
 }
 
 /// Entry point of `detnoise effective`.

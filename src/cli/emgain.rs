@@ -9,7 +9,6 @@ use crate::error::Result;
 use crate::fit::emgain::{run as run_emgain, EmgainRun};
 
 /// Kept for `cli::report` until the merge points it at the library paths.
-pub use crate::fit::emgain::{accumulate, chart};
 
 /// Options of `detnoise emgain`.
 #[derive(clap::Args, Debug)]

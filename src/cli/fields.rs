@@ -60,6 +60,13 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("pattern_seed", "--pattern-seed"),
     ("pp_rule", "--pp-rule"),
     ("pp_lambda", "--pp-lambda"),
+    // report (crate::report::ReportOptions)
+    ("darks_paths", "--darks"),
+    ("flats_paths", "--flats"),
+    ("subaps_px", "--subap"),
+    ("spots", "--spot"),
+    ("signals_photons", "--signal"),
+    ("qe_emccd", "--qe-emccd"),
 ];
 
 /// Fields of library-only settings (chart building blocks) that no option sets: errors about

@@ -10,7 +10,6 @@ use crate::fit::pdf_fit::{run as run_fit, FitPdfRun};
 use crate::fit::PdfModel;
 
 /// Kept for `cli::report` until the merge points it at the library path.
-pub use crate::fit::pdf_fit::chart;
 
 /// Unit of the map's values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]

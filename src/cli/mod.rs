@@ -1,7 +1,6 @@
 //! The `detnoise` command line: a thin layer over the library.
 
 pub mod args;
-mod charts;
 pub mod darks;
 pub mod effective;
 pub mod emgain;
@@ -11,7 +10,6 @@ pub mod paper;
 pub mod progress;
 pub mod ptc;
 pub mod report;
-mod report_page;
 pub mod simulate;
 pub mod synth;
 
@@ -68,7 +66,20 @@ pub fn command() -> clap::Command {
             a.allow_negative_numbers(takes_values)
         })
     }
-    finish(Cli::command()).mut_subcommands(finish)
+    finish(Cli::command()).mut_subcommands(|sub| with_model_list(finish(sub)))
+}
+
+/// A command with a `--model` option gets the registry's list of models in its long help, with
+/// the parameters each model uses shown as flags.
+fn with_model_list(cmd: clap::Command) -> clap::Command {
+    if !cmd.get_arguments().any(|a| a.get_id() == "model") {
+        return cmd;
+    }
+    cmd.mut_arg("model", |a| {
+        let short = a.get_help().map(|h| h.to_string()).unwrap_or_default();
+        let models = fields::flags_in(&crate::detector::models_help());
+        a.long_help(format!("{short}\n\nModels (NAME[:ARG]):\n{models}"))
+    })
 }
 
 /// Parse the command line, run it, and return the process exit code.
@@ -115,6 +126,22 @@ pub fn main() -> i32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn model_options_list_every_registered_model() {
+        for name in ["simulate", "effective"] {
+            let mut cmd = command();
+            let sub = cmd.find_subcommand_mut(name).expect("subcommand");
+            let help = sub.render_long_help().to_string();
+            for entry in crate::detector::MODELS {
+                assert!(
+                    help.contains(entry.name),
+                    "{name} --help lacks {}",
+                    entry.name
+                );
+            }
+        }
+    }
 
     #[test]
     fn command_is_consistent_and_every_help_lists_the_exit_codes() {

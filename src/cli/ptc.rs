@@ -9,7 +9,6 @@ use crate::detector::register::MAX_EM_GAIN;
 use crate::error::{Error, Result};
 
 /// Kept for `cli::report` until the merge points it at the library path.
-pub use crate::calib::ptc::chart;
 
 /// Options of `detnoise ptc`.
 #[derive(clap::Args, Debug)]

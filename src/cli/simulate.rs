@@ -10,8 +10,7 @@ use std::path::PathBuf;
 /// Options of `detnoise simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
-    /// Readout models, comma-separated: emccd-simple, emccd-stochastic, emccd-distribution,
-    /// scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random.
+    /// Readout models, comma-separated (every model is listed with --help).
     #[arg(
         long,
         default_value = "emccd-simple,emccd-stochastic,emccd-distribution,scmos-median,scmos-mean,scmos-random"
@@ -64,7 +63,7 @@ pub fn run_cli(args: &SimulateArgs) -> Result<()> {
         None => print!("{text}"),
     }
     if let Some(path) = &args.plot {
-        super::charts::r_against_sweep(&records, path)?;
+        crate::report::charts::r_against_sweep(&records, path)?;
     }
     Ok(())
 }

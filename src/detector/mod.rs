@@ -13,11 +13,10 @@
 //! 2. one line `NAME: [ENTRY],` in the `readout_models!` list below (it declares the module
 //!    and registers the entry).
 //!
-//! The other files: `readout` (the trait), `spec` (specs and entries), `params`, `noise_map`,
+//! The other files: `readout` (the trait), `spec` (specs and entries), `params`,
 //! `register` (the exact EM register), `pp` (Poisson-probability thresholds of `emccd-pp`),
 //! `registry` (names, help and parsing over the table).
 
-mod noise_map;
 mod params;
 pub mod pp;
 mod readout;
@@ -29,7 +28,6 @@ pub use emccd_distribution::EmccdDistribution;
 pub use emccd_pp::EmccdPp;
 pub use emccd_simple::EmccdSimple;
 pub use emccd_stochastic::EmccdStochastic;
-pub use noise_map::NoiseMap;
 pub use params::ModelParams;
 pub use readout::{FrameInput, Readout};
 pub use register::EmRegister;

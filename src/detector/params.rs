@@ -1,9 +1,9 @@
 //! The settings shared by the readout models of a run; each registry entry lists the fields
 //! its builder reads.
 
+use crate::calib::Map;
 use std::sync::Arc;
 
-use super::noise_map::NoiseMap;
 use super::pp::PpRule;
 use crate::pdf::RmsPdf;
 
@@ -27,7 +27,7 @@ pub struct ModelParams {
     /// Seed of the fixed sCMOS noise patterns (pattern K uses stream K of it).
     pub pattern_seed: u64,
     /// Measured noise map for `scmos-map`.
-    pub map: Option<Arc<NoiseMap>>,
+    pub map: Option<Arc<Map>>,
     /// Threshold rule of `emccd-pp`.
     pub pp_rule: PpRule,
     /// Fixed reference light level of `emccd-pp` (photo-electrons per pixel); None = sub-aperture mean.

@@ -36,13 +36,34 @@ pub const MAX_STAGES: u32 = 2000;
 /// bright pixels from making a frame cost O(signal).
 const CASCADE_ABOVE_E: u64 = 8192;
 
+/// Per-stage multiplication probability p of a register of mean gain `gain` (e-/e-) over
+/// `stages` stages: g^(1/N) - 1, in [0, 1] (a gain below 1 gives 0; p can exceed 1 by round-off
+/// when the gain is exactly 2^N).
+pub fn stage_probability(gain: f64, stages: u32) -> f64 {
+    (gain.max(1.0).powf(1.0 / stages as f64) - 1.0).clamp(0.0, 1.0)
+}
+
+/// Exact variance of the register's output for one input electron (e-^2), at per-stage
+/// probability `p`: (1-p)(1+p)^(N-1)((1+p)^N - 1).
+pub fn single_electron_variance(p: f64, stages: u32) -> f64 {
+    let m = 1.0 + p;
+    let n = stages as i32;
+    (1.0 - p) * m.powi(n - 1) * (m.powi(n) - 1.0)
+}
+
+/// Excess noise factor squared of a register of mean gain `gain` (e-/e-) for Poisson input:
+/// 1 + var1 / g^2. A formula, cheap at any gain: the fits call it at every trial gain without
+/// building (tabulating) a register.
+pub fn excess_noise_factor_sq(gain: f64, stages: u32) -> f64 {
+    1.0 + single_electron_variance(stage_probability(gain, stages), stages) / (gain * gain)
+}
+
 impl EmRegister {
     /// Register with mean gain `gain` (1 ..= [`MAX_EM_GAIN`]) and `stages` stages
     /// (1 ..= [`MAX_STAGES`], and enough that p <= 1: see [`EmRegister::check`]).
     pub fn new(gain: f64, stages: u32) -> crate::Result<Self> {
         Self::check(gain, stages, "gain")?;
-        // p can exceed 1 by round-off when gain is exactly 2^stages.
-        let p = (gain.powf(1.0 / stages as f64) - 1.0).clamp(0.0, 1.0);
+        let p = stage_probability(gain, stages);
         let pmf = single_electron_pmf(p, stages, gain);
         Ok(EmRegister {
             gain,
@@ -116,16 +137,14 @@ impl EmRegister {
         self.p
     }
 
-    /// Exact variance of the output for one input electron (e-^2): (1-p)(1+p)^(N-1)((1+p)^N - 1).
+    /// Exact variance of the output for one input electron (e-^2): see [`single_electron_variance`].
     pub fn single_electron_variance(&self) -> f64 {
-        let m = 1.0 + self.p;
-        let n = self.stages as i32;
-        (1.0 - self.p) * m.powi(n - 1) * (m.powi(n) - 1.0)
+        single_electron_variance(self.p, self.stages)
     }
 
-    /// Excess noise factor squared for Poisson input: 1 + var1 / g^2.
+    /// Excess noise factor squared for Poisson input: see [`excess_noise_factor_sq`].
     pub fn excess_noise_factor_sq(&self) -> f64 {
-        1.0 + self.single_electron_variance() / (self.gain * self.gain)
+        excess_noise_factor_sq(self.gain, self.stages)
     }
 
     /// Output electrons for `k` input electrons (exact, fast): a sum of k table draws, or the

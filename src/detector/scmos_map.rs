@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use rand_distr::{Distribution, StandardNormal};
 
-use super::noise_map::NoiseMap;
+use crate::calib::{Map, Unit};
 use super::readout::{FrameInput, Readout};
 use super::spec::{ModelEntry, ModelSpec, Sensor};
 use crate::rng::SimRng;
@@ -30,14 +30,20 @@ pub const ENTRY: ModelEntry = ModelEntry {
 /// place, so the simulation sees the camera's own spatial mix of quiet and noisy pixels.
 #[derive(Debug, Clone)]
 pub struct ScmosMap {
-    map: Arc<NoiseMap>,
+    map: Arc<Map>,
     n: usize,
     rms_e: f64,
 }
 
 impl ScmosMap {
     /// Windows of `n` x `n` pixels of `map`; the map must be at least that large.
-    pub fn new(map: Arc<NoiseMap>, n: usize) -> crate::Result<Self> {
+    pub fn new(map: Arc<Map>, n: usize) -> crate::Result<Self> {
+        if map.unit != Unit::Electrons {
+            return Err(crate::Error::input(
+                &map.source,
+                format!("noise map is in {}, not e-: convert it first", map.unit.bunit()),
+            ));
+        }
         if map.rows < n || map.cols < n {
             return Err(crate::Error::input(
                 &map.source,
@@ -50,7 +56,7 @@ impl ScmosMap {
         // Excluded (non-finite) pixels read as the map's median: a flagged pixel is replaced
         // the way a pipeline would interpolate it, rather than breaking the frame.
         let finite: Vec<f64> = map
-            .rms_e
+            .data
             .iter()
             .copied()
             .filter(|v| v.is_finite())
@@ -81,7 +87,7 @@ impl Readout for ScmosMap {
             .zip(input.photo_e.chunks_exact(n))
             .enumerate()
         {
-            let mrow = &self.map.rms_e[(r0 + i) * self.map.cols + c0..][..n];
+            let mrow = &self.map.data[(r0 + i) * self.map.cols + c0..][..n];
             for ((o, &k), &s) in orow.iter_mut().zip(krow).zip(mrow) {
                 let z: f64 = StandardNormal.sample(noise);
                 let s = if s.is_finite() { s } else { self.rms_e };
@@ -105,12 +111,7 @@ mod tests {
     fn map_windows_cover_the_map_and_reproduce_its_noise_power() {
         // A 3x4 map with two noise levels; 2x2 windows. Zero light: output variance over
         // many frames = mean of sigma^2 over the window positions' pixels.
-        let map = NoiseMap {
-            rows: 3,
-            cols: 4,
-            rms_e: vec![1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0],
-            source: "t".into(),
-        };
+        let map = Map::new(3, 4, vec![1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0, 1.0, 1.0, 3.0, 3.0], Unit::Electrons).with_source("t");
         let m = ScmosMap::new(Arc::new(map), 2).unwrap();
         let n = 100_000;
         let left = dark_samples(&m, 2, n, 8).remove(0);
@@ -120,12 +121,7 @@ mod tests {
         // Mixture variance SE from its 4th moment: E[x^4] = 3 E[s^4] = 3 (1 + 1 + 81)/3.
         let se = ((83.0 - expect * expect) / n as f64).sqrt();
         assert!((v - expect).abs() < 4.0 * se, "{v} vs {expect}");
-        let small = NoiseMap {
-            rows: 1,
-            cols: 8,
-            rms_e: vec![1.0; 8],
-            source: "small.fits".into(),
-        };
+        let small = Map::new(1, 8, vec![1.0; 8], Unit::Electrons).with_source("small.fits");
         let err = ScmosMap::new(Arc::new(small), 2).unwrap_err();
         assert!(err.to_string().contains("small.fits"));
     }
@@ -134,23 +130,17 @@ mod tests {
     fn excluded_pixels_read_with_the_map_rms() {
         // A 2x2 map with one NaN pixel and a 2x2 window: the NaN pixel reads with the rms of
         // the finite ones, sqrt((4 + 4 + 16) / 3) = sqrt(8); variance within 4 SE, SE = v sqrt(2/N).
-        let map = NoiseMap {
-            rows: 2,
-            cols: 2,
-            rms_e: vec![2.0, f64::NAN, 2.0, 4.0],
-            source: "t".into(),
-        };
+        let map = Map::new(2, 2, vec![2.0, f64::NAN, 2.0, 4.0], Unit::Electrons).with_source("t");
         let m = ScmosMap::new(Arc::new(map), 2).unwrap();
         assert_eq!(m.noise_scale_e(), 8f64.sqrt());
         let n = 50_000;
         let (_, v) = mean_var(&dark_samples(&m, 2, n, 3)[1]);
         assert!((v - 8.0).abs() < 4.0 * 8.0 * (2.0 / n as f64).sqrt(), "var {v}");
-        let dark = NoiseMap {
-            rows: 2,
-            cols: 2,
-            rms_e: vec![f64::NAN; 4],
-            source: "nan.fits".into(),
-        };
+        let dark = Map::new(2, 2, vec![f64::NAN; 4], Unit::Electrons).with_source("nan.fits");
         assert!(ScmosMap::new(Arc::new(dark), 2).is_err());
+        // A map in adu is refused, naming its file: the readout needs electrons.
+        let adu = Map::new(2, 2, vec![1.0; 4], Unit::Adu).with_source("adu.fits");
+        let err = ScmosMap::new(Arc::new(adu), 2).unwrap_err();
+        assert!(err.to_string().contains("adu.fits"), "{err}");
     }
 }

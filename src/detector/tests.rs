@@ -2,6 +2,7 @@
 //! the parser agree with the table.
 
 use super::*;
+use crate::calib::{Map, Unit};
 
 /// `name` plus an argument where the entry takes one.
 fn examples(entry: &ModelEntry) -> Vec<String> {
@@ -17,12 +18,7 @@ fn examples(entry: &ModelEntry) -> Vec<String> {
 
 #[test]
 fn every_entry_parses_builds_and_names_itself() {
-    let map = NoiseMap {
-        rows: 8,
-        cols: 8,
-        rms_e: vec![1.5; 64],
-        source: "map.fits".into(),
-    };
+    let map = Map::new(8, 8, vec![1.5; 64], Unit::Electrons).with_source("map.fits");
     let params = ModelParams {
         map: Some(std::sync::Arc::new(map)),
         ..ModelParams::default()

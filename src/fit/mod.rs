@@ -9,9 +9,3 @@ pub mod pdf_models;
 
 pub use pdf_fit::{fit_pdf, load_pdf_fit, ModelFit, PdfFitOptions, PdfFitReport, RmsSummary};
 pub use pdf_models::PdfModel;
-
-/// The EM-signature check at its old path (now [`emgain::require_em_signature`]), for callers
-/// outside the data path until they move; remove with them.
-pub mod em_signature {
-    pub use super::emgain::{require_em_signature, EmSignature, Verdict};
-}

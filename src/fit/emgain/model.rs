@@ -85,20 +85,14 @@ impl Model {
 
 /// Excess noise factor squared of the single-electron law at gain `g_e` (e-/e-).
 ///
-/// For the register this is the formula of `EmRegister::excess_noise_factor_sq`
-/// (1 + var1 / g^2, var1 = (1 - p)(1 + p)^(N-1)((1 + p)^N - 1)), evaluated without building a
-/// register: `EmRegister::new` tabulates the single-electron output (about 40 x gain entries,
-/// up to a second) and refuses gains outside [1, 10,000], while the fit needs the factor at
-/// every trial gain the start values and moments give (a gain below 1 has p = 0 and F^2 = 1).
-/// A test pins the two to each other.
+/// For the register this is [`crate::detector::register::excess_noise_factor_sq`], the
+/// formula, not a tabulated register: the fit needs the factor at every trial gain (a gain
+/// below 1 has p = 0 and F^2 = 1).
 pub fn excess_noise_factor_sq(shape: EmShape, g_e: f64) -> f64 {
     match shape {
         EmShape::Gamma => 2.0,
         EmShape::Register { stages } => {
-            let p = g_e.max(1.0).powf(1.0 / stages as f64) - 1.0;
-            let m = 1.0 + p;
-            let n = stages as i32;
-            1.0 + (1.0 - p) * m.powi(n - 1) * (m.powi(n) - 1.0) / (g_e * g_e)
+            crate::detector::register::excess_noise_factor_sq(g_e, stages)
         }
     }
 }

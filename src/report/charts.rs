@@ -1,5 +1,8 @@
-//! Charts drawn by the Monte-Carlo commands.
+//! Charts of Monte-Carlo results: R against a swept axis, effective-noise heatmaps, and the
+//! report's comparison of models.
 
+use super::result::Compared;
+use crate::detector::ModelSpec;
 use crate::effective::EffectiveRecord;
 use crate::montecarlo::SimRecord;
 use crate::output::OutputDir;
@@ -135,4 +138,53 @@ pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Resul
         }
     }
     Ok(written)
+}
+
+/// R against signal at one sub-aperture and spot, one line per model (in order of first
+/// appearance) with error bars of one standard error; `labels` names the models in the legend
+/// (others show their model name).
+pub fn comparison_chart(
+    comparison: &[Compared],
+    path: &Path,
+    labels: &[(ModelSpec, &str)],
+) -> Result<()> {
+    let first = &comparison
+        .first()
+        .ok_or_else(|| Error::Numeric("no comparison records to draw".into()))?
+        .record;
+    let mut chart = LineChart::new(
+        format!(
+            "R against signal, {}x{} px, {}",
+            first.config.subap_px,
+            first.config.subap_px,
+            first.config.spot.label()
+        ),
+        "signal (photons per sub-aperture)",
+        "R, mean radial error (px)",
+    );
+    chart.log_x = true;
+    chart.log_y = true;
+    let mut models: Vec<&Compared> = Vec::new();
+    for c in comparison {
+        if !models.iter().any(|m| m.spec == c.spec) {
+            models.push(c);
+        }
+    }
+    chart.series = models
+        .iter()
+        .map(|m| {
+            let label = labels
+                .iter()
+                .find(|(spec, _)| *spec == m.spec)
+                .map_or(m.record.result.model.as_str(), |(_, l)| l);
+            Series::with_errors(
+                label,
+                comparison.iter().filter(|c| c.spec == m.spec).map(|c| {
+                    let (cfg, r) = (&c.record.config, &c.record.result);
+                    (cfg.signal_photons, r.r_px, r.r_se_px)
+                }),
+            )
+        })
+        .collect();
+    chart.save(path)
 }

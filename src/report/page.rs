@@ -1,13 +1,13 @@
 //! The report's `index.html`: one self-contained page (relative image links, inline CSS).
 
-use super::report::ReportSummary;
+use super::compare::verdicts;
+use super::result::{Compared, EmccdSummary, ReportSummary};
+use crate::detector::ModelSpec;
 use crate::effective::EffectiveRecord;
 use crate::fit::pdf_fit::PdfFitReport;
-use crate::montecarlo::SimRecord;
+use crate::output::html_escape as esc;
 use std::fmt::Write as _;
 use std::path::PathBuf;
-
-use crate::output::html_escape as esc;
 
 fn fmt_sigma(v: f64, se: f64) -> String {
     if v.is_finite() {
@@ -15,40 +15,6 @@ fn fmt_sigma(v: f64, se: f64) -> String {
     } else {
         "none (no Gaussian σ reproduces it)".into()
     }
-}
-
-/// Which detector gives the smaller R at each signal: `mine` (this camera's model) against `other`.
-fn verdicts(
-    comparison: &[SimRecord],
-    (mine, mine_name): (&str, &str),
-    (other, other_name): (&str, &str),
-) -> Vec<(f64, String)> {
-    let mut signals: Vec<f64> = comparison.iter().map(|r| r.config.signal_photons).collect();
-    signals.dedup();
-    signals
-        .into_iter()
-        .filter_map(|s| {
-            let get = |m: &str| {
-                comparison
-                    .iter()
-                    .find(|r| r.result.model == m && r.config.signal_photons == s)
-            };
-            let (c, e) = (&get(mine)?.result, &get(other)?.result);
-            let ratio = c.r_px / e.r_px;
-            let se = ratio * ((c.r_se_px / c.r_px).powi(2) + (e.r_se_px / e.r_px).powi(2)).sqrt();
-            let verdict = if (ratio - 1.0).abs() < 2.0 * se {
-                "no significant difference".to_string()
-            } else if ratio < 1.0 {
-                format!("{mine_name} wins (R {:.1} % lower)", 100.0 * (1.0 - ratio))
-            } else {
-                format!(
-                    "{other_name} wins (R {:.1} % lower)",
-                    100.0 * (1.0 - 1.0 / ratio)
-                )
-            };
-            Some((s, verdict))
-        })
-        .collect()
 }
 
 /// The page's head and style sheet, shared by both kinds of report.
@@ -69,7 +35,7 @@ table{{border-collapse:collapse;font-size:.88em;margin:.8em 0}}td,th{{border:1px
 }
 
 /// The EMCCD report page: the EM-gain fit, then the comparison with sCMOS models.
-pub fn emccd_html(s: &super::report::EmccdSummary, comparison: &[SimRecord]) -> String {
+pub fn emccd_html(s: &EmccdSummary, comparison: &[Compared]) -> String {
     let f = &s.emgain;
     let mut h = page_head();
     let _ = write!(h, "<h1>EMCCD report</h1><p class=\"note\">{} · {} frames of {}×{} px · conversion gain {:.4} e⁻/adu · exact register fit · {} iterations per point, seed {}{}</p>",
@@ -103,8 +69,8 @@ pub fn emccd_html(s: &super::report::EmccdSummary, comparison: &[SimRecord]) -> 
     h.push_str("</div><p><b>Against sCMOS</b> (an EMCCD with this gain and read noise against an sCMOS with the paper's pdf, R at the operating sub-aperture and spot):</p><ul>");
     for (sig, v) in verdicts(
         comparison,
-        ("emccd-stochastic", "this EMCCD"),
-        ("scmos-random", "the sCMOS"),
+        (&ModelSpec::EmccdStochastic, "this EMCCD"),
+        (&ModelSpec::ScmosRandom, "the sCMOS"),
     ) {
         let _ = write!(h, "<li>{sig} photons: {}</li>", esc(&v));
     }
@@ -115,12 +81,12 @@ pub fn emccd_html(s: &super::report::EmccdSummary, comparison: &[SimRecord]) -> 
     h
 }
 
-/// Build the page.
+/// The sCMOS report page: key numbers, verdicts, charts and tables.
 pub fn index_html(
     s: &ReportSummary,
     fit: &PdfFitReport,
     effective: &[EffectiveRecord],
-    comparison: &[SimRecord],
+    comparison: &[Compared],
     heatmaps: &[PathBuf],
     has_ptc: bool,
 ) -> String {
@@ -170,8 +136,8 @@ pub fn index_html(
     h.push_str("<p><b>Which detector wins</b> (this camera's measured map against an EMCCD, R at the operating sub-aperture and spot):</p><ul>");
     for (sig, v) in verdicts(
         comparison,
-        ("scmos-map", "this camera"),
-        ("emccd-stochastic", "the EMCCD"),
+        (&ModelSpec::ScmosMap, "this camera"),
+        (&ModelSpec::EmccdStochastic, "the EMCCD"),
     ) {
         let _ = write!(h, "<li>{sig} photons: {}</li>", esc(&v));
     }

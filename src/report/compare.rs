@@ -1,0 +1,172 @@
+//! The comparison of a report: R against signal at the operating sub-aperture and spot, for
+//! this camera's models beside the one-number sCMOS models and an EMCCD.
+
+use super::charts::comparison_chart;
+use super::grid::{Grid, Headline};
+use super::result::Compared;
+use crate::detector::{ModelParams, ModelSpec};
+use crate::montecarlo::{sweep, SimConfig, SimRecord};
+use crate::output::{render, write_atomic, OutputDir, TableFormat};
+use crate::progress::Silent;
+use crate::Result;
+
+/// Legend labels of the comparison chart of an sCMOS report.
+pub(crate) const SCMOS_LABELS: [(ModelSpec, &str); 5] = [
+    (ModelSpec::ScmosRandom, "this camera (fitted pdf)"),
+    (ModelSpec::ScmosMap, "this camera (measured map)"),
+    (ModelSpec::ScmosMedian, "one number: median"),
+    (ModelSpec::ScmosMean, "one number: mean"),
+    (
+        ModelSpec::EmccdStochastic,
+        "EMCCD (g = 500, 50 e- read noise)",
+    ),
+];
+
+/// Legend labels of the comparison chart of an EMCCD report.
+pub(crate) const EMCCD_LABELS: [(ModelSpec, &str); 4] = [
+    (
+        ModelSpec::EmccdStochastic,
+        "this EMCCD (fitted gain and read noise)",
+    ),
+    (ModelSpec::ScmosRandom, "sCMOS, the paper's pdf"),
+    (ModelSpec::ScmosMedian, "sCMOS, one number: median"),
+    (ModelSpec::ScmosMean, "sCMOS, one number: mean"),
+];
+
+/// Names of the files [`write_comparison`] writes.
+pub(crate) const COMPARISON_FILES: [&str; 3] =
+    ["r_vs_signal.csv", "r_vs_signal.png", "r_vs_signal.svg"];
+
+/// Write the comparison's table (`r_vs_signal.csv`) and chart (PNG and SVG) into `dir`.
+pub(crate) fn write_comparison(
+    comparison: &[Compared],
+    dir: &OutputDir,
+    labels: &[(ModelSpec, &str)],
+) -> Result<()> {
+    let records: Vec<&SimRecord> = comparison.iter().map(|c| &c.record).collect();
+    let [csv, png, svg] = COMPARISON_FILES;
+    write_atomic(
+        &dir.path(csv),
+        render(&records, TableFormat::Csv)?.as_bytes(),
+    )?;
+    comparison_chart(comparison, &dir.path(png), labels)?;
+    comparison_chart(comparison, &dir.path(svg), labels)
+}
+
+/// Models run together at one quantum efficiency (photo-electrons per photon).
+pub(crate) struct Group<'a> {
+    /// The models, in the order of their records.
+    pub specs: &'a [ModelSpec],
+    /// Quantum efficiency of these models.
+    pub qe: f64,
+}
+
+/// The sCMOS report's comparison: this camera (fitted pdf, measured map), the one-number
+/// models at `qe`, and an EMCCD at `qe_emccd`.
+pub(crate) fn scmos_groups(qe: f64, qe_emccd: f64) -> [Group<'static>; 2] {
+    [
+        Group {
+            specs: &[
+                ModelSpec::ScmosRandom,
+                ModelSpec::ScmosMap,
+                ModelSpec::ScmosMedian,
+                ModelSpec::ScmosMean,
+            ],
+            qe,
+        },
+        Group {
+            specs: &[ModelSpec::EmccdStochastic],
+            qe: qe_emccd,
+        },
+    ]
+}
+
+/// The EMCCD report's comparison: sCMOS models with the paper's pdf at `qe`, and this EMCCD
+/// (fitted gain and read noise) at `qe_emccd`.
+pub(crate) fn emccd_groups(qe: f64, qe_emccd: f64) -> [Group<'static>; 2] {
+    [
+        Group {
+            specs: &[
+                ModelSpec::ScmosRandom,
+                ModelSpec::ScmosMedian,
+                ModelSpec::ScmosMean,
+            ],
+            qe,
+        },
+        Group {
+            specs: &[ModelSpec::EmccdStochastic],
+            qe: qe_emccd,
+        },
+    ]
+}
+
+/// R against signal for `groups` at the operating point's sub-aperture and spot: signal major,
+/// then group, then model (the order of `r_vs_signal.csv`).
+pub(crate) fn compare_models(
+    grid: &Grid,
+    op: &Headline,
+    params: &ModelParams,
+    groups: &[Group],
+) -> Result<Vec<Compared>> {
+    let mut out = Vec::new();
+    for &signal_photons in &grid.signals_photons {
+        for group in groups {
+            let cfg = grid.config(op.subap_px, op.spot, signal_photons, group.qe);
+            out.extend(run_models(&cfg, group.specs, params)?);
+        }
+    }
+    Ok(out)
+}
+
+/// Every model of `specs` on the configuration `cfg`, with common random numbers.
+fn run_models(cfg: &SimConfig, specs: &[ModelSpec], params: &ModelParams) -> Result<Vec<Compared>> {
+    // One configuration: `sweep` returns one record per model, in the order of `specs`.
+    let records = sweep(std::slice::from_ref(cfg), specs, params, &Silent)?;
+    Ok(specs
+        .iter()
+        .zip(records)
+        .map(|(spec, record)| Compared {
+            spec: spec.clone(),
+            record,
+        })
+        .collect())
+}
+
+/// Which model gives the smaller R at each signal: `mine` against `other`, each with the name
+/// the page shows. A difference under two standard errors of the ratio is no difference.
+pub(crate) fn verdicts(
+    comparison: &[Compared],
+    (mine, mine_name): (&ModelSpec, &str),
+    (other, other_name): (&ModelSpec, &str),
+) -> Vec<(f64, String)> {
+    let mut signals: Vec<f64> = comparison
+        .iter()
+        .map(|c| c.record.config.signal_photons)
+        .collect();
+    signals.dedup();
+    signals
+        .into_iter()
+        .filter_map(|s| {
+            let get = |m: &ModelSpec| {
+                comparison
+                    .iter()
+                    .find(|c| &c.spec == m && c.record.config.signal_photons == s)
+                    .map(|c| &c.record.result)
+            };
+            let (c, e) = (get(mine)?, get(other)?);
+            let ratio = c.r_px / e.r_px;
+            let se = ratio * ((c.r_se_px / c.r_px).powi(2) + (e.r_se_px / e.r_px).powi(2)).sqrt();
+            let verdict = if (ratio - 1.0).abs() < 2.0 * se {
+                "no significant difference".to_string()
+            } else if ratio < 1.0 {
+                format!("{mine_name} wins (R {:.1} % lower)", 100.0 * (1.0 - ratio))
+            } else {
+                format!(
+                    "{other_name} wins (R {:.1} % lower)",
+                    100.0 * (1.0 - 1.0 / ratio)
+                )
+            };
+            Some((s, verdict))
+        })
+        .collect()
+}

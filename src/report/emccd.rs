@@ -1,0 +1,95 @@
+//! The EMCCD report: the EM-gain fit on the frames' histogram (exact register), then R against
+//! signal for an EMCCD with the fitted gain and read noise beside sCMOS models.
+
+use super::compare::{
+    compare_models, emccd_groups, write_comparison, COMPARISON_FILES, EMCCD_LABELS,
+};
+use super::grid::Grid;
+use super::options::{GainSource, ReportOptions};
+use super::page::emccd_html;
+use super::result::{EmccdSummary, ReportResult, Summary};
+use crate::calib::summary::inputs;
+use crate::detector::EmRegister;
+use crate::fit::emgain::require_em_signature;
+use crate::fit::emgain::{accumulate as emgain_histogram, chart as emgain_chart};
+use crate::fit::emgain::{fit_emgain, EmGainOptions, EmShape};
+use crate::io::FrameStack;
+use crate::output::{write_atomic, write_json, OutputDir};
+use crate::{Error, Result};
+use std::path::PathBuf;
+
+/// Run the EMCCD report on `stack` into `dir`; `files` of the result are names inside `dir`.
+pub(crate) fn run(
+    o: &ReportOptions,
+    grid: &Grid,
+    stack: &FrameStack,
+    dir: &OutputDir,
+) -> Result<ReportResult> {
+    let GainSource::Given(conv) = o.gain_source()? else {
+        return Err(Error::invalid(
+            "flats_paths",
+            "an EMCCD report takes no flats",
+        ));
+    };
+    require_em_signature(stack)?;
+    let (hist, _) = emgain_histogram(stack, None, None)?;
+    let opts = EmGainOptions {
+        shape: EmShape::Register {
+            stages: o.model_params.stages,
+        },
+        gain_e_per_adu: Some(conv),
+        ..EmGainOptions::default()
+    };
+    // A fit that fails on these frames is bad data in the stack, not a programming error.
+    let fit = fit_emgain(&hist, &opts).map_err(|e| match e {
+        Error::Numeric(m) => Error::input(&stack.sources[0].path, m),
+        other => other,
+    })?;
+    emgain_chart(&hist, &fit, &dir.path("emgain.png"))?;
+    let mut params = o.model_params.clone();
+    params.gain = fit.em_gain.max(1.0);
+    params.emccd_read_noise_e = fit.read_noise_adu * conv;
+    EmRegister::check(params.gain, params.stages, "gain").map_err(|e| {
+        Error::input(
+            &stack.sources[0].path,
+            format!("the fitted EM gain cannot be simulated: {e}"),
+        )
+    })?;
+    let op = grid.operating_point();
+    let comparison = compare_models(grid, &op, &params, &emccd_groups(o.qe, o.qe_emccd))?;
+    write_comparison(&comparison, dir, &EMCCD_LABELS)?;
+    let summary = EmccdSummary {
+        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
+        inputs: inputs(stack)?,
+        frames: stack.frames,
+        shape: [stack.shape.0, stack.shape.1],
+        gain_e_per_adu: conv,
+        read_noise_output_e: params.emccd_read_noise_e,
+        emgain: fit,
+        subap_px: op.subap_px,
+        spot: op.spot.label(),
+        iters: grid.iters,
+        seed: grid.seed,
+        quick: o.quick,
+    };
+    write_json(&dir.path("summary.json"), &summary)?;
+    write_atomic(
+        &dir.path("index.html"),
+        emccd_html(&summary, &comparison).as_bytes(),
+    )?;
+    let files = ["emgain.png"]
+        .into_iter()
+        .chain(COMPARISON_FILES)
+        .chain(["summary.json", "index.html"])
+        .map(PathBuf::from)
+        .collect();
+    Ok(ReportResult {
+        summary: Summary::Emccd(Box::new(summary)),
+        effective: Vec::new(),
+        comparison,
+        pdf_fit: None,
+        ptc: None,
+        out_dir: PathBuf::new(),
+        files,
+    })
+}

@@ -1,0 +1,91 @@
+//! The detector report: a camera's dark (and flat) frames in, effective read-noise tables,
+//! charts and one offline page (`index.html`) out.
+//!
+//! [`run`] takes [`ReportOptions`] and returns a [`ReportResult`] (the key numbers, the tables,
+//! the files written); progress and warnings go to a [`crate::progress::Observer`]. The output
+//! directory is written only when the whole report succeeded.
+
+pub mod charts;
+mod compare;
+mod emccd;
+mod grid;
+mod options;
+pub mod page;
+mod result;
+mod scmos;
+
+#[cfg(test)]
+mod tests;
+
+pub use crate::effective::EffectiveRecord;
+pub use crate::montecarlo::SimRecord;
+pub use grid::{
+    DEFAULT_AIRY_DIAMETERS_PX, DEFAULT_SIGNALS_PHOTONS, DEFAULT_SUBAPS_PX, QUICK_AIRY_DIAMETERS_PX,
+    QUICK_MAX_ITERS, QUICK_SIGNALS_PHOTONS, QUICK_SUBAPS_PX,
+};
+pub use options::{DetectorKind, ReportOptions};
+pub use result::{Compared, EmccdSummary, OperatingPoint, ReportResult, ReportSummary, Summary};
+
+use crate::io::FrameStack;
+use crate::output::{DirPlan, OutputDir};
+use crate::progress::Observer;
+use crate::Result;
+use std::path::PathBuf;
+
+/// Files a report may write into its directory (glob patterns).
+const OUTPUT_NAMES: [&str; 19] = [
+    "offset_adu.fits",
+    "rms_adu.fits",
+    "rms_e.fits",
+    "flags.fits",
+    "rms_hist.png",
+    "darks_summary.json",
+    "pdf_fit.json",
+    "pdf_fit.png",
+    "effective_noise.csv",
+    "effective_noise.json",
+    "effective_noise_S*.png",
+    "effective_noise_S*.svg",
+    "r_vs_signal.csv",
+    "r_vs_signal.png",
+    "r_vs_signal.svg",
+    "ptc.png",
+    "emgain.png",
+    "summary.json",
+    "index.html",
+];
+
+/// Run a whole report: check the options, read the frames, compute, and write every output
+/// into `options.out_dir`.
+pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportResult> {
+    options.validate()?;
+    let grid = options.grid();
+    let inputs: Vec<PathBuf> = options
+        .darks_paths
+        .iter()
+        .chain(&options.flats_paths)
+        .chain(&options.model_input_paths)
+        .cloned()
+        .collect();
+    let dir = OutputDir::prepare(
+        &options.out_dir,
+        DirPlan {
+            command: "report",
+            force: options.force,
+            inputs: &inputs,
+            names: &OUTPUT_NAMES,
+        },
+    )?;
+    let stack = FrameStack::open(&options.darks_paths)?;
+    stack.require_frames(2, "a read-noise map")?;
+    let mut result = match options.detector {
+        DetectorKind::Scmos => scmos::run(options, &grid, &stack, &dir, observer)?,
+        DetectorKind::Emccd => emccd::run(options, &grid, &stack, &dir)?,
+    };
+    let out_dir = dir.commit()?;
+    for f in &mut result.files {
+        *f = out_dir.join(&*f);
+    }
+    result.out_dir = out_dir;
+    Ok(result)
+}

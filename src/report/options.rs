@@ -1,0 +1,193 @@
+//! What a report is asked to do: the camera's frames, the conversion gain, the grid of
+//! configurations, the Monte-Carlo settings, the readout-model parameters and the output
+//! directory, checked together before any frame is read.
+
+use super::grid::{Grid, GridChoice};
+use crate::detector::{EmRegister, ModelParams};
+use crate::montecarlo::SimConfig;
+use crate::spot::{Sampling, Spot};
+use crate::{Error, Result};
+use std::path::PathBuf;
+
+/// The kind of camera a report is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum DetectorKind {
+    /// sCMOS: per-pixel read noise, fitted distribution, effective read noise.
+    #[default]
+    Scmos,
+    /// EMCCD: EM gain, read noise and mean electrons fitted to the frames' histogram.
+    Emccd,
+}
+
+/// The options of a report. Lists left `None` take the full grid, or with `quick` the preview.
+#[derive(Debug, Clone)]
+pub struct ReportOptions {
+    /// The camera type.
+    pub detector: DetectorKind,
+    /// Dark frames: files, directories or glob patterns (FITS, TIFF, OpenEXR).
+    pub darks_paths: Vec<PathBuf>,
+    /// Flat stacks, one per light level, for photon transfer (sCMOS only).
+    pub flats_paths: Vec<PathBuf>,
+    /// Conversion gain (e- per adu); required without flats, refused with them.
+    pub gain_e_per_adu: Option<f64>,
+    /// Sub-aperture sizes of the effective-noise table (px per side, 2 to 128).
+    pub subaps_px: Option<Vec<usize>>,
+    /// Spots of the table (sizes at least 0.1 px).
+    pub spots: Option<Vec<Spot>>,
+    /// Signals of the table (photons per sub-aperture; signal x QE at most 1e9).
+    pub signals_photons: Option<Vec<f64>>,
+    /// Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
+    pub iters: u64,
+    /// Seed of every random stream.
+    pub seed: u64,
+    /// Spot sampling.
+    pub sampling: Sampling,
+    /// Quantum efficiency of this (sCMOS) camera in the comparison, (0, 1].
+    pub qe: f64,
+    /// Quantum efficiency of the EMCCD in the comparison, (0, 1].
+    pub qe_emccd: f64,
+    /// Use dark frames that look illuminated (sCMOS only); otherwise they are refused.
+    pub accept_illuminated: bool,
+    /// Fast preview: the reduced grid where left unset, and at most 2,000 iterations.
+    pub quick: bool,
+    /// Readout-model parameters (EM gain e-/e-, read noise e- rms, sCMOS pdf); the report
+    /// replaces what it measures (the sCMOS pdf and map, or the EM gain and read noise).
+    pub model_params: ModelParams,
+    /// Files the model parameters were read from (a pdf fit, a noise map): never overwritten.
+    pub model_input_paths: Vec<PathBuf>,
+    /// Output directory, written only when the whole report succeeded.
+    pub out_dir: PathBuf,
+    /// Write into an existing `out_dir` that holds other files (never replacing them).
+    pub force: bool,
+}
+
+impl Default for ReportOptions {
+    fn default() -> Self {
+        ReportOptions {
+            detector: DetectorKind::Scmos,
+            darks_paths: Vec::new(),
+            flats_paths: Vec::new(),
+            gain_e_per_adu: None,
+            subaps_px: None,
+            spots: None,
+            signals_photons: None,
+            iters: 10_000,
+            seed: 1,
+            sampling: Sampling::Integrated,
+            qe: 1.0,
+            qe_emccd: 1.0,
+            accept_illuminated: false,
+            quick: false,
+            model_params: ModelParams::default(),
+            model_input_paths: Vec::new(),
+            out_dir: PathBuf::new(),
+            force: false,
+        }
+    }
+}
+
+/// Where the conversion gain comes from.
+pub(crate) enum GainSource {
+    /// Given by the caller (e- per adu).
+    Given(f64),
+    /// Measured by photon transfer on the flats.
+    PhotonTransfer,
+}
+
+impl ReportOptions {
+    /// Check every option (inputs, grid, Monte-Carlo settings, register, conversion gain)
+    /// before any frame is read; the error names the field at fault.
+    pub fn validate(&self) -> Result<()> {
+        if self.darks_paths.is_empty() {
+            return Err(Error::invalid("darks_paths", "no dark frames given"));
+        }
+        if self.out_dir.as_os_str().is_empty() {
+            return Err(Error::invalid("out", "no output directory given"));
+        }
+        self.check_lists()?;
+        if !(self.qe_emccd.is_finite() && self.qe_emccd > 0.0 && self.qe_emccd <= 1.0) {
+            return Err(Error::invalid(
+                "qe_emccd",
+                format!("{}: QE must be in (0, 1]", self.qe_emccd),
+            ));
+        }
+        let grid = self.grid();
+        // The comparison runs the EMCCD at its own QE: both must be valid configurations.
+        for cfg in grid.configs(self.qe) {
+            SimConfig {
+                qe: self.qe_emccd,
+                ..cfg.clone()
+            }
+            .validate()?;
+            cfg.validate()?;
+        }
+        let p = &self.model_params;
+        EmRegister::check(p.gain, p.stages, "gain")?;
+        self.gain_source().map(|_| ())
+    }
+
+    /// Empty lists and spots too small to simulate are refused.
+    fn check_lists(&self) -> Result<()> {
+        let empty = [
+            ("subaps_px", self.subaps_px.as_ref().map(Vec::len)),
+            ("spots", self.spots.as_ref().map(Vec::len)),
+            (
+                "signals_photons",
+                self.signals_photons.as_ref().map(Vec::len),
+            ),
+        ];
+        if let Some((field, _)) = empty.iter().find(|(_, n)| *n == Some(0)) {
+            return Err(Error::invalid(*field, "empty list"));
+        }
+        // A spot's label is its text form: parsing it back applies the spot's own size checks.
+        for spot in self.spots.iter().flatten() {
+            Spot::parse(&spot.label())?;
+        }
+        Ok(())
+    }
+
+    /// The grid of configurations these options ask for.
+    pub(crate) fn grid(&self) -> Grid {
+        Grid::resolve(&GridChoice {
+            subaps_px: self.subaps_px.as_deref(),
+            spots: self.spots.as_deref(),
+            signals_photons: self.signals_photons.as_deref(),
+            iters: self.iters,
+            seed: self.seed,
+            sampling: self.sampling,
+            quick: self.quick,
+        })
+    }
+
+    /// Where the conversion gain comes from: given, or photon transfer on the flats; an
+    /// error when neither or both are given, or flats for an EMCCD.
+    pub(crate) fn gain_source(&self) -> Result<GainSource> {
+        let flats = !self.flats_paths.is_empty();
+        match (self.gain_e_per_adu, flats, self.detector) {
+            (Some(g), false, _) if !(g.is_finite() && g > 0.0) => Err(Error::invalid(
+                "gain_e_per_adu",
+                format!("{g}: must be a number > 0 e- per adu"),
+            )),
+            (Some(g), false, _) => Ok(GainSource::Given(g)),
+            (None, true, DetectorKind::Scmos) => Ok(GainSource::PhotonTransfer),
+            (Some(_), true, DetectorKind::Scmos) => Err(Error::invalid(
+                "gain_e_per_adu",
+                "give either `flats_paths` (photon transfer) or `gain_e_per_adu`, not both",
+            )),
+            (_, true, DetectorKind::Emccd) => Err(Error::invalid(
+                "flats_paths",
+                "an EMCCD report takes the conversion gain from `gain_e_per_adu` (photon \
+                 transfer at unity EM gain, or the data sheet), not from flats",
+            )),
+            (None, false, DetectorKind::Scmos) => Err(Error::invalid(
+                "gain_e_per_adu",
+                "no conversion gain: give `gain_e_per_adu` G (e- per adu, from the camera's data sheet) or flat stacks with `flats_paths` so photon transfer can measure it",
+            )),
+            (None, false, DetectorKind::Emccd) => Err(Error::invalid(
+                "gain_e_per_adu",
+                "an EMCCD report needs the conversion gain in e- per adu (photon transfer at unity EM gain, or the data sheet)",
+            )),
+        }
+    }
+}

@@ -1,0 +1,160 @@
+//! What a report returns: its key numbers (the content of `summary.json`), the tables it
+//! computed, and the files it wrote.
+
+use crate::calib::ptc::PtcResult;
+use crate::calib::summary::InputFile;
+use crate::detector::ModelSpec;
+use crate::effective::EffectiveRecord;
+use crate::fit::emgain::EmGainFit;
+use crate::fit::pdf_fit::PdfFitReport;
+use crate::montecarlo::SimRecord;
+use std::path::PathBuf;
+
+/// The outcome of [`super::run`].
+#[derive(Debug)]
+pub struct ReportResult {
+    /// The key numbers, as written to `summary.json`.
+    pub summary: Summary,
+    /// Effective read noise per configuration: the fitted pdf's records, then the measured
+    /// map's (sCMOS; empty for an EMCCD).
+    pub effective: Vec<EffectiveRecord>,
+    /// R against signal at the operating sub-aperture and spot, per compared model.
+    pub comparison: Vec<Compared>,
+    /// The fit of the per-pixel read-noise distribution (sCMOS).
+    pub pdf_fit: Option<PdfFitReport>,
+    /// Photon transfer on the flats, when it gave the conversion gain (sCMOS).
+    pub ptc: Option<PtcResult>,
+    /// The output directory, as given.
+    pub out_dir: PathBuf,
+    /// Every file the report wrote, inside `out_dir` (the directory's manifest aside).
+    pub files: Vec<PathBuf>,
+}
+
+impl ReportResult {
+    /// The sCMOS summary, if this was an sCMOS report.
+    pub fn scmos(&self) -> Option<&ReportSummary> {
+        match &self.summary {
+            Summary::Scmos(s) => Some(s),
+            Summary::Emccd(_) => None,
+        }
+    }
+
+    /// The EMCCD summary, if this was an EMCCD report.
+    pub fn emccd(&self) -> Option<&EmccdSummary> {
+        match &self.summary {
+            Summary::Emccd(s) => Some(s),
+            Summary::Scmos(_) => None,
+        }
+    }
+}
+
+/// One compared model's result at one signal: the model as selected, and its record.
+#[derive(Debug, Clone)]
+pub struct Compared {
+    /// The readout model.
+    pub spec: ModelSpec,
+    /// Its configuration and R (px).
+    pub record: SimRecord,
+}
+
+/// The key numbers of a report, by camera kind.
+#[derive(Debug)]
+pub enum Summary {
+    /// An sCMOS report.
+    Scmos(Box<ReportSummary>),
+    /// An EMCCD report.
+    Emccd(Box<EmccdSummary>),
+}
+
+/// The key numbers of an sCMOS report, written to `summary.json`.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ReportSummary {
+    /// Tool and version.
+    pub tool: String,
+    /// Inputs with SHA-256.
+    pub inputs: Vec<InputFile>,
+    /// Dark frames used.
+    pub frames: usize,
+    /// Frame shape [rows, cols].
+    pub shape: [usize; 2],
+    /// Conversion gain used (e-/adu) and where it came from.
+    pub gain_e_per_adu: f64,
+    /// `ptc` or `given`.
+    pub gain_source: String,
+    /// Standard error of the gain (e-/adu; photon transfer only).
+    pub gain_se_e_per_adu: Option<f64>,
+    /// Pixels used for the noise statistics (unflagged).
+    pub pixels_used: usize,
+    /// Pixels excluded by the dark flags (hot, dead, saturated, no data).
+    pub pixels_flagged: usize,
+    /// Median per-pixel read noise (e-).
+    pub median_rms_e: f64,
+    /// Mean per-pixel read noise (e-).
+    pub mean_rms_e: f64,
+    /// sqrt(mean(rms^2)) (e-), the noise-power equivalent single value.
+    pub rms_rms_e: f64,
+    /// Fraction of pixels above 3x the median.
+    pub frac_above_3x_median: f64,
+    /// Best pdf model by AIC.
+    pub pdf_best_model: String,
+    /// Split-half correlation of the noise maps (odd vs even frames).
+    pub split_half_correlation: f64,
+    /// The operating point of the headline numbers.
+    pub operating_point: OperatingPoint,
+    /// Monte-Carlo iterations per configuration.
+    pub iters: u64,
+    /// Seed.
+    pub seed: u64,
+    /// Spot sampling.
+    pub sampling: String,
+    /// True for the reduced `quick` grid.
+    pub quick: bool,
+}
+
+/// The headline configuration of an sCMOS report and its numbers.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct OperatingPoint {
+    /// Sub-aperture (px).
+    pub subap_px: usize,
+    /// Spot.
+    pub spot: String,
+    /// Signal (photons).
+    pub signal_photons: f64,
+    /// Effective read noise with the fitted pdf (e-).
+    pub sigma_eff_fitted_pdf_e: f64,
+    /// Its standard error (e-).
+    pub sigma_eff_fitted_pdf_se_e: f64,
+    /// Effective read noise with the measured map (e-).
+    pub sigma_eff_map_e: f64,
+    /// Its standard error (e-).
+    pub sigma_eff_map_se_e: f64,
+}
+
+/// The key numbers of an EMCCD report, written to `summary.json`.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct EmccdSummary {
+    /// Tool and version.
+    pub tool: String,
+    /// Inputs with SHA-256.
+    pub inputs: Vec<InputFile>,
+    /// Frames used.
+    pub frames: usize,
+    /// Frame shape [rows, cols].
+    pub shape: [usize; 2],
+    /// Conversion gain used (e-/adu).
+    pub gain_e_per_adu: f64,
+    /// Read noise before the EM gain divides it (output e-).
+    pub read_noise_output_e: f64,
+    /// The EM-gain fit (gain in e-/e-, bias and read noise in adu, lambda in e-).
+    pub emgain: EmGainFit,
+    /// Operating point of the comparison: sub-aperture (px).
+    pub subap_px: usize,
+    /// Operating point: spot.
+    pub spot: String,
+    /// Monte-Carlo iterations.
+    pub iters: u64,
+    /// Seed.
+    pub seed: u64,
+    /// True for the reduced `quick` grid.
+    pub quick: bool,
+}

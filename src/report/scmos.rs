@@ -1,0 +1,247 @@
+//! The sCMOS report: dark maps, conversion gain, the fitted per-pixel noise distribution, the
+//! effective read noise over the grid (fitted pdf and measured map), and the comparison.
+
+use super::charts::effective_heatmaps;
+use super::compare::{
+    compare_models, scmos_groups, write_comparison, COMPARISON_FILES, SCMOS_LABELS,
+};
+use super::grid::{Grid, Headline};
+use super::options::{GainSource, ReportOptions};
+use super::page::index_html;
+use super::result::{OperatingPoint, ReportResult, ReportSummary, Summary};
+use crate::calib::darks::write_outputs as write_dark_outputs;
+use crate::calib::darks::{dark_maps, require_dark, DarkMaps, DarkOptions};
+use crate::calib::ptc::chart as ptc_chart;
+use crate::calib::ptc::{photon_transfer, DarkReference, PtcOptions, PtcResult};
+use crate::calib::summary::inputs;
+use crate::detector::{ModelParams, ModelSpec};
+use crate::effective::effective_table;
+use crate::effective::EffectiveRecord;
+use crate::fit::pdf_fit::chart as pdf_fit_chart;
+use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
+use crate::io::FrameStack;
+use crate::montecarlo::SimConfig;
+use crate::output::{render, write_atomic, write_json, OutputDir, TableFormat};
+use crate::progress::Observer;
+use crate::{Error, Result};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// The models of the effective-noise table, with their labels in it.
+const EFFECTIVE_MODELS: [(ModelSpec, &str); 2] = [
+    (ModelSpec::ScmosRandom, "scmos-random (fitted pdf)"),
+    (ModelSpec::ScmosMap, "scmos-map (measured map)"),
+];
+
+/// The conversion gain and where it came from.
+struct Gain {
+    e_per_adu: f64,
+    source: &'static str,
+    se_e_per_adu: Option<f64>,
+    ptc: Option<PtcResult>,
+}
+
+/// Run the sCMOS report on the dark `stack` into `dir`; `files` of the result are names
+/// inside `dir`.
+pub(crate) fn run(
+    o: &ReportOptions,
+    grid: &Grid,
+    stack: &FrameStack,
+    dir: &OutputDir,
+    observer: &dyn Observer,
+) -> Result<ReportResult> {
+    let dark_opts = DarkOptions::default();
+    let maps = dark_maps(stack, &dark_opts)?;
+    if let Some(warning) = require_dark(stack, &maps, o.accept_illuminated)? {
+        observer.warn(&warning);
+    }
+    let gain = conversion_gain(o, &maps)?;
+    let dark_summary = write_dark_outputs(
+        &dir.path(""),
+        stack,
+        &maps,
+        &dark_opts,
+        Some(gain.e_per_adu),
+        inputs(stack)?,
+        "darks_summary.json",
+    )?;
+    let mut files = dark_summary.outputs.clone();
+    // Noise map in e-, flagged pixels excluded (NaN) from the statistics and the windows.
+    let rms_e = maps
+        .rms_adu
+        .masked(&maps.flags)
+        .to_electrons(gain.e_per_adu)
+        .with_source(o.darks_paths[0].display().to_string());
+    let values: Vec<f64> = rms_e
+        .data
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .collect();
+    if values.len() < 16 {
+        return Err(Error::input(
+            &o.darks_paths[0],
+            format!(
+                "only {} unflagged pixels with a positive noise: too few to fit a distribution",
+                values.len()
+            ),
+        ));
+    }
+    let fit = fit_pdf(&values, &PdfFitOptions::default())?;
+    fit.write_json(&dir.path("pdf_fit.json"))?;
+    pdf_fit_chart(&fit, &values, &dir.path("pdf_fit.png"))?;
+    files.extend(["pdf_fit.json".into(), "pdf_fit.png".into()]);
+    let mut params = o.model_params.clone();
+    params.pdf = fit.pdf(None)?;
+    params.map = Some(Arc::new(rms_e));
+    let configs = grid.configs(o.qe);
+    let [fitted, measured] = effective_tables(&configs, &params, observer)?;
+    let heatmaps = effective_heatmaps(&fitted, dir)?;
+    files.extend(heatmaps.iter().map(|p| file_name(p)));
+    let op = grid.operating_point();
+    let operating_point = operating_point(&op, &fitted, &measured);
+    let effective: Vec<EffectiveRecord> = fitted.into_iter().chain(measured).collect();
+    for (name, format) in [
+        ("effective_noise.csv", TableFormat::Csv),
+        ("effective_noise.json", TableFormat::Json),
+    ] {
+        write_atomic(&dir.path(name), render(&effective, format)?.as_bytes())?;
+        files.push(name.into());
+    }
+    let comparison = compare_models(grid, &op, &params, &scmos_groups(o.qe, o.qe_emccd))?;
+    write_comparison(&comparison, dir, &SCMOS_LABELS)?;
+    files.extend(COMPARISON_FILES.map(String::from));
+    if let Some(p) = &gain.ptc {
+        ptc_chart(p, &dir.path("ptc.png"))?;
+        files.push("ptc.png".into());
+    }
+    let summary = ReportSummary {
+        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
+        inputs: dark_summary.inputs.clone(),
+        frames: stack.frames,
+        shape: [stack.shape.0, stack.shape.1],
+        gain_e_per_adu: gain.e_per_adu,
+        gain_source: gain.source.into(),
+        gain_se_e_per_adu: gain.se_e_per_adu,
+        pixels_used: values.len(),
+        pixels_flagged: maps.flags.iter().filter(|f| **f != 0).count(),
+        median_rms_e: fit.data.median_e,
+        mean_rms_e: fit.data.mean_e,
+        rms_rms_e: fit.data.rms_e,
+        frac_above_3x_median: fit.data.frac_above_3x_median,
+        pdf_best_model: fit.best_model.clone(),
+        split_half_correlation: maps.split_half_correlation,
+        operating_point,
+        iters: grid.iters,
+        seed: grid.seed,
+        sampling: grid.sampling.label().into(),
+        quick: o.quick,
+    };
+    write_json(&dir.path("summary.json"), &summary)?;
+    let page = index_html(
+        &summary,
+        &fit,
+        &effective,
+        &comparison,
+        &heatmaps,
+        gain.ptc.is_some(),
+    );
+    write_atomic(&dir.path("index.html"), page.as_bytes())?;
+    files.extend(["summary.json".into(), "index.html".into()]);
+    Ok(ReportResult {
+        summary: Summary::Scmos(Box::new(summary)),
+        effective,
+        comparison,
+        pdf_fit: Some(fit),
+        ptc: gain.ptc,
+        out_dir: PathBuf::new(),
+        files: files.into_iter().map(PathBuf::from).collect(),
+    })
+}
+
+fn file_name(path: &std::path::Path) -> String {
+    path.file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// The gain: from photon transfer when flats are given, else the caller's; never guessed.
+fn conversion_gain(o: &ReportOptions, maps: &DarkMaps) -> Result<Gain> {
+    match o.gain_source()? {
+        GainSource::Given(g) => Ok(Gain {
+            e_per_adu: g,
+            source: "given",
+            se_e_per_adu: None,
+            ptc: None,
+        }),
+        GainSource::PhotonTransfer => {
+            let flats: Vec<FrameStack> = o
+                .flats_paths
+                .iter()
+                .map(|f| FrameStack::open(std::slice::from_ref(f)))
+                .collect::<Result<_>>()?;
+            let dark = DarkReference::from_stats(&maps.stats);
+            let p = photon_transfer(&flats, &dark, &PtcOptions::default())?;
+            Ok(Gain {
+                e_per_adu: p.gain_e_per_adu,
+                source: "ptc",
+                se_e_per_adu: Some(p.gain_err_e_per_adu),
+                ptc: Some(p),
+            })
+        }
+    }
+}
+
+/// The effective read noise of each model of [`EFFECTIVE_MODELS`] on every configuration, as
+/// one stage of progress (both models' iterations), labelled as the page names them.
+fn effective_tables(
+    configs: &[SimConfig],
+    params: &ModelParams,
+    observer: &dyn Observer,
+) -> Result<[Vec<EffectiveRecord>; 2]> {
+    let specs = EFFECTIVE_MODELS.map(|(spec, _)| spec);
+    // Records come model by model, each over every configuration.
+    let mut records = effective_table(configs, &specs, params, observer)?.into_iter();
+    Ok(EFFECTIVE_MODELS.map(|(_, label)| {
+        records
+            .by_ref()
+            .take(configs.len())
+            .map(|r| EffectiveRecord {
+                model: label.into(),
+                ..r
+            })
+            .collect()
+    }))
+}
+
+/// The headline numbers: both tables' records at the operating point (it is in the grid).
+fn operating_point(
+    op: &Headline,
+    fitted: &[EffectiveRecord],
+    measured: &[EffectiveRecord],
+) -> OperatingPoint {
+    let spot = op.spot.label();
+    let at = |records: &[EffectiveRecord]| -> (f64, f64) {
+        let r = records
+            .iter()
+            .find(|r| {
+                let c = &r.config;
+                c.subap_px == op.subap_px
+                    && c.spot == op.spot
+                    && c.signal_photons == op.signal_photons
+            })
+            .expect("operating point is in the grid");
+        (r.effective.sigma_eff_e, r.effective.sigma_eff_se_e)
+    };
+    let (fitted_e, fitted_se_e) = at(fitted);
+    let (map_e, map_se_e) = at(measured);
+    OperatingPoint {
+        subap_px: op.subap_px,
+        spot,
+        signal_photons: op.signal_photons,
+        sigma_eff_fitted_pdf_e: fitted_e,
+        sigma_eff_fitted_pdf_se_e: fitted_se_e,
+        sigma_eff_map_e: map_e,
+        sigma_eff_map_se_e: map_se_e,
+    }
+}

@@ -1,0 +1,141 @@
+//! A whole report run from Rust, without the command line: options in, numbers and files out.
+
+mod common;
+
+use common::data;
+use detnoise::progress::Silent;
+use detnoise::report::{self, DetectorKind, ReportOptions, QUICK_AIRY_DIAMETERS_PX};
+use detnoise::report::{QUICK_SIGNALS_PHOTONS, QUICK_SUBAPS_PX};
+use detnoise::Error;
+use serde_json::Value;
+use std::path::Path;
+
+/// The manifest of bundled stack `name` (its truth).
+fn manifest(name: &str) -> Value {
+    let path = data(name).with_extension("manifest.json");
+    serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap()
+}
+
+fn quick(stack: &str, gain_e_per_adu: f64, out: &Path) -> ReportOptions {
+    ReportOptions {
+        darks_paths: vec![data(stack)],
+        gain_e_per_adu: Some(gain_e_per_adu),
+        quick: true,
+        out_dir: out.to_path_buf(),
+        ..ReportOptions::default()
+    }
+}
+
+fn assert_files_exist(result: &report::ReportResult, names: &[&str]) {
+    for f in &result.files {
+        assert!(f.starts_with(&result.out_dir), "{}", f.display());
+        assert!(f.is_file(), "missing {}", f.display());
+    }
+    for name in names {
+        assert!(
+            result.files.contains(&result.out_dir.join(name)),
+            "{name} not listed"
+        );
+    }
+}
+
+#[test]
+fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let options = quick("scmos-darks-64x64.fits", 0.25, &out);
+    let result = report::run(&options, &Silent).unwrap();
+    let s = result.scmos().expect("an sCMOS summary");
+    assert_eq!((s.frames, s.shape), (100, [64, 64]));
+    assert_eq!((s.gain_e_per_adu, s.gain_source.as_str()), (0.25, "given"));
+
+    // Truth: the median of the synthesis' rms map, plus the quantisation of integer samples
+    // (variance + 1/12 adu^2, i.e. + g^2/12 e^2; monotone, so it moves the median alike).
+    let m = manifest("scmos-darks-64x64.fits");
+    let g = 0.25;
+    let truth_e = (m["rms_e_median"].as_f64().unwrap().powi(2) + g * g / 12.0).sqrt();
+    // Each pixel's rms scatters by 1/sqrt(2 (n - 1)) from its n frames and by the per-pixel
+    // gain spread (converted with one gain); the median of N pixels then has a standard error
+    // of sqrt(pi / 2) x scatter / sqrt(N).
+    let frames = m["spec"]["frames"].as_f64().unwrap();
+    let spread = m["spec"]["camera"]["gain_spread"].as_f64().unwrap();
+    let scatter_e = truth_e * (1.0 / (2.0 * (frames - 1.0)) + spread * spread).sqrt();
+    let se_e = (std::f64::consts::PI / 2.0).sqrt() * scatter_e / (s.pixels_used as f64).sqrt();
+    assert!(
+        (s.median_rms_e - truth_e).abs() < 4.0 * se_e,
+        "median {} against {truth_e} +- {se_e}",
+        s.median_rms_e
+    );
+
+    let grid = QUICK_SUBAPS_PX.len() * QUICK_AIRY_DIAMETERS_PX.len() * QUICK_SIGNALS_PHOTONS.len();
+    // Two models over the grid: the fitted pdf, then the measured map.
+    assert_eq!(result.effective.len(), 2 * grid);
+    assert!(result.effective[..grid]
+        .iter()
+        .all(|r| r.model == "scmos-random (fitted pdf)"));
+    assert!(result.effective[grid..]
+        .iter()
+        .all(|r| r.model == "scmos-map (measured map)"));
+    // Five models (fitted pdf, map, median, mean, EMCCD) at each signal.
+    assert_eq!(result.comparison.len(), 5 * QUICK_SIGNALS_PHOTONS.len());
+    let op = &s.operating_point;
+    assert_eq!((op.subap_px, op.spot.as_str()), (8, "airy:2"));
+    assert_eq!(op.signal_photons, 50.0);
+    assert!(op.sigma_eff_map_e > s.median_rms_e, "{op:?}");
+    assert!(result.pdf_fit.is_some() && result.ptc.is_none());
+    assert_files_exist(
+        &result,
+        &[
+            "index.html",
+            "summary.json",
+            "effective_noise.csv",
+            "rms_e.fits",
+            "effective_noise_S50.png",
+        ],
+    );
+    // summary.json holds the returned numbers.
+    let written: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(written["median_rms_e"].as_f64(), Some(s.median_rms_e));
+}
+
+#[test]
+fn emccd_report_recovers_the_bundled_cameras_em_gain() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let options = ReportOptions {
+        detector: DetectorKind::Emccd,
+        ..quick("emccd-lowlight-32x48.fits", 10.0, &out)
+    };
+    let result = report::run(&options, &Silent).unwrap();
+    let s = result.emccd().expect("an EMCCD summary");
+    let truth = manifest("emccd-lowlight-32x48.fits")["spec"]["camera"]["em_gain"]
+        .as_f64()
+        .unwrap();
+    let (gain, se) = (s.emgain.em_gain, s.emgain.em_gain_se);
+    assert!(
+        (gain - truth).abs() < 4.0 * se,
+        "gain {gain} +- {se}, truth {truth}"
+    );
+    assert!(result.effective.is_empty() && result.pdf_fit.is_none());
+    // Four models (this EMCCD, the paper's pdf, median, mean) at each signal.
+    assert_eq!(result.comparison.len(), 4 * QUICK_SIGNALS_PHOTONS.len());
+    assert_files_exist(&result, &["emgain.png", "r_vs_signal.csv", "index.html"]);
+}
+
+#[test]
+fn a_bad_option_is_refused_naming_its_field_before_anything_is_written() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let options = ReportOptions {
+        gain_e_per_adu: None,
+        ..quick("scmos-darks-64x64.fits", 0.25, &out)
+    };
+    match options.validate() {
+        Err(Error::Usage { field, .. }) => assert_eq!(field, "gain_e_per_adu"),
+        other => panic!("{other:?}"),
+    }
+    let e = report::run(&options, &Silent).unwrap_err();
+    assert!(matches!(e, Error::Usage { ref field, .. } if field == "gain_e_per_adu"));
+    assert!(!out.exists());
+}
