@@ -4,11 +4,9 @@ use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::PathBuf;
 
 use super::args::{real, whole};
+use super::progress::Terminal;
 use crate::calib::darks::{run as run_darks, Clip, DarkOptions, DarksRun};
 use crate::error::Result;
-use crate::progress::Observer;
-
-/// Kept for `cli::report` until the merge points it at the library path.
 
 /// Options of `detnoise darks`.
 #[derive(clap::Args, Debug)]
@@ -58,15 +56,6 @@ pub struct DarksArgs {
 /// Largest `--clip` (samples rejected at each end of every pixel).
 const MAX_CLIP: u64 = 100_000;
 
-/// Prints the library's warnings on standard error.
-struct Warnings;
-
-impl Observer for Warnings {
-    fn warn(&self, message: &str) {
-        eprintln!("warning: {message}");
-    }
-}
-
 /// Run `detnoise darks`.
 pub fn run(args: &DarksArgs) -> Result<()> {
     let clip = match (args.clip, args.sigma_clip) {
@@ -89,7 +78,7 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         checksums: !args.no_checksums,
         accept_illuminated: args.accept_illuminated,
     };
-    let r = run_darks(&job, &Warnings)?;
+    let r = run_darks(&job, &Terminal::default())?;
     let (mb, secs) = (r.stored_bytes as f64 / 1e6, r.read_seconds);
     eprintln!(
         "read {mb:.1} MB of samples in {secs:.2} s ({:.0} MB/s)",

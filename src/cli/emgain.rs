@@ -8,8 +8,6 @@ use crate::detector::register::MAX_STAGES;
 use crate::error::Result;
 use crate::fit::emgain::{run as run_emgain, EmgainRun};
 
-/// Kept for `cli::report` until the merge points it at the library paths.
-
 /// Options of `detnoise emgain`.
 #[derive(clap::Args, Debug)]
 pub struct EmgainArgs {

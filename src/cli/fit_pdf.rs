@@ -9,8 +9,6 @@ use crate::error::Result;
 use crate::fit::pdf_fit::{run as run_fit, FitPdfRun};
 use crate::fit::PdfModel;
 
-/// Kept for `cli::report` until the merge points it at the library path.
-
 /// Unit of the map's values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum MapUnit {

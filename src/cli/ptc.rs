@@ -8,8 +8,6 @@ use crate::calib::ptc::{run as run_ptc, DarkInput, PtcOptions, PtcRun};
 use crate::detector::register::MAX_EM_GAIN;
 use crate::error::{Error, Result};
 
-/// Kept for `cli::report` until the merge points it at the library path.
-
 /// Options of `detnoise ptc`.
 #[derive(clap::Args, Debug)]
 pub struct PtcArgs {
