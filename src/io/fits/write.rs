@@ -84,16 +84,7 @@ pub fn write_image(
             ImageData::F64(_) => ImageType::Double,
             ImageData::I32(_) => ImageType::Long,
         };
-        let desc = ImageDescription {
-            data_type,
-            dimensions: &[shape.0, shape.1],
-        };
-        let mut f = FitsFile::create(tmp)
-            .with_custom_primary(&desc)
-            .overwrite()
-            .open()
-            .map_err(|e| fits_err(tmp, e))?;
-        let hdu = f.primary_hdu().map_err(|e| fits_err(tmp, e))?;
+        let (mut f, hdu) = create_primary(tmp, data_type, &[shape.0, shape.1])?;
         match data {
             ImageData::F64(d) => hdu.write_image(&mut f, d),
             ImageData::I32(d) => hdu.write_image(&mut f, d),
@@ -114,6 +105,26 @@ pub fn write_image(
     })
 }
 
+/// A new FITS file at `tmp` whose primary HDU is an image of `data_type` and `dimensions`
+/// (slowest axis first), with that HDU.
+fn create_primary(
+    tmp: &Path,
+    data_type: ImageType,
+    dimensions: &[usize],
+) -> Result<(FitsFile, fitsio::hdu::FitsHdu)> {
+    let desc = ImageDescription {
+        data_type,
+        dimensions,
+    };
+    let mut f = FitsFile::create(tmp)
+        .with_custom_primary(&desc)
+        .overwrite()
+        .open()
+        .map_err(|e| fits_err(tmp, e))?;
+    let hdu = f.primary_hdu().map_err(|e| fits_err(tmp, e))?;
+    Ok((f, hdu))
+}
+
 /// Write frames as one FITS cube (NAXIS3 = frames), atomically. `u16` stores unsigned
 /// 16-bit integers (int16 + BZERO 32768, values rounded and clamped), otherwise 32-bit floats.
 pub fn write_cube(
@@ -130,16 +141,7 @@ pub fn write_cube(
         } else {
             ImageType::Float
         };
-        let desc = ImageDescription {
-            data_type,
-            dimensions: &[frames, shape.0, shape.1],
-        };
-        let mut f = FitsFile::create(tmp)
-            .with_custom_primary(&desc)
-            .overwrite()
-            .open()
-            .map_err(|e| fits_err(tmp, e))?;
-        let hdu = f.primary_hdu().map_err(|e| fits_err(tmp, e))?;
+        let (mut f, hdu) = create_primary(tmp, data_type, &[frames, shape.0, shape.1])?;
         let npix = shape.0 * shape.1;
         for k in 0..frames {
             let frame = next();
