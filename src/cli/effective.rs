@@ -25,7 +25,7 @@ pub struct EffectiveArgs {
     #[command(flatten)]
     pub detector: DetectorArgs,
     /// Output directory: effective_noise.csv, effective_noise.json and one heatmap per signal
-    /// (effective_noise_S<signal>.png and .svg). Written only when the run succeeds; an existing
+    /// (e.g. effective_noise_S50.png and .svg for 50 photons). Written only when the run succeeds; an existing
     /// directory is replaced only if detnoise wrote it.
     #[arg(long)]
     pub out: PathBuf,
