@@ -198,7 +198,7 @@ fn report_checks_every_option_before_reading_the_darks() {
         ),
         (
             &["--gain-e-per-adu", "1", "--stages", "8"],
-            &["--stages", "--gain"],
+            &["--stages", "--em-gain"],
         ),
         (&[], &["--gain-e-per-adu", "--flats"]),
         (
@@ -440,12 +440,17 @@ fn engine_limits_are_refused_with_the_limit_and_its_reason() {
         a.extend_from_slice(&args);
         refused(
             &a,
-            &["--stages", "--gain", "at least 9 stages", "at most 1"],
+            &["--stages", "--em-gain", "at least 9 stages", "at most 1"],
         );
     }
     // Cost and memory grow with the gain: bounded, with the bound in the message.
-    refused(&["simulate", "--gain", "1e9"], &["--gain", "[1, 10000]"]);
-    refused(&["simulate", "--gain", "0.5"], &["--gain", "[1, 10000]"]);
+    refused(&["simulate", "--em-gain", "1e9"], &["--em-gain", "[1, 10000]"]);
+    refused(&["simulate", "--em-gain", "0.5"], &["--em-gain", "[1, 10000]"]);
+    // The EM gain has one name in every command; the old `--gain` (which `report` took silently
+    // as an EM gain beside `--gain-e-per-adu`) is refused, naming both options.
+    for cmd in ["simulate", "effective", "report"] {
+        refused(&[cmd, "--gain", "0.25"], &["--gain", "--em-gain", "--gain-e-per-adu"]);
+    }
     // The spot stays mostly inside the sub-aperture: a quarter of the side.
     refused(
         &["simulate", "--position-range", "1e9"],
@@ -491,7 +496,7 @@ fn runs_at_the_engine_limits_succeed_promptly() {
             "4",
             "--model",
             "emccd-stochastic",
-            "--gain",
+            "--em-gain",
             "10000",
         ],
         vec![

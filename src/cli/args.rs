@@ -50,6 +50,14 @@ where
     }
 }
 
+/// A clap value parser for a retired option: it refuses any value, naming the option's new
+/// spelling (`now`).
+pub fn renamed(
+    now: &'static str,
+) -> impl Fn(&str) -> std::result::Result<String, String> + Clone + Send + Sync + 'static {
+    move |_: &str| Err(format!("this option was renamed: use {now}"))
+}
+
 /// `in (0, 1] unit`, `>= 0 unit`, ...: a range as the messages state it.
 fn describe(lo: Bound<f64>, hi: Bound<f64>, unit: &str) -> String {
     let unit = if unit.is_empty() {
@@ -162,7 +170,10 @@ pub struct DetectorArgs {
     /// EMCCD mean EM gain, output e- per input e-: 1 to 10,000 (cameras run at most at a few
     /// thousand; the exact register's table grows linearly with the gain).
     #[arg(long, default_value_t = 500.0, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
-    pub gain: f64,
+    pub em_gain: f64,
+    /// Retired spelling of `--em-gain`: refused, naming the new option.
+    #[arg(long = "gain", hide = true, value_parser = renamed("`--em-gain` (EM gain, e-/e-); the conversion gain is `--gain-e-per-adu`"))]
+    pub retired_gain: Option<String>,
     /// Stages of the EM register: 1 to 2000, and at least log2(gain) (a stage at most doubles
     /// the charge: p = gain^(1/stages) - 1 <= 1).
     #[arg(long, default_value_t = 520, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
@@ -208,7 +219,7 @@ impl DetectorArgs {
     /// Check the detector options together (single values are checked while parsing), before
     /// any file is read; `specs` are the models the run will build.
     pub fn validate(&self, specs: &[ModelSpec]) -> Result<()> {
-        EmRegister::check(self.gain, self.stages, "gain")?;
+        EmRegister::check(self.em_gain, self.stages, "em_gain")?;
         if self.pdf == "paper" && self.pdf_model.is_some() {
             return Err(Error::invalid(
                 "--pdf-model",
@@ -228,7 +239,7 @@ impl DetectorArgs {
     pub fn params(&self) -> Result<ModelParams> {
         self.validate(&[])?;
         Ok(ModelParams {
-            gain: self.gain,
+            em_gain: self.em_gain,
             stages: self.stages,
             emccd_read_noise_e: self.emccd_read_noise,
             gaussian_switch_e: self.gaussian_switch,

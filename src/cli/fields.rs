@@ -52,7 +52,6 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("rms_pdf", "--rms-pdf"),
     ("em_gain", "--em-gain"),
     // Readout models (detector): `ModelParams` fields, the model list, and the map.
-    ("gain", "--gain"),
     ("emccd_read_noise_e", "--emccd-read-noise"),
     ("gaussian_switch_e", "--gaussian-switch"),
     ("cascade_register", "--register"),

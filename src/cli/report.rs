@@ -118,7 +118,7 @@ impl ReportArgs {
     pub fn options(&self) -> Result<ReportOptions> {
         let mut options = self.grid_options()?;
         // The register is checked with the user's gain and stages before any file is read.
-        options.model_params.gain = self.detector.gain;
+        options.model_params.em_gain = self.detector.em_gain;
         options.model_params.stages = self.detector.stages;
         options.validate()?;
         options.model_params = self.detector.params()?;

@@ -12,11 +12,11 @@ pub const ENTRY: ModelEntry = ModelEntry {
     arg: None,
     help: "EMCCD with the register output drawn from Gamma(k, gain) (Eq. 2) + read noise, divided by the gain",
     sensor: Sensor::Emccd,
-    params: &["gain", "emccd_read_noise_e", "gaussian_switch_e"],
+    params: &["em_gain", "emccd_read_noise_e", "gaussian_switch_e"],
     parse: |_, _| Ok(ModelSpec::EmccdDistribution),
     build: |_, p, _| {
         Ok(Box::new(EmccdDistribution::new(
-            p.gain,
+            p.em_gain,
             p.emccd_read_noise_e,
             p.gaussian_switch_e,
         )))

@@ -12,7 +12,7 @@ use super::spec::{ModelEntry, ModelSpec, Sensor};
 use crate::rng::SimRng;
 
 /// The parameters both PP models read.
-const PARAMS: &[&str] = &["gain", "stages", "emccd_read_noise_e", "pp_rule", "pp_lambda"];
+const PARAMS: &[&str] = &["em_gain", "stages", "emccd_read_noise_e", "pp_rule", "pp_lambda"];
 
 /// The registry entry of `emccd-pp` (photometrically corrected).
 pub const CORRECTED: ModelEntry = ModelEntry {
@@ -39,9 +39,9 @@ pub const UNCORRECTED: ModelEntry = ModelEntry {
 /// The PP readout of `p`, photometrically corrected or not.
 fn build(p: &ModelParams, corrected: bool) -> crate::Result<Box<dyn Readout>> {
     Ok(Box::new(EmccdPp::new(
-        EmRegister::new(p.gain, p.stages)?,
+        EmRegister::new(p.em_gain, p.stages)?,
         p.emccd_read_noise_e,
-        PpConfig::new(p.pp_rule, p.gain, p.emccd_read_noise_e)?,
+        PpConfig::new(p.pp_rule, p.em_gain, p.emccd_read_noise_e)?,
         p.pp_lambda,
         corrected,
     )?))

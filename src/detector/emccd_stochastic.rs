@@ -13,11 +13,11 @@ pub const ENTRY: ModelEntry = ModelEntry {
     arg: None,
     help: "EMCCD with the exact multiplication register + Gaussian read noise, divided by the gain",
     sensor: Sensor::Emccd,
-    params: &["gain", "stages", "emccd_read_noise_e", "cascade_register"],
+    params: &["em_gain", "stages", "emccd_read_noise_e", "cascade_register"],
     parse: |_, _| Ok(ModelSpec::EmccdStochastic),
     build: |_, p, _| {
         Ok(Box::new(EmccdStochastic::new(
-            EmRegister::new(p.gain, p.stages)?,
+            EmRegister::new(p.em_gain, p.stages)?,
             p.emccd_read_noise_e,
             p.cascade_register,
         )))

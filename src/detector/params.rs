@@ -11,7 +11,7 @@ use crate::pdf::RmsPdf;
 #[derive(Debug, Clone)]
 pub struct ModelParams {
     /// EMCCD mean gain (output e- per input e-); paper default 500.
-    pub gain: f64,
+    pub em_gain: f64,
     /// EM register stages; paper default 520.
     pub stages: u32,
     /// EMCCD read noise before division by the gain (e-); paper default 50.
@@ -37,7 +37,7 @@ pub struct ModelParams {
 impl Default for ModelParams {
     fn default() -> Self {
         ModelParams {
-            gain: 500.0,
+            em_gain: 500.0,
             stages: 520,
             emccd_read_noise_e: 50.0,
             gaussian_switch_e: None,

@@ -62,7 +62,7 @@ impl EmRegister {
     /// Register with mean gain `gain` (1 ..= [`MAX_EM_GAIN`]) and `stages` stages
     /// (1 ..= [`MAX_STAGES`], and enough that p <= 1: see [`EmRegister::check`]).
     pub fn new(gain: f64, stages: u32) -> crate::Result<Self> {
-        Self::check(gain, stages, "gain")?;
+        Self::check(gain, stages, "em_gain")?;
         let p = stage_probability(gain, stages);
         let pmf = single_electron_pmf(p, stages, gain);
         Ok(EmRegister {

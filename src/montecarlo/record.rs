@@ -7,43 +7,44 @@ use serde::ser::{Serialize, SerializeStruct, Serializer};
 /// One row of simulation output: a configuration and one model's result in it.
 ///
 /// Serialised (CSV, JSON) as the columns `model`, the configuration (`subap_px`, `spot`,
-/// `sampling`, `signal_photons`, `qe`, `gain`, `iters`, `seed`), the result (`r_px` ...
+/// `sampling`, `signal_photons`, `qe`, `em_gain` (empty for models without an EM register), `iters`, `seed`), the result (`r_px` ...
 /// `zero_frames`), then `bg_levels_e` and `r_by_level_px` (arrays: JSON only).
 #[derive(Debug, Clone)]
 pub struct SimRecord {
     /// The configuration run.
     pub config: SimConfig,
-    /// EMCCD mean gain of the models (e-/e-).
-    pub gain: f64,
+    /// EMCCD mean gain of the model (e-/e-); None for a model without an EM register.
+    pub em_gain: Option<f64>,
     /// The model's result.
     pub result: SimResult,
 }
 
 impl SimRecord {
-    /// Combine a configuration, the EM gain in use and one model's result.
-    pub fn new(config: &SimConfig, gain: f64, result: SimResult) -> Self {
+    /// Combine a configuration, the model's EM gain (None without a register) and its result.
+    pub fn new(config: &SimConfig, em_gain: Option<f64>, result: SimResult) -> Self {
         SimRecord {
             config: config.clone(),
-            gain,
+            em_gain,
             result,
         }
     }
 }
 
 /// Write the configuration columns of a record: `subap_px`, `spot`, `sampling`,
-/// `signal_photons`, `qe`, then `gain` when given, then `iters` and `seed`.
+/// `signal_photons`, `qe`, then `em_gain` when asked for (`Some(None)`: an empty cell), then
+/// `iters` and `seed`.
 pub(crate) fn config_columns<S: SerializeStruct>(
     s: &mut S,
     cfg: &SimConfig,
-    gain: Option<f64>,
+    em_gain: Option<Option<f64>>,
 ) -> Result<(), S::Error> {
     s.serialize_field("subap_px", &cfg.subap_px)?;
     s.serialize_field("spot", &cfg.spot.label())?;
     s.serialize_field("sampling", cfg.sampling.label())?;
     s.serialize_field("signal_photons", &cfg.signal_photons)?;
     s.serialize_field("qe", &cfg.qe)?;
-    if let Some(g) = gain {
-        s.serialize_field("gain", &g)?;
+    if let Some(g) = em_gain {
+        s.serialize_field("em_gain", &g)?;
     }
     s.serialize_field("iters", &cfg.iters)?;
     s.serialize_field("seed", &cfg.seed)
@@ -54,7 +55,7 @@ impl Serialize for SimRecord {
         let r = &self.result;
         let mut s = serializer.serialize_struct("SimRecord", 19)?;
         s.serialize_field("model", &r.model)?;
-        config_columns(&mut s, &self.config, Some(self.gain))?;
+        config_columns(&mut s, &self.config, Some(self.em_gain))?;
         s.serialize_field("r_px", &r.r_px)?;
         s.serialize_field("r_se_px", &r.r_se_px)?;
         s.serialize_field("b_opt_e", &r.b_opt_e)?;
@@ -102,12 +103,12 @@ mod tests {
             zero_frames: 3,
             levels: vec![level(0.0, 0.75), level(1.5, 0.25)],
         };
-        let rec = SimRecord::new(&config, 500.0, result);
+        let rec = SimRecord::new(&config, None, result);
         assert_eq!(
             render(std::slice::from_ref(&rec), TableFormat::Csv).unwrap(),
-            "model,subap_px,spot,sampling,signal_photons,qe,gain,iters,seed,r_px,r_se_px,b_opt_e,\
+            "model,subap_px,spot,sampling,signal_photons,qe,em_gain,iters,seed,r_px,r_se_px,b_opt_e,\
              b_at_grid_edge,no_eligible_level,r0_px,r0_se_px,zero_frames\n\
-             scmos-mean,8,\"gauss:1,2.5\",integrated,50,1,500,10000,1,0.25,0.5,1.5,false,true,\
+             scmos-mean,8,\"gauss:1,2.5\",integrated,50,1,,10000,1,0.25,0.5,1.5,false,true,\
              0.75,0.125,3\n"
         );
         let json = serde_json::to_value(&rec).unwrap();

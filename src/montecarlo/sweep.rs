@@ -79,7 +79,7 @@ fn run_all(
             .map(|s| s.build(params, cfg.subap_px))
             .collect::<Result<_>>()?;
         let refs: Vec<&dyn Readout> = models.iter().map(|m| m.as_ref()).collect();
-        for r in run(cfg, &refs, observer)? {
+        for (spec, r) in specs.iter().zip(run(cfg, &refs, observer)?) {
             if r.b_at_grid_edge {
                 observer.warn(&format!(
                     "{} at {}x{} px, {}, S = {}: the optimum background is the top of the grid; \
@@ -91,7 +91,8 @@ fn run_all(
                     cfg.signal_photons
                 ));
             }
-            records.push(SimRecord::new(cfg, params.gain, r));
+            let em_gain = spec.uses("em_gain").then_some(params.em_gain);
+            records.push(SimRecord::new(cfg, em_gain, r));
         }
     }
     Ok(records)
@@ -159,7 +160,8 @@ mod tests {
                 assert_eq!(rec.result.model, r.model);
                 assert_eq!(rec.result.r_px.to_bits(), r.r_px.to_bits());
                 assert_eq!(rec.config.signal_photons, cfg.signal_photons);
-                assert_eq!(rec.gain, params.gain);
+                let used = specs[m].uses("em_gain");
+                assert_eq!(rec.em_gain, used.then_some(params.em_gain));
             }
         }
     }

@@ -21,7 +21,7 @@ fn gain_curves(
     let mut records = Vec::new();
     for &gain in gains {
         let params = ModelParams {
-            gain,
+            em_gain: gain,
             ..ctx.params.clone()
         };
         records.extend(sweep(std::slice::from_ref(&cfg), specs, &params, &Silent)?);

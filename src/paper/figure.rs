@@ -237,7 +237,7 @@ mod tests {
                 zero_frames: 0,
                 levels: Vec::<LevelStats>::new(),
             };
-            SimRecord::new(&SimConfig::paper(4), 500.0, result)
+            SimRecord::new(&SimConfig::paper(4), Some(500.0), result)
         };
         let records: Vec<SimRecord> = (0..3)
             .flat_map(|p| (0..2).map(move |m| record(p, m)))

@@ -47,9 +47,9 @@ pub(crate) fn run(
     })?;
     emgain_chart(&hist, &fit, &dir.path("emgain.png"))?;
     let mut params = o.model_params.clone();
-    params.gain = fit.em_gain.max(1.0);
+    params.em_gain = fit.em_gain.max(1.0);
     params.emccd_read_noise_e = fit.read_noise_adu * conv;
-    EmRegister::check(params.gain, params.stages, "gain").map_err(|e| {
+    EmRegister::check(params.em_gain, params.stages, "em_gain").map_err(|e| {
         Error::input(
             &stack.sources[0].path,
             format!("the fitted EM gain cannot be simulated: {e}"),

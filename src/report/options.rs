@@ -123,7 +123,7 @@ impl ReportOptions {
             cfg.validate()?;
         }
         let p = &self.model_params;
-        EmRegister::check(p.gain, p.stages, "gain")?;
+        EmRegister::check(p.em_gain, p.stages, "em_gain")?;
         self.gain_source().map(|_| ())
     }
 

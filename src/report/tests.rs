@@ -165,7 +165,7 @@ fn compared(spec: ModelSpec, signal_photons: f64, r_px: f64, r_se_px: f64) -> Co
     };
     Compared {
         spec,
-        record: SimRecord::new(&cfg, 500.0, result),
+        record: SimRecord::new(&cfg, Some(500.0), result),
     }
 }
 

@@ -65,7 +65,7 @@ impl PpConfig {
     pub fn validate(&self) -> Result<()> {
         if !(self.gain.is_finite() && self.gain > 0.0) {
             return Err(Error::invalid(
-                "gain",
+                "em_gain",
                 format!("EM gain must be > 0, got {}", self.gain),
             ));
         }
