@@ -444,12 +444,21 @@ fn engine_limits_are_refused_with_the_limit_and_its_reason() {
         );
     }
     // Cost and memory grow with the gain: bounded, with the bound in the message.
-    refused(&["simulate", "--em-gain", "1e9"], &["--em-gain", "[1, 10000]"]);
-    refused(&["simulate", "--em-gain", "0.5"], &["--em-gain", "[1, 10000]"]);
+    refused(
+        &["simulate", "--em-gain", "1e9"],
+        &["--em-gain", "[1, 10000]"],
+    );
+    refused(
+        &["simulate", "--em-gain", "0.5"],
+        &["--em-gain", "[1, 10000]"],
+    );
     // The EM gain has one name in every command; the old `--gain` (which `report` took silently
     // as an EM gain beside `--gain-e-per-adu`) is refused, naming both options.
     for cmd in ["simulate", "effective", "report"] {
-        refused(&[cmd, "--gain", "0.25"], &["--gain", "--em-gain", "--gain-e-per-adu"]);
+        refused(
+            &[cmd, "--gain", "0.25"],
+            &["--gain", "--em-gain", "--gain-e-per-adu"],
+        );
     }
     // The spot stays mostly inside the sub-aperture: a quarter of the side.
     refused(

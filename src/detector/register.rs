@@ -325,7 +325,7 @@ mod tests {
             let n = EmRegister::min_stages(gain);
             assert!(
                 msg.contains("`stages`")
-                    && msg.contains("`gain`")
+                    && msg.contains("`em_gain`")
                     && msg.contains(&format!("at least {n} stages")),
                 "{msg}"
             );
