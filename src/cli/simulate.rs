@@ -10,7 +10,7 @@ use std::path::PathBuf;
 /// Options of `detnoise simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
-    /// Readout models, comma-separated (every model is listed with --help).
+    /// Readout model names, comma-separated (every model is listed with --help).
     #[arg(
         long,
         default_value = "emccd-simple,emccd-stochastic,emccd-distribution,scmos-median,scmos-mean,scmos-random"
