@@ -7,6 +7,8 @@ use crate::output::{check_file, render, write_atomic, FileOut, TableFormat};
 use crate::Result;
 use std::path::PathBuf;
 
+pub mod table;
+
 /// Options of `detnoise simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
@@ -57,7 +59,10 @@ pub fn run_cli(args: &SimulateArgs) -> Result<()> {
         &params,
         &Terminal::default(),
     )?;
-    let text = render(&records, args.format)?;
+    let text = match args.format {
+        TableFormat::Table => table::terminal_table(&records),
+        format => render(&records, format)?,
+    };
     match &args.out {
         Some(path) => write_atomic(path, text.as_bytes())?,
         None => print!("{text}"),
