@@ -24,7 +24,9 @@ pub struct SimulateArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
-    /// Output format: table (text), csv, or json (an array of records, with R at every level).
+    /// Output format: table (for reading: the settings shared by every row stated once, only
+    /// the columns that apply, at most 100 characters wide), csv (every column) or json (an
+    /// array of records, with R at every level).
     #[arg(long, value_enum, default_value_t = TableFormat::Table)]
     pub format: TableFormat,
     /// Write the results to this file instead of standard output (.txt for --format table,
