@@ -98,7 +98,7 @@ impl Spot {
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Sampling {
-    /// Intensity integrated over each pixel's area (physical; the default).
+    /// Intensity integrated over each pixel's area (physical).
     Integrated,
     /// Intensity evaluated at pixel centres (the Durham simulation platform; the paper's figures).
     Point,

@@ -13,7 +13,7 @@ const KEYS: [&str; 15] = [
     "sampling",
     "signal_photons",
     "qe",
-    "gain",
+    "em_gain",
     "iters",
     "seed",
     "r_px",

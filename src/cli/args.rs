@@ -116,7 +116,8 @@ pub struct SweepArgs {
     /// Monte-Carlo iterations (frames) per configuration, 2 to 1e9.
     #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
-    /// Seed of every random stream; the same seed gives the same results on any thread count.
+    /// Seed of every random stream (a whole number, unitless); the same seed gives the same
+    /// results on any thread count.
     #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
     /// Background levels subtracted before centroiding, e-: `auto` (0-1 e- in 0.05 steps,
@@ -174,8 +175,8 @@ pub struct DetectorArgs {
     /// Retired spelling of `--em-gain`: refused, naming the new option.
     #[arg(long = "gain", hide = true, value_parser = renamed("`--em-gain` (EM gain, e-/e-); the conversion gain is `--gain-e-per-adu`"))]
     pub retired_gain: Option<String>,
-    /// Stages of the EM register: 1 to 2000, and at least log2(gain) (a stage at most doubles
-    /// the charge: p = gain^(1/stages) - 1 <= 1).
+    /// Stages of the EM register, 1 to 2000 stages, and at least log2(gain) (a stage at most
+    /// doubles the charge: p = gain^(1/stages) - 1 <= 1).
     #[arg(long, default_value_t = 520, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
     pub stages: u32,
     /// EMCCD read noise before division by the gain, e- rms.
@@ -185,14 +186,14 @@ pub struct DetectorArgs {
     #[arg(long, default_value_t = 1.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
     pub sigma: f64,
     /// `emccd-distribution` draws N(n g, n g^2) instead of Gamma(n, g) above this many input
-    /// electrons (the paper's switch, corrected); default: always the exact Gamma.
+    /// electrons, e- (the paper's switch, corrected); default: always the exact Gamma.
     #[arg(long, value_parser = whole::<u32>(0, u32::MAX as u64, "input e-"))]
     pub gaussian_switch: Option<u32>,
     /// EM register sampler: `exact` (tabulated single-electron output, fast) or `cascade`
     /// (per-stage binomials, the slow reference).
     #[arg(long, value_parser = ["exact", "cascade"], default_value = "exact")]
     pub register: String,
-    /// Seed of the fixed sCMOS noise patterns (`scmos-fixed:K` uses pattern K of it).
+    /// Seed of the fixed sCMOS noise patterns, unitless (`scmos-fixed:K` uses pattern K of it).
     #[arg(long, default_value_t = 2015, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub pattern_seed: u64,
     /// `emccd-pp` threshold rule (a reconstruction of Basden et al. 2003): poisson-prior
@@ -202,11 +203,12 @@ pub struct DetectorArgs {
     /// `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean.
     #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "photo-electrons per pixel"))]
     pub pp_lambda: Option<f64>,
-    /// Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or a
-    /// `pdf_fit.json` written by `detnoise fit-pdf` (its best model unless --pdf-model).
+    /// Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or the path
+    /// of a `pdf_fit.json` written by `detnoise fit-pdf` (its best model unless --pdf-model).
     #[arg(long, default_value = "paper")]
     pub pdf: String,
-    /// Model to take from a `pdf_fit.json`: paper-scaled, paper-family, lognormal+tail or empirical.
+    /// Name of the model to take from a `pdf_fit.json`: paper-scaled, paper-family,
+    /// lognormal+tail or empirical.
     #[arg(long)]
     pub pdf_model: Option<String>,
     /// Measured read-noise map in e- (FITS/TIFF/EXR; e.g. `rms_e.fits` from `darks`) for the

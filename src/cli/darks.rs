@@ -21,7 +21,7 @@ pub struct DarksArgs {
     /// Write into an existing --out that holds other files (they are never replaced or deleted).
     #[arg(long)]
     pub force: bool,
-    /// Conversion gain (e per adu); when given, rms_e.fits is written too. Default: none.
+    /// Conversion gain (e- per adu); when given, rms_e.fits is written too. Default: none.
     #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Reject the N highest and N lowest samples of each pixel (cosmic rays), N up to 100,000
@@ -34,17 +34,17 @@ pub struct DarksArgs {
     /// Subtract each frame's median (common-mode offset, adu) before accumulating. Default: off.
     #[arg(long)]
     pub common_mode: bool,
-    /// Hot-pixel threshold: offset above median + K robust sigmas of the offset map. Default: 5.
+    /// Hot-pixel threshold: offset above median + K robust sigmas of the offset map.
     #[arg(long, default_value_t = 5.0, value_parser = real(Excluded(0.0), Unbounded, "robust sigmas"))]
     pub hot_sigma: f64,
-    /// Dead-pixel threshold: read noise below this fraction of the median read noise, [0, 1].
-    /// Default: 0.1.
+    /// Dead-pixel threshold: read noise below this fraction of the median read noise, [0, 1]
+    /// (unitless).
     #[arg(long, default_value_t = 0.1, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub dead_fraction: f64,
     /// Skip the SHA-256 checksums of the inputs in summary.json (saves ~0.8 CPU-s per GB).
     #[arg(long)]
     pub no_checksums: bool,
-    /// RTS threshold: von Neumann ratio below 1 - K/sqrt(frames) (K standard errors). Default: 5.
+    /// RTS threshold: von Neumann ratio below 1 - K/sqrt(frames) (K standard errors).
     #[arg(long, default_value_t = 5.0, value_parser = real(Excluded(0.0), Unbounded, "standard errors"))]
     pub rts_sigma: f64,
     /// Use frames that look illuminated (variance growing with the mean across pixels, or a

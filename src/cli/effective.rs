@@ -14,7 +14,7 @@ use std::path::PathBuf;
 #[command(mut_arg("spot", |a| a.default_values(["airy:1,2,4,6,8,10"])))]
 #[command(mut_arg("signal", |a| a.default_value("20,50,100,200,500,1000")))]
 pub struct EffectiveArgs {
-    /// The detector whose effective read noise is wanted: scmos-random (the rms pdf, default),
+    /// The detector whose effective read noise is wanted: scmos-random (the rms pdf),
     /// scmos-map (needs --map), or any other model (every model is listed with --help).
     #[arg(long, default_value = "scmos-random")]
     pub model: String,

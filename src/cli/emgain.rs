@@ -21,10 +21,10 @@ pub struct EmgainArgs {
     /// Write into an existing --out that holds other files (they are never replaced or deleted).
     #[arg(long)]
     pub force: bool,
-    /// Conversion gain (e per adu): the EM gain is then reported in e-/e-. Default: none (adu/e-).
+    /// Conversion gain (e- per adu): the EM gain is then reported in e-/e-. Default: none (adu/e-).
     #[arg(long, conflicts_with = "gain_map", value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
-    /// Conversion-gain map (e per adu); its median is used as --gain-e-per-adu. Default: none.
+    /// Conversion-gain map (e- per adu); its median is used as --gain-e-per-adu. Default: none.
     #[arg(long)]
     pub gain_map: Option<PathBuf>,
     /// Per-pixel bias map (adu), subtracted pixel by pixel (its mean is added back). Default: none.

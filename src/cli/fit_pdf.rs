@@ -30,10 +30,10 @@ pub struct FitPdfArgs {
     /// Write into an existing --out that holds other files (they are never replaced or deleted).
     #[arg(long)]
     pub force: bool,
-    /// Unit of the map values. Default: e.
+    /// Unit of the map values.
     #[arg(long, value_enum, default_value = "e")]
     pub unit: MapUnit,
-    /// Conversion gain (e per adu) for --unit adu. Default: none.
+    /// Conversion gain (e- per adu) for --unit adu. Default: none.
     #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Flag map (non-zero = hot/dead/RTS pixel, excluded). Default: flags.fits beside MAP if present.
@@ -42,7 +42,7 @@ pub struct FitPdfArgs {
     /// Keep flagged pixels in the fit. Default: off.
     #[arg(long)]
     pub keep_flagged: bool,
-    /// Models to fit, comma separated (paper-scaled, paper-family, lognormal+tail, empirical). Default: all.
+    /// Names of the models to fit, comma separated (paper-scaled, paper-family, lognormal+tail, empirical). Default: all.
     #[arg(long, value_delimiter = ',')]
     pub models: Vec<String>,
     /// Upper cut of the support (e-); larger values are excluded. Default: the map's largest value.

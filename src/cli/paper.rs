@@ -20,7 +20,7 @@ pub struct PaperArgs {
     /// Write into an existing --out that holds other files (they are never replaced or deleted).
     #[arg(long)]
     pub force: bool,
-    /// Monte-Carlo iterations per point, 2 to 1e9 (the paper used 10,000).
+    /// Monte-Carlo iterations (frames) per point, 2 to 1e9 (the paper used 10,000).
     #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
     /// Fast smoke run: coarse grids and 200 iterations (same files).
@@ -29,7 +29,7 @@ pub struct PaperArgs {
     /// Spot sampling: point (pixel centres, as the paper most likely did) or integrated.
     #[arg(long, value_enum, default_value_t = Sampling::Point)]
     pub sampling: Sampling,
-    /// Seed of every random stream.
+    /// Seed of every random stream (a whole number, unitless).
     #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
 }

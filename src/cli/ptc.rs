@@ -36,10 +36,10 @@ pub struct PtcArgs {
     /// Saturation level (adu). Default: largest value of the stored integer type.
     #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "adu"))]
     pub saturation_adu: Option<f64>,
-    /// EM gain of the frames (EMCCD; output e- per input e-), 1 to 10,000. Default: 1.
+    /// EM gain of the frames (EMCCD; output e- per input e-), 1 to 10,000.
     #[arg(long, default_value_t = 1.0, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
     pub em_gain: f64,
-    /// Excess noise factor F^2 (EMCCD; 1 without EM gain, near 2 at high gain), [1, 2]. Default: 1.
+    /// Excess noise factor F^2 (EMCCD; 1 without EM gain, near 2 at high gain), [1, 2] (unitless).
     #[arg(long, default_value_t = 1.0, value_parser = real(Included(1.0), Included(2.0), ""))]
     pub excess_noise_factor_sq: f64,
 }

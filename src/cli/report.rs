@@ -15,6 +15,7 @@ use crate::report::DetectorKind;
 
 /// Options of `detnoise report`.
 #[derive(clap::Args, Debug)]
+#[command(after_long_help = SIMULATION_OPTIONS_HELP)]
 pub struct ReportArgs {
     /// The camera type: scmos (effective read noise from the per-pixel noise) or emccd (EM gain
     /// fit with the exact register, then the comparison with the fitted gain and read noise).
@@ -38,19 +39,21 @@ pub struct ReportArgs {
     /// Signal levels, photons per sub-aperture, comma-separated (signal x QE at most 1e9).
     #[arg(long, default_value = DEFAULT_SIGNAL, allow_hyphen_values = true)]
     pub signal: String,
-    /// Monte-Carlo iterations per configuration, 2 to 1e9.
+    /// Monte-Carlo iterations (frames) per configuration, 2 to 1e9.
     #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
-    /// Seed of every random stream.
+    /// Seed of every random stream (a whole number, unitless).
     #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
     /// Spot sampling.
     #[arg(long, value_enum, default_value_t = Sampling::Integrated)]
     pub sampling: Sampling,
-    /// Quantum efficiency of this (sCMOS) camera in the comparison chart, (0, 1].
+    /// Quantum efficiency of the sCMOS models (this camera in an sCMOS report, the cameras it is
+    /// compared with in an EMCCD report), photo-electrons per photon, (0, 1].
     #[arg(long, default_value_t = 1.0, value_parser = real(Excluded(0.0), Included(1.0), ""))]
     pub qe: f64,
-    /// Quantum efficiency of the EMCCD it is compared with, (0, 1].
+    /// Quantum efficiency of the EMCCD (the one compared with in an sCMOS report, this camera in
+    /// an EMCCD report), photo-electrons per photon, (0, 1].
     #[arg(long, default_value_t = 1.0, value_parser = real(Excluded(0.0), Included(1.0), ""))]
     pub qe_emccd: f64,
     /// Use dark frames that look illuminated (variance growing with the mean across pixels, or a
@@ -73,6 +76,43 @@ pub struct ReportArgs {
     #[arg(long)]
     pub force: bool,
 }
+
+/// What each simulation option does in a report, and which a report does not use (end of
+/// `report --help`; every claim follows `crate::report`: the grid, the comparison groups and
+/// the parameters the report replaces with what it measured).
+pub const SIMULATION_OPTIONS_HELP: &str = "\
+How a report uses the simulation options:
+  --subap, --spot, --signal
+      The grid. sCMOS: the effective read noise of every sub-aperture x spot x signal
+      (effective_noise.csv/.json, one heatmap per signal). Both detectors: the comparison
+      (r_vs_signal.*) runs every signal at the grid's sub-aperture and spot nearest 8x8 px and
+      airy:2 (the operating point of the headline numbers).
+  --iters, --seed, --sampling
+      Every Monte-Carlo run of the report, the table and the comparison (--quick caps --iters
+      at 2,000).
+  --qe, --qe-emccd
+      Photo-electrons per photon of the sCMOS and of the EMCCD models. sCMOS report: --qe is
+      this camera's (table and comparison), --qe-emccd the compared EMCCD's. EMCCD report:
+      --qe-emccd is this camera's, --qe the compared sCMOS models'.
+  --em-gain, --emccd-read-noise
+      sCMOS report: the EMCCD of the comparison. EMCCD report: not used (the fitted EM gain
+      and read noise replace them), but --em-gain must still be possible with --stages.
+  --stages, --register
+      The EM register of the EMCCD in the comparison; in an EMCCD report --stages is also the
+      register of the EM-gain fit.
+  --pdf, --pdf-model
+      sCMOS report: not used (the pdf fitted to the darks replaces it; a file given is still
+      read). EMCCD report: the per-pixel rms pdf of the compared sCMOS models (`paper` unless
+      given).
+  --map
+      Not used (a file given is still read): an sCMOS report simulates its own measured map,
+      an EMCCD report no map.
+  --sigma, --gaussian-switch, --pattern-seed, --pp-rule, --pp-lambda
+      Not used: they set models a report does not run (scmos-constant, emccd-distribution,
+      scmos-fixed, emccd-pp; see `detnoise simulate --help`).
+A report has no --bg-grid, --position-range or --max-empty-frac: it subtracts the automatic
+background levels, offsets spots by up to 0.5 px and allows at most 1 % empty frames, as
+`simulate` does by default.";
 
 /// The full grid's lists as typed on the command line (the library's defaults, see the test).
 const DEFAULT_SUBAP: &str = "4,6,8,10,12,16";

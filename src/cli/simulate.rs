@@ -7,10 +7,12 @@ use crate::output::{check_file, render, write_atomic, FileOut, TableFormat};
 use crate::Result;
 use std::path::PathBuf;
 
+pub mod table;
+
 /// Options of `detnoise simulate`.
 #[derive(clap::Args, Debug)]
 pub struct SimulateArgs {
-    /// Readout models, comma-separated (every model is listed with --help).
+    /// Readout model names, comma-separated (every model is listed with --help).
     #[arg(
         long,
         default_value = "emccd-simple,emccd-stochastic,emccd-distribution,scmos-median,scmos-mean,scmos-random"
@@ -22,7 +24,9 @@ pub struct SimulateArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
-    /// Output format: table (text), csv, or json (an array of records, with R at every level).
+    /// Output format: table (for reading: the settings shared by every row stated once, only
+    /// the columns that apply, at most 100 characters wide), csv (every column) or json (an
+    /// array of records, with R at every level).
     #[arg(long, value_enum, default_value_t = TableFormat::Table)]
     pub format: TableFormat,
     /// Write the results to this file instead of standard output (.txt for --format table,
@@ -57,7 +61,10 @@ pub fn run_cli(args: &SimulateArgs) -> Result<()> {
         &params,
         &Terminal::default(),
     )?;
-    let text = render(&records, args.format)?;
+    let text = match args.format {
+        TableFormat::Table => table::terminal_table(&records),
+        format => render(&records, format)?,
+    };
     match &args.out {
         Some(path) => write_atomic(path, text.as_bytes())?,
         None => print!("{text}"),

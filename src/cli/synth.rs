@@ -14,6 +14,11 @@ use crate::synth::{
     SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
 };
 
+/// sCMOS conversion gain without `--gain-e-per-adu`, e- per adu (stated in its help).
+const SCMOS_GAIN_E_PER_ADU: f64 = 0.25;
+/// EMCCD output conversion factor without `--gain-e-per-adu`, e- per adu (stated in its help).
+const EMCCD_GAIN_E_PER_ADU: f64 = 10.0;
+
 /// Detector family to simulate.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum DetectorKind {
@@ -65,10 +70,11 @@ pub struct SynthArgs {
     /// sCMOS pixel-to-pixel offset spread, standard deviation (adu).
     #[arg(long, default_value_t = 2.0, value_parser = real(Included(0.0), Unbounded, "adu"))]
     pub offset_spread_adu: f64,
-    /// sCMOS mean conversion gain (e per adu); EMCCD: output conversion factor (e per adu, default 10).
+    /// Conversion gain, e- per adu: sCMOS, the mean over the pixels (default 0.25); EMCCD, the
+    /// output conversion factor (default 10).
     #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
-    /// sCMOS relative pixel-to-pixel gain spread (standard deviation / mean), [0, 1].
+    /// sCMOS relative pixel-to-pixel gain spread (standard deviation / mean, unitless), [0, 1].
     #[arg(long, default_value_t = 0.02, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub gain_spread: f64,
     /// EMCCD mean EM gain (output e- per input e-), 1 to 10,000.
@@ -105,7 +111,7 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
         DetectorKind::Scmos => Camera::Scmos(ScmosParams {
             offset_adu: args.offset_adu,
             offset_spread_adu: args.offset_spread_adu,
-            gain_e_per_adu: args.gain_e_per_adu.unwrap_or(0.25),
+            gain_e_per_adu: args.gain_e_per_adu.unwrap_or(SCMOS_GAIN_E_PER_ADU),
             gain_spread: args.gain_spread,
         }),
         DetectorKind::Emccd => Camera::Emccd(EmccdParams {
@@ -114,7 +120,7 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
             bias_adu: args.bias_adu,
             read_noise_e: args.read_noise_e,
             cic_e: args.cic_e,
-            conversion_e_per_adu: args.gain_e_per_adu.unwrap_or(10.0),
+            conversion_e_per_adu: args.gain_e_per_adu.unwrap_or(EMCCD_GAIN_E_PER_ADU),
         }),
     };
     Ok(SynthSpec {
@@ -171,4 +177,48 @@ fn prepare_outputs(args: &SynthArgs) -> Result<StagedFiles> {
         .into_iter()
         .collect();
     StagedFiles::prepare(&outs, args.force, &inputs)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    #[derive(clap::Parser)]
+    struct Wrap {
+        #[command(flatten)]
+        synth: SynthArgs,
+    }
+
+    #[test]
+    fn the_conversion_gain_help_states_both_defaults_the_run_uses() {
+        let help = Wrap::command()
+            .get_arguments()
+            .find(|a| a.get_id() == "gain_e_per_adu")
+            .and_then(|a| a.get_help().map(|h| h.to_string()))
+            .expect("--gain-e-per-adu help");
+        for (detector, gain) in [
+            ("scmos", SCMOS_GAIN_E_PER_ADU),
+            ("emccd", EMCCD_GAIN_E_PER_ADU),
+        ] {
+            assert!(help.contains(&format!("(default {gain})")), "{help}");
+            let args = [
+                "synth",
+                "--detector",
+                detector,
+                "--shape",
+                "4x4",
+                "--frames",
+                "2",
+                "--out",
+                "x.fits",
+            ];
+            let a = <Wrap as clap::Parser>::parse_from(args).synth;
+            let used = match spec(&a).unwrap().camera {
+                Camera::Scmos(p) => p.gain_e_per_adu,
+                Camera::Emccd(p) => p.conversion_e_per_adu,
+            };
+            assert_eq!(used, gain, "{detector}");
+        }
+    }
 }

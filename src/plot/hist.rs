@@ -59,6 +59,9 @@ pub struct Histogram {
     pub bins: Bins,
     /// Binning range (data units); the samples' min and max if None. Samples outside are not drawn.
     pub range: Option<(f64, f64)>,
+    /// The quantity cannot be negative (an rms, a count): without `range`, bins and x axis
+    /// start at 0 instead of at the smallest sample.
+    pub from_zero: bool,
     /// Counts or density.
     pub norm: HistNorm,
     /// Logarithmic y axis for the main plot (empty bins are not drawn).
@@ -89,6 +92,7 @@ impl Histogram {
             sample_label: String::new(),
             bins: Bins::Auto,
             range: None,
+            from_zero: false,
             norm: HistNorm::Density,
             log_y: false,
             curves: Vec::new(),
@@ -121,6 +125,7 @@ impl Histogram {
             }
             None => {
                 let lo = finite.iter().cloned().fold(f64::INFINITY, f64::min);
+                let lo = if self.from_zero { lo.min(0.0) } else { lo };
                 let hi = finite.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
                 if hi > lo {
                     (lo, hi)
@@ -373,15 +378,17 @@ fn draw_bars<'a, DB: DrawingBackend + 'a>(
     occupied: &mut Vec<(f64, f64)>,
 ) -> Result<()> {
     let outline = heights.len() <= 80;
-    let rects: Vec<[(f64, f64); 2]> = edges
+    // One bar per bin, None where nothing is drawn (empty, or outside the x axis).
+    let bars: Vec<Option<[(f64, f64); 2]>> = edges
         .windows(2)
         .zip(heights)
-        .filter_map(|(e, &h)| {
+        .map(|(e, &h)| {
             let (x0, x1) = (e[0].max(xa.lo), e[1].min(xa.hi));
             let top = ya.t(h)?;
             (x1 > x0 && h > 0.0).then_some([(x0, ya.lo), (x1, top.min(ya.hi))])
         })
         .collect();
+    let rects: Vec<[(f64, f64); 2]> = bars.iter().flatten().copied().collect();
     for r in &rects {
         let fx = ((r[0].0 + r[1].0) / 2.0 - xa.lo) / (xa.hi - xa.lo);
         let fy = (r[1].1 - ya.lo) / (ya.hi - ya.lo);
@@ -406,16 +413,44 @@ fn draw_bars<'a, DB: DrawingBackend + 'a>(
             .map_err(de)?;
     } else {
         // Many thin bins: an outline per bar would be a solid block; trace the envelope instead.
-        let mut env = Vec::with_capacity(rects.len() * 2);
-        for r in &rects {
-            env.push((r[0].0, r[1].1));
-            env.push((r[1].0, r[1].1));
+        for run in outline_runs(&bars, ya.lo) {
+            chart
+                .draw_series(LineSeries::new(run, BAR_EDGE.stroke_width(1)))
+                .map_err(de)?;
         }
-        chart
-            .draw_series(LineSeries::new(env, BAR_EDGE.stroke_width(1)))
-            .map_err(de)?;
     }
     Ok(())
+}
+
+/// The envelope of `bars` (per bin `[(x0, floor), (x1, top)]`, None where no bar is drawn) as
+/// polylines of horizontal tops joined by vertical steps. A run starts and ends on `floor`
+/// and stops at every bin without a bar, so no line crosses an empty bin.
+pub(super) fn outline_runs(bars: &[Option<[(f64, f64); 2]>], floor: f64) -> Vec<Vec<(f64, f64)>> {
+    let mut runs = Vec::new();
+    let mut run: Vec<(f64, f64)> = Vec::new();
+    let close = |run: &mut Vec<(f64, f64)>, runs: &mut Vec<Vec<(f64, f64)>>| {
+        if let Some(&(x, _)) = run.last() {
+            run.push((x, floor));
+            runs.push(std::mem::take(run));
+        }
+    };
+    for bar in bars {
+        match bar {
+            Some([(x0, _), (x1, top)]) => {
+                // A gap in x (clipped bars) also ends the run: its step would be a diagonal.
+                if run.last().is_some_and(|&(x, _)| x != *x0) {
+                    close(&mut run, &mut runs);
+                }
+                if run.is_empty() {
+                    run.push((*x0, floor));
+                }
+                run.extend([(*x0, *top), (*x1, *top)]);
+            }
+            None => close(&mut run, &mut runs),
+        }
+    }
+    close(&mut run, &mut runs);
+    runs
 }
 
 /// Draws named curves as lines; with `label`, they get legend entries.

@@ -223,6 +223,82 @@ fn histogram_binning() {
     assert!((area - 1.0).abs() < 1e-12, "{area}");
 }
 
+#[test]
+fn histogram_from_zero_starts_bins_and_axis_at_zero() {
+    let mut h = rms_histogram();
+    h.range = None;
+    let min = h.samples.iter().cloned().fold(f64::INFINITY, f64::min);
+    assert!(min > 0.05, "{min}");
+    assert_eq!(h.binned().unwrap().0[0], min);
+    h.from_zero = true;
+    let (edges, counts) = h.binned().unwrap();
+    assert_eq!(edges[0], 0.0);
+    assert!(counts.iter().filter(|c| **c > 0.0).count() > 10);
+    // A given range still wins.
+    h.range = Some((0.5, 4.0));
+    assert_eq!(h.binned().unwrap().0[0], 0.5);
+}
+
+#[test]
+fn histogram_outline_never_crosses_an_empty_bin() {
+    // Bins of width 1 from 0: full, full, empty, full, empty, empty, full (floor at -2).
+    let heights = [3.0, 1.0, 0.0, 2.0, 0.0, 0.0, 0.5];
+    let bars: Vec<Option<[(f64, f64); 2]>> = heights
+        .iter()
+        .enumerate()
+        .map(|(i, &h)| (h > 0.0).then_some([(i as f64, -2.0), (i as f64 + 1.0, h)]))
+        .collect();
+    let runs = super::hist::outline_runs(&bars, -2.0);
+    assert_eq!(runs.len(), 3, "{runs:?}");
+    assert_eq!(
+        runs[0],
+        [
+            (0.0, -2.0),
+            (0.0, 3.0),
+            (1.0, 3.0),
+            (1.0, 1.0),
+            (2.0, 1.0),
+            (2.0, -2.0)
+        ]
+    );
+    for run in &runs {
+        assert_eq!((run[0].1, run[run.len() - 1].1), (-2.0, -2.0), "{run:?}");
+        for w in run.windows(2) {
+            let ((x0, y0), (x1, y1)) = (w[0], w[1]);
+            // Steps and tops only: never a diagonal.
+            assert!(x0 == x1 || y0 == y1, "diagonal {w:?}");
+            // A top lies over one non-empty bin.
+            if y0 == y1 && y0 > -2.0 {
+                let bin = x0.min(x1).floor() as usize;
+                assert!(
+                    heights[bin] > 0.0 && x0.max(x1) <= bin as f64 + 1.0,
+                    "{w:?}"
+                );
+            }
+        }
+    }
+    // A log-count histogram with gaps draws (many bins: the envelope path).
+    let mut h = Histogram::new(
+        "gaps",
+        "read noise (e⁻)",
+        "pixels",
+        (0..300)
+            .map(|i| {
+                if i % 7 == 0 {
+                    9.0
+                } else {
+                    1.0 + (i % 5) as f64 * 0.1
+                }
+            })
+            .collect(),
+    );
+    h.log_y = true;
+    h.norm = HistNorm::Count;
+    h.bins = Bins::Count(100);
+    h.from_zero = true;
+    both("hist_gaps", h.size, &["gaps"], |p| h.save(p));
+}
+
 fn eff_heatmap() -> Heatmap {
     let subap = [4, 6, 8, 10, 12, 14, 16];
     let spots = [1, 2, 4, 6, 8, 10];

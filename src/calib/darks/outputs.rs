@@ -155,16 +155,7 @@ pub fn write_outputs(
         outputs: outputs.iter().map(|s| s.to_string()).collect(),
     };
     // The chart goes first: if it fails, nothing has been written.
-    let mut hist = Histogram::new(
-        format!("per-pixel read noise, {} frames", maps.stats.frames),
-        hist_unit,
-        "pixels",
-        hist_values.clone(),
-    );
-    hist.norm = HistNorm::Count;
-    hist.log_y = true;
-    hist.bins = Bins::Count(100);
-    hist.save(out.join("rms_hist.png"))?;
+    rms_histogram(hist_values, hist_unit, maps.stats.frames).save(out.join("rms_hist.png"))?;
     let keys = keywords(maps, stack, opts);
     maps.offset_adu
         .write_fits(&out.join("offset_adu.fits"), &keys)?;
@@ -195,4 +186,40 @@ pub fn write_outputs(
     )?;
     crate::output::write_json(&out.join(summary_name), &summary)?;
     Ok(summary)
+}
+
+/// The chart `rms_hist.png`: pixels per read-noise bin (log counts) from 0 (an rms is never
+/// negative) to the largest value; `x_label` names the unit.
+fn rms_histogram(values: &[f64], x_label: &str, frames: usize) -> Histogram {
+    let mut hist = Histogram::new(
+        format!("per-pixel read noise, {frames} frames"),
+        x_label,
+        "pixels",
+        values.to_vec(),
+    );
+    hist.norm = HistNorm::Count;
+    hist.log_y = true;
+    hist.bins = Bins::Count(100);
+    hist.from_zero = true;
+    hist
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_read_noise_histogram_starts_at_zero_and_counts_every_pixel() {
+        // Read noise between 0.3 and 10.4 e-: the axis still starts at 0.
+        let values: Vec<f64> = (0..1000).map(|i| 0.3 + 0.0101 * i as f64).collect();
+        let (edges, counts) = rms_histogram(&values, "read noise (e-)", 100)
+            .binned()
+            .unwrap();
+        assert_eq!(edges[0], 0.0);
+        assert_eq!(*edges.last().unwrap(), values[999]);
+        assert_eq!(counts.iter().sum::<f64>(), 1000.0);
+        // Nothing below the smallest value.
+        let first = edges.partition_point(|&e| e <= 0.3) - 1;
+        assert!(counts[..first].iter().all(|&c| c == 0.0));
+    }
 }

@@ -102,6 +102,8 @@ pub fn excess_noise_factor_sq(shape: EmShape, g_e: f64) -> f64 {
 pub struct CurveBin {
     /// Bin centre (adu).
     pub x_adu: f64,
+    /// Bin width (adu): whole histogram bins merged, fewer in the last bin.
+    pub width_adu: f64,
     /// Observed pixel-samples.
     pub data: f64,
     /// Expected pixel-samples of the fitted model.
@@ -167,6 +169,7 @@ pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<
             let i1 = (i0 + group).min(used);
             CurveBin {
                 x_adu: lo + 0.5 * (i0 + i1) as f64 * w,
+                width_adu: (i1 - i0) as f64 * w,
                 data: counts[i0..i1].iter().sum(),
                 model: n * sum(&total, i0, i1),
                 zero_electron: n * (-l - cic).exp() * sum(&gauss, i0, i1),
