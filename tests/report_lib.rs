@@ -97,6 +97,9 @@ fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
             "effective_noise_S50.png",
         ],
     );
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(!page.contains("NaN"));
+    assert!(page.contains("8x8 px, airy:2, 50 photons (default)"));
     // summary.json holds the returned numbers.
     let written: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();

@@ -286,7 +286,7 @@ pub fn index_html(p: &ScmosPage) -> String {
     charts(&mut h, p);
     effective_table(&mut h, p.effective);
     fit_table(&mut h, p.fit);
-    let _ = write!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with SHA-256), darks_summary.json.</p></body></html>\n",
+    let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with SHA-256), darks_summary.json.</p></body></html>",
         if p.has_ptc { ", ptc_points.csv/.json (the photon-transfer points: mean, variance and gain per light level)" } else { "" });
     h
 }
