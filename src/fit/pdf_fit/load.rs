@@ -67,7 +67,7 @@ pub fn load_pdf_fit(path: &Path, model: Option<&str>) -> Result<Arc<dyn RmsPdf>>
         return Err(Error::input(
             path,
             format!(
-                "an image ({}), not a pdf_fit.json: {PDF_FILE_HINT}",
+                "a {} image, not a pdf_fit.json: {PDF_FILE_HINT}",
                 format!("{format:?}").to_uppercase()
             ),
         ));
