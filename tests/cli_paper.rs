@@ -51,6 +51,21 @@ fn quick_paper_run_writes_every_figure() {
     }
     // 12 single figures, two Fig. 11 panels and six Fig. 12 panels.
     assert_eq!(pngs, 12 + 2 + 6);
+    // Fig. 12's table states each cell's status; a value that is not a number is an empty cell.
+    let fig12 = std::fs::read_to_string(out.join("fig12-effective-read-noise.csv")).unwrap();
+    let mut rows = fig12.lines();
+    assert!(rows.next().unwrap().ends_with(",status"));
+    let words = [
+        "ok",
+        "imprecise",
+        "lower_bound",
+        "unreachable",
+        "no_eligible_level",
+    ];
+    for row in rows {
+        assert!(words.contains(&row.rsplit(',').next().unwrap()), "{row}");
+    }
+    assert!(!fig12.contains("NaN"));
     // No partial directory is left beside the output.
     let siblings: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()

@@ -226,3 +226,34 @@ fn emccd_report_recovers_the_bundled_cameras_gain_and_read_noise() {
         assert!(out.join(f).exists(), "missing {f}");
     }
 }
+
+#[test]
+fn a_malformed_operating_point_is_a_usage_error_naming_the_option() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    for (point, why) in [
+        ("8,airy:2", "SUBAP,SPOT,SIGNAL"),
+        ("200,airy:2,50", "sub-aperture sizes must be 2 to 128 px"),
+        ("8,airy:2,0", "signals must be > 0 photons"),
+    ] {
+        let assert = detnoise()
+            .args([
+                "report",
+                "--gain-e-per-adu",
+                "0.25",
+                "--operating-point",
+                point,
+            ])
+            // The darks do not exist: the point is refused before any frame is looked for.
+            .args(["--darks", "missing.fits", "--out"])
+            .arg(&out)
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&assert.get_output().stderr).to_string();
+        assert!(
+            err.contains("--operating-point") && err.contains(why) && !err.contains("missing"),
+            "{point}: {err}"
+        );
+    }
+    assert!(!out.exists());
+}

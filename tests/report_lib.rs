@@ -4,10 +4,13 @@ mod common;
 
 use common::data;
 use detnoise::progress::Silent;
-use detnoise::report::{self, DetectorKind, ReportOptions, QUICK_AIRY_DIAMETERS_PX};
+use detnoise::report::QUICK_AIRY_DIAMETERS_PX;
+use detnoise::report::{self, DetectorKind, OperatingPoint, ReportOptions};
 use detnoise::report::{QUICK_SIGNALS_PHOTONS, QUICK_SUBAPS_PX};
+use detnoise::spot::Spot;
 use detnoise::Error;
 use serde_json::Value;
+use sha2::{Digest, Sha256};
 use std::path::Path;
 
 /// The manifest of bundled stack `name` (its truth).
@@ -79,8 +82,9 @@ fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
     // Five models (fitted pdf, map, median, mean, EMCCD) at each signal.
     assert_eq!(result.comparison.len(), 5 * QUICK_SIGNALS_PHOTONS.len());
     let op = &s.operating_point;
-    assert_eq!((op.subap_px, op.spot.as_str()), (8, "airy:2"));
-    assert_eq!(op.signal_photons, 50.0);
+    assert_eq!((op.at.subap_px, op.at.spot.as_str()), (8, "airy:2"));
+    assert_eq!(op.at.signal_photons, 50.0);
+    assert_eq!((op.at.chosen.as_str(), op.at.in_grid), ("default", true));
     assert!(op.sigma_eff_map_e > s.median_rms_e, "{op:?}");
     assert!(result.pdf_fit.is_some() && result.ptc.is_none());
     assert_files_exist(
@@ -93,6 +97,9 @@ fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
             "effective_noise_S50.png",
         ],
     );
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(!page.contains("NaN"));
+    assert!(page.contains("8x8 px, airy:2, 50 photons (default)"));
     // summary.json holds the returned numbers.
     let written: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
@@ -138,4 +145,122 @@ fn a_bad_option_is_refused_naming_its_field_before_anything_is_written() {
     let e = report::run(&options, &Silent).unwrap_err();
     assert!(matches!(e, Error::Usage { ref field, .. } if field == "gain_e_per_adu"));
     assert!(!out.exists());
+}
+
+/// SHA-256 of a file's bytes as lower-case hex, computed here independently of the library.
+fn sha256_hex(path: &Path) -> String {
+    let digest = Sha256::digest(std::fs::read(path).unwrap());
+    digest.iter().map(|b| format!("{b:02x}")).collect()
+}
+
+#[test]
+fn summary_lists_every_input_and_a_given_operating_point_beside_the_grid() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    let flats: Vec<_> = [100, 400, 1600, 6400]
+        .iter()
+        .map(|e| data(&format!("scmos-flat-64x64-{e}e.fits")))
+        .collect();
+    let point = OperatingPoint {
+        subap_px: 6,
+        spot: Spot::Airy { diameter_px: 2.0 },
+        signal_photons: 50.0,
+    };
+    let options = ReportOptions {
+        gain_e_per_adu: None,
+        flats_paths: flats.clone(),
+        subaps_px: Some(vec![4]),
+        spots: Some(vec![Spot::Airy { diameter_px: 2.0 }]),
+        signals_photons: Some(vec![50.0]),
+        iters: 600,
+        operating_point: Some(point),
+        ..quick("scmos-darks-64x64.fits", 0.25, &out)
+    };
+    let result = report::run(&options, &Silent).unwrap();
+    let written: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+
+    // Every input: the darks, then each flat, with its own SHA-256, frame count and format.
+    let inputs = written["inputs"].as_array().unwrap();
+    let expected: Vec<(&str, std::path::PathBuf)> =
+        std::iter::once(("darks", data("scmos-darks-64x64.fits")))
+            .chain(flats.iter().map(|f| ("flats", f.clone())))
+            .collect();
+    assert_eq!(inputs.len(), expected.len());
+    for (input, (role, path)) in inputs.iter().zip(&expected) {
+        assert_eq!(input["role"], *role);
+        assert_eq!(input["path"], path.display().to_string());
+        assert_eq!(input["sha256"], sha256_hex(path), "{}", path.display());
+        assert_eq!(input["format"], "fits");
+        let manifest = manifest(path.file_name().unwrap().to_str().unwrap());
+        assert_eq!(input["frames"], manifest["spec"]["frames"]);
+    }
+
+    // The given point is not in the one-configuration grid: solved beside it, not tabled.
+    let op = &written["operating_point"];
+    assert_eq!(op["subap_px"], 6);
+    assert_eq!(op["spot"], "airy:2");
+    assert_eq!(
+        (op["chosen"].as_str(), op["in_grid"].as_bool()),
+        (Some("given"), Some(false))
+    );
+    assert!(op["sigma_eff_map_status"].is_string());
+    assert_eq!(result.effective.len(), 2);
+    assert!(result.effective.iter().all(|r| r.config.subap_px == 4));
+    // The comparison runs at the point's sub-aperture.
+    assert!(result
+        .comparison
+        .iter()
+        .all(|c| c.record.config.subap_px == 6));
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        page.contains("6x6 px, airy:2, 50 photons (given; not in the grid, simulated beside it)")
+    );
+    assert!(page.contains("a 6×6 px sub-aperture"));
+
+    // Photon transfer's points are written as tables beside its chart.
+    let csv = std::fs::read_to_string(out.join("ptc_points.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + flats.len());
+    let points: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("ptc_points.json")).unwrap())
+            .unwrap();
+    let ptc = result.ptc.as_ref().unwrap();
+    for (p, level) in points.as_array().unwrap().iter().zip(&ptc.levels) {
+        assert_eq!(p["mean_adu"].as_f64(), Some(level.mean_adu));
+        assert_eq!(p["frames"].as_u64(), Some(level.frames as u64));
+    }
+    assert!(result.files.contains(&out.join("ptc_points.csv")));
+}
+
+#[test]
+fn an_operating_point_outside_the_valid_range_is_refused_before_any_frame_is_read() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("rep");
+    for point in [
+        OperatingPoint {
+            subap_px: 1,
+            ..OperatingPoint::default()
+        },
+        OperatingPoint {
+            signal_photons: -5.0,
+            ..OperatingPoint::default()
+        },
+        OperatingPoint {
+            spot: Spot::Airy { diameter_px: 0.01 },
+            ..OperatingPoint::default()
+        },
+    ] {
+        let options = ReportOptions {
+            // A stack that does not exist: the point is refused before it is looked for.
+            darks_paths: vec![dir.path().join("missing.fits")],
+            operating_point: Some(point),
+            ..quick("scmos-darks-64x64.fits", 0.25, &out)
+        };
+        let e = report::run(&options, &Silent).unwrap_err();
+        assert!(
+            matches!(e, Error::Usage { ref field, .. } if field == "operating_point"),
+            "{e}"
+        );
+        assert!(!out.exists());
+    }
 }

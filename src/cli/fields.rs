@@ -66,6 +66,8 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("spots", "--spot"),
     ("signals_photons", "--signal"),
     ("qe_emccd", "--qe-emccd"),
+    // report: the operating point of the headline numbers (crate::report::OperatingPoint)
+    ("operating_point", "--operating-point"),
 ];
 
 /// Fields of library-only settings (chart building blocks) that no option sets: errors about

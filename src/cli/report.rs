@@ -4,7 +4,7 @@
 use super::args::{parse_list, real, whole, DetectorArgs};
 use super::progress::Terminal;
 use crate::montecarlo::SimConfig;
-use crate::report::ReportOptions;
+use crate::report::{OperatingPoint, ReportOptions};
 use crate::spot::Sampling;
 use crate::spot::Spot;
 use crate::Result;
@@ -39,6 +39,11 @@ pub struct ReportArgs {
     /// Signal levels, photons per sub-aperture, comma-separated (signal x QE at most 1e9).
     #[arg(long, default_value = DEFAULT_SIGNAL, allow_hyphen_values = true)]
     pub signal: String,
+    /// The configuration of the headline numbers and of the comparison chart: sub-aperture
+    /// size (px per side), spot (airy:D or gauss:SX,SY, px) and signal (photons), e.g.
+    /// 12,airy:4,100. Simulated even when it is not in the grid. Default: 8,airy:2,50.
+    #[arg(long, value_name = "SUBAP,SPOT,SIGNAL", allow_hyphen_values = true)]
+    pub operating_point: Option<String>,
     /// Monte-Carlo iterations (frames) per configuration, 2 to 1e9.
     #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
@@ -85,8 +90,9 @@ How a report uses the simulation options:
   --subap, --spot, --signal
       The grid. sCMOS: the effective read noise of every sub-aperture x spot x signal
       (effective_noise.csv/.json, one heatmap per signal). Both detectors: the comparison
-      (r_vs_signal.*) runs every signal at the grid's sub-aperture and spot nearest 8x8 px and
-      airy:2 (the operating point of the headline numbers).
+      (r_vs_signal.*) runs every signal at the sub-aperture and spot of --operating-point
+      (default 8,airy:2,50: the configuration of the headline numbers; its signal is added to
+      the comparison, and the point simulated beside the grid, when the grid lacks them).
   --iters, --seed, --sampling
       Every Monte-Carlo run of the report, the table and the comparison (--quick caps --iters
       at 2,000).
@@ -140,6 +146,11 @@ impl ReportArgs {
             signals_photons: unless_default(&self.signal, DEFAULT_SIGNAL)
                 .map(|s| parse_list(s, "--signal"))
                 .transpose()?,
+            operating_point: self
+                .operating_point
+                .as_deref()
+                .map(OperatingPoint::parse)
+                .transpose()?,
             iters: self.iters,
             seed: self.seed,
             sampling: self.sampling,
@@ -187,6 +198,27 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
 mod tests {
     use super::*;
     use crate::report::{DEFAULT_AIRY_DIAMETERS_PX, DEFAULT_SIGNALS_PHOTONS, DEFAULT_SUBAPS_PX};
+
+    #[test]
+    fn the_stated_default_operating_point_is_the_librarys() {
+        assert_eq!(OperatingPoint::DEFAULT_TEXT, "8,airy:2,50");
+        assert_eq!(
+            OperatingPoint::parse(OperatingPoint::DEFAULT_TEXT).unwrap(),
+            OperatingPoint::default()
+        );
+        // The option's help states the same default.
+        let cmd = <ReportArgs as clap::Args>::augment_args(clap::Command::new("report"));
+        let help = cmd
+            .get_arguments()
+            .find(|a| a.get_id() == "operating_point")
+            .and_then(|a| a.get_help())
+            .map(|h| h.to_string())
+            .unwrap_or_default();
+        assert!(
+            help.contains(&format!("Default: {}", OperatingPoint::DEFAULT_TEXT)),
+            "{help}"
+        );
+    }
 
     #[test]
     fn the_default_lists_are_the_librarys_full_grid() {

@@ -228,7 +228,7 @@ fn check_page_bytes(
                 path,
                 k,
                 format!(
-                    "file truncated or corrupt: the page's {} bytes of uncompressed data cannot hold a {rows}x{cols} frame of {t:?}",
+                    "file truncated or corrupt: the page's {} bytes of uncompressed data cannot hold a frame of {rows}x{cols} {t:?} samples",
                     stored
                 ),
             ));

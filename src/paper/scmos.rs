@@ -7,8 +7,9 @@ use crate::detector::ModelSpec;
 use crate::effective::effective_table;
 use crate::output::write_atomic;
 use crate::pdf::paper_shape;
-use crate::plot::{Heatmap, HistNorm, Histogram, Image, ImageGrid, Inset, Series};
+use crate::plot::{HistNorm, Histogram, Image, ImageGrid, Inset, Series};
 use crate::progress::Silent;
+use crate::report::heatmaps::{save_heatmaps, NoiseScale};
 use crate::spot::Spot;
 use crate::Result;
 use std::fmt::Write as _;
@@ -167,55 +168,59 @@ pub(super) fn fig11_constants(ctx: &Ctx) -> Result<FigureInfo> {
 pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     let sizes = ctx.pick(&[4usize, 6, 8, 10, 12, 14, 16], &[4, 8]);
     let ds = ctx.pick(&[1.0, 2.0, 4.0, 6.0, 8.0, 10.0], &[2.0, 6.0]);
-    let signals = SIGNALS;
     let model = ModelSpec::ScmosRandom;
+    let stem = "fig12-effective-read-noise";
     let mut csv = String::from(
-        "subap_px,spot_diameter_px,signal_photons,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px\n",
+        "subap_px,spot_diameter_px,signal_photons,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px,status\n",
     );
-    let mut files = vec!["fig12-effective-read-noise.csv".to_string()];
     let spots: Vec<Spot> = ds.iter().map(|&d| airy(d)).collect();
-    for s in signals {
-        let mut values = vec![vec![0.0; sizes.len()]; ds.len()];
+    let mut records = Vec::new();
+    for s in SIGNALS {
         // Sub-aperture-major, then spot: record i * ds.len() + j is size i, diameter j.
         let configs = ctx.grid(&sizes, &spots, &[s]).configs()?;
         let table = effective_table(&configs, std::slice::from_ref(&model), &ctx.params, &Silent)?;
         for (k, rec) in table.iter().enumerate() {
-            let (i, j) = (k / ds.len(), k % ds.len());
-            let (n, d, e) = (sizes[i], ds[j], &rec.effective);
-            values[j][i] = e.sigma_eff_e;
+            let (n, d, e) = (sizes[k / ds.len()], ds[k % ds.len()], &rec.effective);
+            // Values that are not results (unreachable, no eligible level) are empty cells
+            // beside their status, never NaN.
+            let cell = |v: f64| {
+                if v.is_finite() {
+                    v.to_string()
+                } else {
+                    String::new()
+                }
+            };
             let _ = writeln!(
                 csv,
-                "{n},{d},{s},{},{},{},{}",
-                e.sigma_eff_e, e.sigma_eff_se_e, e.r_px, e.r_se_px
+                "{n},{d},{s},{},{},{},{},{}",
+                cell(e.sigma_eff_e),
+                cell(e.sigma_eff_se_e),
+                cell(e.r_px),
+                cell(e.r_se_px),
+                e.status.label()
             );
         }
-        let stem = format!("fig12-effective-read-noise-S{s}");
-        let mut h = Heatmap::new(
-            format!("Effective sCMOS read noise (e-), S = {s} photons"),
-            "sub-aperture size (px per side)",
-            "spot diameter, first Airy minimum (px)",
-            sizes.iter().map(|n| n.to_string()).collect(),
-            ds.iter().map(|d| d.to_string()).collect(),
-            values,
-            "effective rms read noise (e-)",
-        );
-        h.decimals = 2;
-        // A few large values (wide spots in large sub-apertures) would flatten the scale; the
-        // printed numbers stay exact.
-        h.range = Some((0.0, 6.0));
-        h.save(ctx.dir.join(format!("{stem}.png")))?;
-        h.save(ctx.dir.join(format!("{stem}.svg")))?;
-        files.push(format!("{stem}.png"));
-        files.push(format!("{stem}.svg"));
+        records.extend(table);
     }
-    write_atomic(
-        &ctx.dir.join("fig12-effective-read-noise.csv"),
-        csv.as_bytes(),
-    )?;
+    // The paper's fixed scale: a few large values (wide spots in large sub-apertures) would
+    // flatten a scale set by the data; the printed numbers stay exact.
+    let scale = NoiseScale::fixed(6.0, "the paper's scale");
+    let mut files = vec![format!("{stem}.csv")];
+    files.extend(
+        save_heatmaps(
+            &records,
+            &scale,
+            &|s| format!("Effective sCMOS read noise (e-), S = {s} photons"),
+            &|s, ext| ctx.dir.join(format!("{stem}-S{s}.{ext}")),
+        )?
+        .iter()
+        .filter_map(|p| p.file_name().map(|n| n.to_string_lossy().into_owned())),
+    );
+    write_atomic(&ctx.dir.join(format!("{stem}.csv")), csv.as_bytes())?;
     Ok(FigureInfo {
         number: 12,
         title: "Effective Gaussian read noise of an sCMOS camera".into(),
-        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. Colours saturate at 6 e-; a dash marks a configuration where no constant sigma reaches the detector's R: a few very noisy pixels pull the centroid further than any uniform Gaussian noise does. {}", ctx.params.pdf.median(), ctx.sampling_note()),
+        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. Colour scale 0-6 e- (the paper's) for every panel, values above it in its top colour with a corner mark. Cells that are not `ok` are grey and hatched with their status: `unreachable` where no constant sigma reaches the detector's R (a few very noisy pixels pull the centroid further than any uniform Gaussian noise does); the CSV gives every cell's status. {}", ctx.params.pdf.median(), ctx.sampling_note()),
         files,
     })
 }

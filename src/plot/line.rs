@@ -183,17 +183,43 @@ fn xy(x: &Axis, y: &Axis, p: &Point) -> Option<(f64, f64)> {
     Some((x.t(p.x)?, y.t(p.y)?))
 }
 
-impl Chart for LineChart {
-    fn size(&self) -> (u32, u32) {
-        self.size
+impl LineChart {
+    /// Half the height (px) of a marker: an error bar no longer than this hides behind its
+    /// marker.
+    pub const MARKER_HALF_PX: f64 = 7.0;
+
+    /// The error bars as drawn at this chart's size: the longest arm of any bar (from the point
+    /// to either end, px) and the largest standard error (y units); None without error bars.
+    /// A caption that promises error bars can say, when the longest arm is at most
+    /// [`LineChart::MARKER_HALF_PX`], that they are smaller than the markers.
+    pub fn error_bar_extent(&self) -> Result<Option<(f64, f64)>> {
+        super::render::ensure_fonts()?;
+        let largest_se = self
+            .series
+            .iter()
+            .flat_map(|s| s.points.iter())
+            .filter_map(|p| p.y_se.filter(|v| v.is_finite() && *v > 0.0))
+            .fold(None, |m: Option<f64>, v| Some(m.map_or(v, |m| m.max(v))));
+        let Some(largest_se) = largest_se else {
+            return Ok(None);
+        };
+        let mut svg = String::new();
+        let root = SVGBackend::with_string(&mut svg, self.size).into_drawing_area();
+        let arm_px = self.draw_measured(&root)?;
+        Ok(Some((arm_px, largest_se)))
     }
 
-    fn draw<'a, DB: DrawingBackend + 'a>(&self, root: &'a DrawingArea<DB, Shift>) -> Result<()> {
+    /// Draw the chart; returns the longest error-bar arm drawn (px, 0 without bars).
+    fn draw_measured<'a, DB: DrawingBackend + 'a>(
+        &self,
+        root: &'a DrawingArea<DB, Shift>,
+    ) -> Result<f64> {
         root.fill(&WHITE).map_err(de)?;
         let (xa, ya) = self.axes()?;
         let text = FrameText::main(&self.title, &self.x_label, &self.y_label);
         let mut chart = frame(root, &text, &xa, &ya)?;
         let mut occupied = Vec::new();
+        let mut longest_arm_px = 0.0f64;
         let frac =
             |(u, v): (f64, f64)| ((u - xa.lo) / (xa.hi - xa.lo), (v - ya.lo) / (ya.hi - ya.lo));
 
@@ -204,19 +230,26 @@ impl Chart for LineChart {
             let fr: Vec<(f64, f64)> = pts.iter().map(|&p| frac(p)).collect();
             densify(&fr, &mut occupied);
 
-            let bars: Vec<(f64, f64, f64)> = s
+            // (x, y, low end, high end) in drawing coordinates.
+            let bars: Vec<[f64; 4]> = s
                 .points
                 .iter()
                 .filter_map(|p| {
                     let se = p.y_se.filter(|v| v.is_finite() && *v > 0.0)?;
                     let (tx, ty) = xy(&xa, &ya, p)?;
-                    Some((
+                    Some([
                         tx,
+                        ty,
                         ya.t_clamped(p.y - se).min(ty),
                         ya.t_clamped(p.y + se).max(ty),
-                    ))
+                    ])
                 })
                 .collect();
+            for &[x, y, lo, hi] in &bars {
+                let px = |v: f64| chart.backend_coord(&(x, v)).1 as f64;
+                let arm = (px(lo) - px(y)).abs().max((px(hi) - px(y)).abs());
+                longest_arm_px = longest_arm_px.max(arm);
+            }
             draw_error_bars(&mut chart, &bars, colour)?;
 
             let line = matches!(s.style, SeriesStyle::Line | SeriesStyle::LineMarkers);
@@ -285,24 +318,34 @@ impl Chart for LineChart {
             let at = place_legend(self.legend, &occupied, plot_px, legend_box(&names), &[]);
             draw_legend(&mut chart, at)?;
         }
-        Ok(())
+        Ok(longest_arm_px)
     }
 }
 
-/// Vertical error bars (x, low end, high end in drawing coordinates) with 10 px caps.
+impl Chart for LineChart {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn draw<'a, DB: DrawingBackend + 'a>(&self, root: &'a DrawingArea<DB, Shift>) -> Result<()> {
+        self.draw_measured(root).map(|_| ())
+    }
+}
+
+/// Vertical error bars (x, y, low end, high end in drawing coordinates) with 10 px caps.
 fn draw_error_bars<'a, DB: DrawingBackend + 'a>(
     chart: &mut ChartContext<'a, DB, Coord2d>,
-    bars: &[(f64, f64, f64)],
+    bars: &[[f64; 4]],
     colour: RGBColor,
 ) -> Result<()> {
     let style = colour.stroke_width(2);
     chart
         .draw_series(
             bars.iter()
-                .map(|&(x, lo, hi)| PathElement::new(vec![(x, lo), (x, hi)], style)),
+                .map(|&[x, _, lo, hi]| PathElement::new(vec![(x, lo), (x, hi)], style)),
         )
         .map_err(de)?;
-    let ends = bars.iter().flat_map(|&(x, lo, hi)| [(x, lo), (x, hi)]);
+    let ends = bars.iter().flat_map(|&[x, _, lo, hi]| [(x, lo), (x, hi)]);
     chart
         .draw_series(
             ends.map(|p| EmptyElement::at(p) + PathElement::new(vec![(-5, 0), (5, 0)], style)),

@@ -1,12 +1,13 @@
 //! Charts of Monte-Carlo results: R against a swept axis, effective-noise heatmaps, and the
 //! report's comparison of models.
 
+use super::heatmaps::{save_heatmaps, NoiseScale};
 use super::result::Compared;
 use crate::detector::ModelSpec;
 use crate::effective::EffectiveRecord;
 use crate::montecarlo::SimRecord;
 use crate::output::OutputDir;
-use crate::plot::{Heatmap, LineChart, Series};
+use crate::plot::{LineChart, Series};
 use crate::{Error, Result};
 use std::path::{Path, PathBuf};
 
@@ -93,61 +94,35 @@ fn spot_size(spot: &str) -> f64 {
     nums.into_iter().fold(0.0, f64::max)
 }
 
-/// One heatmap per signal level (PNG and SVG): sub-aperture size x spot, colour = sigma_eff_e.
+/// One heatmap per signal level (PNG and SVG, `effective_noise_S<signal>`): sub-aperture size x
+/// spot, colour = sigma_eff_e on one scale for every signal ([`NoiseScale::from_ok`]), cells that
+/// are not `ok` grey with their status. The records must be of one model.
 pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
-    let mut signals: Vec<f64> = records.iter().map(|r| r.config.signal_photons).collect();
-    signals.sort_by(f64::total_cmp);
-    signals.dedup();
-    let mut subaps: Vec<usize> = records.iter().map(|r| r.config.subap_px).collect();
-    subaps.sort();
-    subaps.dedup();
-    let mut spots: Vec<String> = Vec::new();
-    for r in records {
-        if !spots.contains(&r.config.spot.label()) {
-            spots.push(r.config.spot.label());
-        }
-    }
-    let mut written = Vec::new();
-    for s in signals {
-        let mut values = vec![vec![f64::NAN; subaps.len()]; spots.len()];
-        for r in records.iter().filter(|r| r.config.signal_photons == s) {
-            let i = subaps
-                .iter()
-                .position(|&n| n == r.config.subap_px)
-                .ok_or_else(|| Error::Numeric("subap".into()))?;
-            let j = spots
-                .iter()
-                .position(|p| p == &r.config.spot.label())
-                .ok_or_else(|| Error::Numeric("spot".into()))?;
-            values[j][i] = r.effective.sigma_eff_e;
-        }
-        let mut h = Heatmap::new(
-            format!("Effective read noise (e-), S = {s} photons per sub-aperture"),
-            "sub-aperture size (px per side)",
-            "spot",
-            subaps.iter().map(|n| n.to_string()).collect(),
-            spots.clone(),
-            values,
-            "effective rms read noise (e-)",
-        );
-        h.decimals = 2;
-        for ext in ["png", "svg"] {
-            let p = dir.path(&format!("effective_noise_S{s}.{ext}"));
-            h.save(&p)?;
-            written.push(p);
-        }
-    }
-    Ok(written)
+    let model = records.first().map_or("", |r| r.model.as_str());
+    save_heatmaps(
+        records,
+        &NoiseScale::from_ok(records),
+        &|s| format!("Effective read noise (e-), {model}, S = {s} photons per sub-aperture"),
+        &|s, ext| dir.path(&format!("effective_noise_S{s}.{ext}")),
+    )
 }
 
 /// R against signal at one sub-aperture and spot, one line per model (in order of first
 /// appearance) with error bars of one standard error; `labels` names the models in the legend
-/// (others show their model name).
+/// (others show their model name). Written to `path` (PNG or SVG).
 pub fn comparison_chart(
     comparison: &[Compared],
     path: &Path,
     labels: &[(ModelSpec, &str)],
 ) -> Result<()> {
+    comparison_line_chart(comparison, labels)?.save(path)
+}
+
+/// The chart of [`comparison_chart`].
+pub(crate) fn comparison_line_chart(
+    comparison: &[Compared],
+    labels: &[(ModelSpec, &str)],
+) -> Result<LineChart> {
     let first = &comparison
         .first()
         .ok_or_else(|| Error::Numeric("no comparison records to draw".into()))?
@@ -186,5 +161,30 @@ pub fn comparison_chart(
             )
         })
         .collect();
-    chart.save(path)
+    Ok(chart)
+}
+
+/// What a caption says of a chart's error bars (one standard error): that they are drawn, or
+/// that they hide behind the markers, with the largest standard error (px) and the largest
+/// relative one. `extent` is [`LineChart::error_bar_extent`]; `records` the points drawn.
+pub fn error_bar_note(extent: Option<(f64, f64)>, records: &[&SimRecord]) -> String {
+    match extent {
+        None => String::new(),
+        Some((arm_px, _)) if arm_px > LineChart::MARKER_HALF_PX => {
+            "Error bars are one standard error.".into()
+        }
+        Some((_, largest_se)) => {
+            let rel = records
+                .iter()
+                .map(|r| r.result.r_se_px / r.result.r_px)
+                .filter(|v| v.is_finite())
+                .fold(0.0, f64::max);
+            format!(
+                "Error bars (one standard error) are smaller than the markers: standard errors \
+                 are at most {} px, {:.1} % of R.",
+                super::heatmaps::round_up_2_digits(largest_se).1,
+                100.0 * rel
+            )
+        }
+    }
 }

@@ -1,8 +1,9 @@
 //! The comparison of a report: R against signal at the operating sub-aperture and spot, for
 //! this camera's models beside the one-number sCMOS models and an EMCCD.
 
-use super::charts::comparison_chart;
-use super::grid::{Grid, Headline};
+use super::charts::{comparison_line_chart, error_bar_note};
+use super::grid::Grid;
+use super::point::OperatingPoint;
 use super::result::Compared;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::montecarlo::{sweep, SimConfig, SimRecord};
@@ -37,20 +38,23 @@ pub(crate) const EMCCD_LABELS: [(ModelSpec, &str); 4] = [
 pub(crate) const COMPARISON_FILES: [&str; 3] =
     ["r_vs_signal.csv", "r_vs_signal.png", "r_vs_signal.svg"];
 
-/// Write the comparison's table (`r_vs_signal.csv`) and chart (PNG and SVG) into `dir`.
+/// Write the comparison's table (`r_vs_signal.csv`) and chart (PNG and SVG) into `dir`;
+/// returns what the chart's caption says of its error bars ([`error_bar_note`]).
 pub(crate) fn write_comparison(
     comparison: &[Compared],
     dir: &OutputDir,
     labels: &[(ModelSpec, &str)],
-) -> Result<()> {
+) -> Result<String> {
     let records: Vec<&SimRecord> = comparison.iter().map(|c| &c.record).collect();
     let [csv, png, svg] = COMPARISON_FILES;
     write_atomic(
         &dir.path(csv),
         render(&records, TableFormat::Csv)?.as_bytes(),
     )?;
-    comparison_chart(comparison, &dir.path(png), labels)?;
-    comparison_chart(comparison, &dir.path(svg), labels)
+    let chart = comparison_line_chart(comparison, labels)?;
+    chart.save(dir.path(png))?;
+    chart.save(dir.path(svg))?;
+    Ok(error_bar_note(chart.error_bar_extent()?, &records))
 }
 
 /// Models run together at one quantum efficiency (photo-electrons per photon).
@@ -100,16 +104,17 @@ pub(crate) fn emccd_groups(qe: f64, qe_emccd: f64) -> [Group<'static>; 2] {
     ]
 }
 
-/// R against signal for `groups` at the operating point's sub-aperture and spot: signal major,
-/// then group, then model (the order of `r_vs_signal.csv`).
+/// R against signal for `groups` at the operating point's sub-aperture and spot, over the grid's
+/// signals and the operating point's: signal major, then group, then model (the order of
+/// `r_vs_signal.csv`).
 pub(crate) fn compare_models(
     grid: &Grid,
-    op: &Headline,
+    op: &OperatingPoint,
     params: &ModelParams,
     groups: &[Group],
 ) -> Result<Vec<Compared>> {
     let mut out = Vec::new();
-    for &signal_photons in &grid.signals_photons {
+    for signal_photons in grid.signals_with(op) {
         for group in groups {
             let cfg = grid.config(op.subap_px, op.spot, signal_photons, group.qe);
             out.extend(run_models(&cfg, group.specs, params)?);

@@ -7,7 +7,8 @@ use super::compare::{
 use super::grid::Grid;
 use super::options::{GainSource, ReportOptions};
 use super::page::emccd_html;
-use super::result::{EmccdSummary, ReportResult, Summary};
+use super::point::ChosenPoint;
+use super::result::{EmccdSummary, ReportInput, ReportResult, Summary};
 use crate::calib::summary::inputs;
 use crate::detector::EmRegister;
 use crate::fit::emgain::require_em_signature;
@@ -55,19 +56,21 @@ pub(crate) fn run(
             format!("the fitted EM gain cannot be simulated: {e}"),
         )
     })?;
-    let op = grid.operating_point();
+    let op = o.operating_point();
     let comparison = compare_models(grid, &op, &params, &emccd_groups(o.qe, o.qe_emccd))?;
-    write_comparison(&comparison, dir, &EMCCD_LABELS)?;
+    let error_bars = write_comparison(&comparison, dir, &EMCCD_LABELS)?;
+    // The comparison runs at the point's sub-aperture and spot over the grid's signals and the
+    // point's, whether or not the point is one of the grid's configurations.
+    let operating_point = ChosenPoint::new(&op, o.operating_point.is_some(), grid.contains(&op));
     let summary = EmccdSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
-        inputs: inputs(stack)?,
+        inputs: ReportInput::all("darks", inputs(stack)?).collect(),
         frames: stack.frames,
         shape: [stack.shape.0, stack.shape.1],
         gain_e_per_adu: conv,
         read_noise_output_e: params.emccd_read_noise_e,
         emgain: fit,
-        subap_px: op.subap_px,
-        spot: op.spot.label(),
+        operating_point,
         iters: grid.iters,
         seed: grid.seed,
         quick: o.quick,
@@ -75,7 +78,7 @@ pub(crate) fn run(
     write_json(&dir.path("summary.json"), &summary)?;
     write_atomic(
         &dir.path("index.html"),
-        emccd_html(&summary, &comparison).as_bytes(),
+        emccd_html(&summary, &comparison, &error_bars).as_bytes(),
     )?;
     let files = ["emgain.png"]
         .into_iter()

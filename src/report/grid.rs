@@ -1,6 +1,7 @@
 //! The report's grid of configurations: sub-aperture sizes, spots and signals (the full grid or
-//! the `quick` preview), the Monte-Carlo settings they share, and the headline operating point.
+//! the `quick` preview) and the Monte-Carlo settings they share.
 
+use super::point::OperatingPoint;
 use crate::montecarlo::{BgGrid, SimConfig};
 use crate::spot::{Sampling, Spot};
 
@@ -34,17 +35,6 @@ pub(crate) struct Grid {
     pub seed: u64,
     /// Spot sampling.
     pub sampling: Sampling,
-}
-
-/// The headline configuration of a report.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) struct Headline {
-    /// Sub-aperture size (px per side).
-    pub subap_px: usize,
-    /// Spot.
-    pub spot: Spot,
-    /// Signal (photons per sub-aperture).
-    pub signal_photons: f64,
 }
 
 fn airy(diameters_px: &[f64]) -> Vec<Spot> {
@@ -124,30 +114,21 @@ impl Grid {
         out
     }
 
-    /// The headline configuration: 8x8 px (or the nearest size), an Airy spot of D = 2 px (or
-    /// the first spot), 50 photons (or the nearest signal). The lists must not be empty.
-    pub fn operating_point(&self) -> Headline {
-        let subap_px = *self
-            .subaps_px
-            .iter()
-            .min_by_key(|x| x.abs_diff(8))
-            .expect("non-empty");
-        let signal_photons = *self
-            .signals_photons
-            .iter()
-            .min_by(|a, b| (*a - 50.0).abs().total_cmp(&(*b - 50.0).abs()))
-            .expect("non-empty");
-        let spot = self
-            .spots
-            .iter()
-            .copied()
-            .find(|s| *s == Spot::Airy { diameter_px: 2.0 })
-            .unwrap_or(self.spots[0]);
-        Headline {
-            subap_px,
-            spot,
-            signal_photons,
+    /// Whether `p` is one of this grid's configurations.
+    pub fn contains(&self, p: &OperatingPoint) -> bool {
+        self.subaps_px.contains(&p.subap_px)
+            && self.spots.contains(&p.spot)
+            && self.signals_photons.contains(&p.signal_photons)
+    }
+
+    /// The signals of a comparison at `p`: the grid's, with `p`'s added (ascending) if missing.
+    pub fn signals_with(&self, p: &OperatingPoint) -> Vec<f64> {
+        let mut s = self.signals_photons.clone();
+        if !s.contains(&p.signal_photons) {
+            s.push(p.signal_photons);
+            s.sort_by(f64::total_cmp);
         }
+        s
     }
 }
 
@@ -205,22 +186,21 @@ mod tests {
     }
 
     #[test]
-    fn operating_point_is_the_nearest_to_8_px_airy_2_and_50_photons() {
-        let g = Grid::resolve(&choice(false));
-        let op = g.operating_point();
-        assert_eq!(op.subap_px, 8);
-        assert_eq!(op.spot, Spot::Airy { diameter_px: 2.0 });
-        assert_eq!(op.signal_photons, 50.0);
-        let other = Grid {
-            subaps_px: vec![4, 11, 5],
-            spots: airy(&[3.0, 1.0]),
-            signals_photons: vec![1000.0, 70.0, 30.0],
-            ..g
+    fn the_operating_point_is_looked_up_not_moved_into_the_grid() {
+        let g = Grid::resolve(&choice(true));
+        let default = OperatingPoint::default();
+        assert!(g.contains(&default));
+        assert_eq!(g.signals_with(&default), QUICK_SIGNALS_PHOTONS);
+        let off = OperatingPoint {
+            subap_px: 6,
+            signal_photons: 70.0,
+            ..default
         };
-        let op = other.operating_point();
-        // Ties go to the first listed: 11 and 5 are both 3 px from 8; 70 and 30 both 20 from 50.
-        assert_eq!(op.subap_px, 11);
-        assert_eq!(op.spot, Spot::Airy { diameter_px: 3.0 });
-        assert_eq!(op.signal_photons, 70.0);
+        assert!(!g.contains(&off));
+        assert!(!g.contains(&OperatingPoint {
+            spot: Spot::Airy { diameter_px: 3.0 },
+            ..default
+        }));
+        assert_eq!(g.signals_with(&off), [20.0, 50.0, 70.0, 500.0]);
     }
 }

@@ -9,8 +9,10 @@ pub mod charts;
 mod compare;
 mod emccd;
 mod grid;
+pub mod heatmaps;
 mod options;
 pub mod page;
+mod point;
 mod result;
 mod scmos;
 
@@ -24,8 +26,12 @@ pub use grid::{
     QUICK_MAX_ITERS, QUICK_SIGNALS_PHOTONS, QUICK_SUBAPS_PX,
 };
 pub use options::{DetectorKind, ReportOptions};
-pub use result::{Compared, EmccdSummary, OperatingPoint, ReportResult, ReportSummary, Summary};
+pub use point::{ChosenPoint, OperatingPoint};
+pub use result::{
+    Compared, EmccdSummary, Headline, ReportInput, ReportResult, ReportSummary, Summary,
+};
 
+use crate::calib::ptc::POINTS_NAMES;
 use crate::io::FrameStack;
 use crate::output::{DirPlan, OutputDir};
 use crate::progress::Observer;
@@ -33,7 +39,7 @@ use crate::Result;
 use std::path::PathBuf;
 
 /// Files a report may write into its directory (glob patterns).
-const OUTPUT_NAMES: [&str; 19] = [
+const OUTPUT_NAMES: [&str; 21] = [
     "offset_adu.fits",
     "rms_adu.fits",
     "rms_e.fits",
@@ -50,6 +56,8 @@ const OUTPUT_NAMES: [&str; 19] = [
     "r_vs_signal.png",
     "r_vs_signal.svg",
     "ptc.png",
+    POINTS_NAMES[0],
+    POINTS_NAMES[1],
     "emgain.png",
     "summary.json",
     "index.html",

@@ -3,6 +3,7 @@
 //! directory, checked together before any frame is read.
 
 use super::grid::{Grid, GridChoice};
+use super::point::OperatingPoint;
 use crate::detector::{EmRegister, ModelParams};
 use crate::montecarlo::SimConfig;
 use crate::spot::{Sampling, Spot};
@@ -37,6 +38,9 @@ pub struct ReportOptions {
     pub spots: Option<Vec<Spot>>,
     /// Signals of the table (photons per sub-aperture; signal x QE at most 1e9).
     pub signals_photons: Option<Vec<f64>>,
+    /// The configuration of the headline numbers (default 8x8 px, airy:2, 50 photons); simulated
+    /// beside the grid when it is not one of the grid's configurations.
+    pub operating_point: Option<OperatingPoint>,
     /// Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
     pub iters: u64,
     /// Seed of every random stream.
@@ -72,6 +76,7 @@ impl Default for ReportOptions {
             subaps_px: None,
             spots: None,
             signals_photons: None,
+            operating_point: None,
             iters: 10_000,
             seed: 1,
             sampling: Sampling::Integrated,
@@ -122,6 +127,16 @@ impl ReportOptions {
             .validate()?;
             cfg.validate()?;
         }
+        // The headline is simulated at both QEs too (this camera, and the EMCCD compared).
+        let op = self.operating_point();
+        for qe in [self.qe, self.qe_emccd] {
+            Spot::parse(&op.spot.label())
+                .and_then(|_| {
+                    grid.config(op.subap_px, op.spot, op.signal_photons, qe)
+                        .validate()
+                })
+                .map_err(|e| op.blame(e))?;
+        }
         let p = &self.model_params;
         EmRegister::check(p.em_gain, p.stages, "em_gain")?;
         self.gain_source().map(|_| ())
@@ -145,6 +160,11 @@ impl ReportOptions {
             Spot::parse(&spot.label())?;
         }
         Ok(())
+    }
+
+    /// The operating point of the headline numbers: the one given, or the default.
+    pub fn operating_point(&self) -> OperatingPoint {
+        self.operating_point.unwrap_or_default()
     }
 
     /// The grid of configurations these options ask for.

@@ -1,19 +1,56 @@
 //! The report's `index.html`: one self-contained page (relative image links, inline CSS).
+//!
+//! Numbers that are not results never show as numbers: an effective noise whose status is not
+//! `ok` shows its status word (and, for `imprecise`, its value and SE in grey), a missing value a
+//! dash; the page carries a legend of the status words.
 
 use super::compare::verdicts;
+use super::heatmaps::NoiseScale;
 use super::result::{Compared, EmccdSummary, ReportSummary};
 use crate::detector::ModelSpec;
-use crate::effective::EffectiveRecord;
+use crate::effective::{EffectiveRecord, Status};
 use crate::fit::pdf_fit::PdfFitReport;
 use crate::output::html_escape as esc;
+use crate::plot::Heatmap;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
-fn fmt_sigma(v: f64, se: f64) -> String {
-    if v.is_finite() {
-        format!("{v:.2} ± {se:.2} e⁻")
+/// "a" or "an" before the number `n` as it is read aloud (an 8, an 11, an 18, an 80, a 16).
+pub fn article(n: u64) -> &'static str {
+    let digits = n.to_string();
+    // Numbers read with a leading vowel sound: eight..., eleven..., eighteen... (the last two
+    // only when they lead a group of three digits: 11, 18, 11,000, 18,000,000).
+    let eleven_or_eighteen =
+        digits.len() % 3 == 2 && (digits.starts_with("11") || digits.starts_with("18"));
+    if digits.starts_with('8') || eleven_or_eighteen {
+        "an"
     } else {
-        "none (no Gaussian σ reproduces it)".into()
+        "a"
+    }
+}
+
+/// A number with `decimals`, or a dash when it is not finite (never "NaN").
+fn num(v: f64, decimals: usize) -> String {
+    if v.is_finite() {
+        format!("{v:.decimals$}")
+    } else {
+        "–".into()
+    }
+}
+
+/// An effective read noise as the page shows it: `ok` as value ± SE, `imprecise` greyed with
+/// its word, any other status as its word alone.
+pub fn fmt_effective(sigma_e: f64, se_e: f64, status: Status) -> String {
+    let word = |s: Status| format!("<span class=\"status\">{}</span>", s.label());
+    match status {
+        Status::Ok => format!("{} ± {} e⁻", num(sigma_e, 2), num(se_e, 2)),
+        Status::Imprecise => format!(
+            "<span class=\"muted\">{} ± {} e⁻ {}</span>",
+            num(sigma_e, 2),
+            num(se_e, 2),
+            word(status)
+        ),
+        s => word(s),
     }
 }
 
@@ -29,159 +66,291 @@ h1{{font-size:1.6em;margin-bottom:.2em}}h2{{margin-top:1.8em;border-bottom:2px s
 .key{{background:#f3f6fa;border:1px solid #d5dde8;border-radius:6px;padding:.7em .9em}}.key b{{display:block;font-size:1.45em;color:#0b4f8a}}\
 figure{{margin:1.5em 0}}figure img{{max-width:100%;border:1px solid #e3e3e3}}figcaption{{color:#444;font-size:.93em}}\
 table{{border-collapse:collapse;font-size:.88em;margin:.8em 0}}td,th{{border:1px solid #ccc;padding:.25em .55em;text-align:right}}th{{background:#f0f0f0}}\
-.note{{color:#555;font-size:.9em}}</style></head><body>"
+.note{{color:#555;font-size:.9em}}.muted{{color:#888}}.status{{font-family:monospace;color:#6a3d00}}\
+dl.legend{{display:grid;grid-template-columns:max-content 1fr;gap:.2em 1em;font-size:.92em}}dl.legend dd{{margin:0}}\
+.advice{{background:#fff6e5;border:1px solid #e8c98a;border-radius:6px;padding:.6em .9em}}</style></head><body>"
     );
     h
 }
 
-/// The EMCCD report page: the EM-gain fit, then the comparison with sCMOS models.
-pub fn emccd_html(s: &EmccdSummary, comparison: &[Compared]) -> String {
+/// A figure: the image `src` with plain-text `alt`, and its `caption` (HTML).
+fn figure(h: &mut String, src: &str, alt: &str, caption: &str) {
+    let _ = write!(
+        h,
+        "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{caption}</figcaption></figure>",
+        esc(src),
+        esc(alt).replace('"', "&quot;")
+    );
+}
+
+/// A key number: its label and value (both HTML).
+fn key(h: &mut String, label: &str, value: &str) {
+    let _ = write!(h, "<div class=\"key\">{label}<b>{value}</b></div>");
+}
+
+/// The legend of the effective-noise status words.
+fn status_legend(h: &mut String) {
+    h.push_str("<h3>Status words</h3><dl class=\"legend\">");
+    for s in Status::ALL {
+        let _ = write!(
+            h,
+            "<dt><span class=\"status\">{}</span></dt><dd>{}</dd>",
+            s.label(),
+            esc(s.meaning())
+        );
+    }
+    h.push_str("</dl>");
+}
+
+/// What to do where no constant sigma reproduces the camera: simulate it directly, with the
+/// map or the fitted pdf this report wrote into `out_dir`.
+fn unreachable_advice(h: &mut String, out_dir: &Path) {
+    let file = |name: &str| esc(&out_dir.join(name).display().to_string());
+    let _ = write!(
+        h,
+        "<p class=\"advice\">Some configurations are <span class=\"status\">unreachable</span>: no constant Gaussian read noise gives a centroid error as large as this camera's there (a few very noisy pixels dominate). Do not use a single σ for them: simulate the camera itself in the AO simulation, either its measured noise map (<code>detnoise simulate --model scmos-map --map {}</code>) or its fitted per-pixel distribution (<code>detnoise simulate --model scmos-random --pdf {}</code>), with your sub-aperture size, spot and signal (<code>--subap</code>, <code>--spot</code>, <code>--signal</code>). This report wrote both files for that purpose.</p>",
+        file("rms_e.fits"),
+        file("pdf_fit.json")
+    );
+}
+
+/// The EMCCD report page: the EM-gain fit, then the comparison with sCMOS models;
+/// `error_bars` is what the comparison chart's caption says of its error bars.
+pub fn emccd_html(s: &EmccdSummary, comparison: &[Compared], error_bars: &str) -> String {
     let f = &s.emgain;
+    let op = &s.operating_point;
     let mut h = page_head();
     let _ = write!(h, "<h1>EMCCD report</h1><p class=\"note\">{} · {} frames of {}×{} px · conversion gain {:.4} e⁻/adu · exact register fit · {} iterations per point, seed {}{}</p>",
         esc(&s.tool), s.frames, s.shape[0], s.shape[1], s.gain_e_per_adu, s.iters, s.seed,
         if s.quick { " · <b>quick preview: reduced grid and iterations</b>" } else { "" });
+    let _ = write!(h, "<p>Operating point: {}.</p>", esc(&op.describe()));
     h.push_str("<h2>Key numbers</h2><div class=\"keys\">");
-    let key = |h: &mut String, label: &str, value: String| {
-        let _ = write!(h, "<div class=\"key\">{label}<b>{value}</b></div>");
-    };
     key(
         &mut h,
         &format!("EM gain ({})", esc(&f.em_gain_units)),
-        format!("{:.2} ± {:.2}", f.em_gain, f.em_gain_se),
+        &format!("{} ± {}", num(f.em_gain, 2), num(f.em_gain_se, 2)),
     );
     key(
         &mut h,
         "Read noise (output e⁻)",
-        format!("{:.1} e⁻", s.read_noise_output_e),
+        &format!("{} e⁻", num(s.read_noise_output_e, 1)),
     );
     key(
         &mut h,
         "Read noise / EM gain (input e⁻)",
-        format!("{:.3} e⁻", s.read_noise_output_e / f.em_gain),
+        &format!("{} e⁻", num(s.read_noise_output_e / f.em_gain, 3)),
     );
     key(
         &mut h,
         "Mean input electrons per pixel",
-        format!("{:.4} ± {:.4}", f.lambda_e, f.lambda_e_se),
+        &format!("{} ± {}", num(f.lambda_e, 4), num(f.lambda_e_se, 4)),
     );
-    key(&mut h, "Bias", format!("{:.2} adu", f.bias_adu));
-    h.push_str("</div><p><b>Against sCMOS</b> (an EMCCD with this gain and read noise against an sCMOS with the paper's pdf, R at the operating sub-aperture and spot):</p><ul>");
-    for (sig, v) in verdicts(
+    key(&mut h, "Bias", &format!("{} adu", num(f.bias_adu, 2)));
+    let _ = write!(h, "</div><p><b>Against sCMOS</b> (an EMCCD with this gain and read noise against an sCMOS with the paper's pdf, R at {} {}×{} px sub-aperture, {}):</p><ul>", article(op.subap_px as u64), op.subap_px, op.subap_px, esc(&op.spot));
+    verdict_list(
+        &mut h,
         comparison,
+        op.signal_photons,
         (&ModelSpec::EmccdStochastic, "this EMCCD"),
         (&ModelSpec::ScmosRandom, "the sCMOS"),
-    ) {
-        let _ = write!(h, "<li>{sig} photons: {}</li>", esc(&v));
-    }
-    h.push_str("</ul><h2>Charts</h2>");
-    let _ = write!(h, "<figure><img src=\"emgain.png\" alt=\"EM-gain fit\"><figcaption>Histogram of all pixel-samples (log counts) with the fitted Poisson-register-Gaussian model and its zero- and one-or-more-electron parts.</figcaption></figure>");
-    let _ = write!(h, "<figure><img src=\"r_vs_signal.png\" alt=\"R against signal\"><figcaption>Mean radial centroid error R against signal, {}×{} px, {}: this EMCCD (fitted gain and read noise) against sCMOS models. Lower is better; error bars are one standard error.</figcaption></figure>", s.subap_px, s.subap_px, esc(&s.spot));
-    h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, inputs with SHA-256), r_vs_signal.csv/.svg, emgain.png.</p></body></html>\n");
+    );
+    h.push_str("<h2>Charts</h2>");
+    figure(&mut h, "emgain.png", "EM-gain fit: histogram of all pixel samples with the fitted model", "Histogram of all pixel-samples (log counts) with the fitted Poisson-register-Gaussian model and its zero- and one-or-more-electron parts.");
+    figure(&mut h, "r_vs_signal.png", "R against signal: this EMCCD against sCMOS models", &format!("Mean radial centroid error R against signal, {}×{} px, {}: this EMCCD (fitted gain and read noise) against sCMOS models. Lower is better. {}", op.subap_px, op.subap_px, esc(&op.spot), esc(error_bars)));
+    h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, the operating point, inputs with SHA-256), r_vs_signal.csv/.svg, emgain.png.</p></body></html>\n");
     h
 }
 
-/// The sCMOS report page: key numbers, verdicts, charts and tables.
-pub fn index_html(
-    s: &ReportSummary,
-    fit: &PdfFitReport,
-    effective: &[EffectiveRecord],
+/// The verdicts of `mine` against `other` at each signal, the operating point's in bold.
+fn verdict_list(
+    h: &mut String,
     comparison: &[Compared],
-    heatmaps: &[PathBuf],
-    has_ptc: bool,
-) -> String {
+    at_signal: f64,
+    mine: (&ModelSpec, &str),
+    other: (&ModelSpec, &str),
+) {
+    for (sig, v) in verdicts(comparison, mine, other) {
+        if sig == at_signal {
+            let _ = write!(
+                h,
+                "<li><b>{sig} photons (operating point): {}</b></li>",
+                esc(&v)
+            );
+        } else {
+            let _ = write!(h, "<li>{sig} photons: {}</li>", esc(&v));
+        }
+    }
+    h.push_str("</ul>");
+}
+
+/// What the sCMOS page shows.
+pub struct ScmosPage<'a> {
+    /// The key numbers (summary.json).
+    pub summary: &'a ReportSummary,
+    /// The fit of the per-pixel noise distribution.
+    pub fit: &'a PdfFitReport,
+    /// The effective-noise table (fitted pdf, then measured map).
+    pub effective: &'a [EffectiveRecord],
+    /// R against signal per compared model.
+    pub comparison: &'a [Compared],
+    /// The heatmaps written (PNG and SVG).
+    pub heatmaps: &'a [PathBuf],
+    /// The heatmaps' colour scale.
+    pub scale: &'a NoiseScale,
+    /// What the comparison chart's caption says of its error bars.
+    pub error_bars: &'a str,
+    /// Whether photon transfer gave the gain (ptc.png and ptc_points.* were written).
+    pub has_ptc: bool,
+    /// The report's directory as given (for the commands that use its files).
+    pub out_dir: &'a Path,
+}
+
+/// The sCMOS report page: key numbers, verdicts, charts and tables.
+pub fn index_html(p: &ScmosPage) -> String {
+    let s = p.summary;
     let op = &s.operating_point;
+    let at = &op.at;
     let mut h = page_head();
     let _ = write!(h, "<h1>Read-noise report</h1><p class=\"note\">{} · {} dark frames of {}×{} px · gain {:.4} e⁻/adu ({}) · {} iterations per configuration, seed {}, {} sampling{}</p>",
         esc(&s.tool), s.frames, s.shape[0], s.shape[1], s.gain_e_per_adu, esc(&s.gain_source), s.iters, s.seed, esc(&s.sampling),
         if s.quick { " · <b>quick preview: reduced grid and iterations; run without --quick for full accuracy</b>" } else { "" });
+    let _ = write!(
+        h,
+        "<p>Operating point of the headline numbers: {}.</p>",
+        esc(&at.describe())
+    );
     h.push_str("<h2>Key numbers</h2><div class=\"keys\">");
-    let key = |h: &mut String, label: &str, value: String| {
-        let _ = write!(h, "<div class=\"key\">{label}<b>{value}</b></div>");
-    };
     key(
         &mut h,
         "Median read noise (the data-sheet number)",
-        format!("{:.3} e⁻", s.median_rms_e),
+        &format!("{} e⁻", num(s.median_rms_e, 3)),
     );
-    key(&mut h, "Mean read noise", format!("{:.3} e⁻", s.mean_rms_e));
+    key(
+        &mut h,
+        "Mean read noise",
+        &format!("{} e⁻", num(s.mean_rms_e, 3)),
+    );
     key(
         &mut h,
         "RMS of the per-pixel noise",
-        format!("{:.3} e⁻", s.rms_rms_e),
+        &format!("{} e⁻", num(s.rms_rms_e, 3)),
     );
     key(
         &mut h,
         "Noisy pixels (above 3× median)",
-        format!("{:.2} %", 100.0 * s.frac_above_3x_median),
+        &format!("{} %", num(100.0 * s.frac_above_3x_median, 2)),
     );
     key(
         &mut h,
         &format!(
             "Effective read noise, {}×{} px, {}, {} photons (measured map)",
-            op.subap_px,
-            op.subap_px,
-            esc(&op.spot),
-            op.signal_photons
+            at.subap_px,
+            at.subap_px,
+            esc(&at.spot),
+            at.signal_photons
         ),
-        fmt_sigma(op.sigma_eff_map_e, op.sigma_eff_map_se_e),
+        &fmt_effective(
+            op.sigma_eff_map_e,
+            op.sigma_eff_map_se_e,
+            op.sigma_eff_map_status,
+        ),
     );
     key(
         &mut h,
         "Same, from the fitted distribution",
-        fmt_sigma(op.sigma_eff_fitted_pdf_e, op.sigma_eff_fitted_pdf_se_e),
+        &fmt_effective(
+            op.sigma_eff_fitted_pdf_e,
+            op.sigma_eff_fitted_pdf_se_e,
+            op.sigma_eff_fitted_pdf_status,
+        ),
     );
     h.push_str("</div>");
-    let _ = write!(h, "<p>Use the effective read noise, not the median, as the Gaussian read noise of this camera in an AO simulation of a {}×{} px sub-aperture. The full table below gives it for every sub-aperture size, spot and signal.</p>", op.subap_px, op.subap_px);
-    h.push_str("<p><b>Which detector wins</b> (this camera's measured map against an EMCCD, R at the operating sub-aperture and spot):</p><ul>");
-    for (sig, v) in verdicts(
-        comparison,
+    let _ = write!(h, "<p>Use the effective read noise, not the median, as the Gaussian read noise of this camera in an AO simulation of {} {}×{} px sub-aperture. The full table below gives it for every sub-aperture size, spot and signal; only values marked <span class=\"status\">ok</span> (shown as value ± SE) are results.</p>", article(at.subap_px as u64), at.subap_px, at.subap_px);
+    let unreachable = p
+        .effective
+        .iter()
+        .map(|r| r.effective.status)
+        .chain([op.sigma_eff_map_status, op.sigma_eff_fitted_pdf_status])
+        .any(|st| st == Status::Unreachable);
+    if unreachable {
+        unreachable_advice(&mut h, p.out_dir);
+    }
+    let _ = write!(h, "<p><b>Which detector wins</b> (this camera's measured map against an EMCCD, R at {} {}×{} px sub-aperture, {}):</p><ul>", article(at.subap_px as u64), at.subap_px, at.subap_px, esc(&at.spot));
+    verdict_list(
+        &mut h,
+        p.comparison,
+        at.signal_photons,
         (&ModelSpec::ScmosMap, "this camera"),
         (&ModelSpec::EmccdStochastic, "the EMCCD"),
-    ) {
-        let _ = write!(h, "<li>{sig} photons: {}</li>", esc(&v));
-    }
-    h.push_str("</ul><h2>Charts</h2>");
-    let fig = |h: &mut String, src: &str, cap: &str| {
-        let _ = write!(
-            h,
-            "<figure><img src=\"{src}\" alt=\"{}\"><figcaption>{cap}</figcaption></figure>",
-            esc(cap)
-        );
-    };
-    fig(&mut h, "pdf_fit.png", &format!("Per-pixel read noise (e⁻) of the {} unflagged pixels with the fitted distributions; best by AIC: <b>{}</b>. Inset: log scale, showing the tail of noisy pixels.", s.pixels_used, esc(&s.pdf_best_model)));
-    fig(&mut h, "r_vs_signal.png", "Mean radial centroid error R against signal: this camera (random windows of its measured noise map, and its fitted distribution), the one-number models (median, mean) and an EMCCD. Lower is better; error bars are one standard error.");
-    for p in heatmaps
+    );
+    charts(&mut h, p);
+    effective_table(&mut h, p.effective);
+    fit_table(&mut h, p.fit);
+    let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with SHA-256), darks_summary.json.</p></body></html>",
+        if p.has_ptc { ", ptc_points.csv/.json (the photon-transfer points: mean, variance and gain per light level)" } else { "" });
+    h
+}
+
+/// The page's charts: the pdf fit, the comparison, the heatmaps, the noise histogram and the
+/// photon transfer.
+fn charts(h: &mut String, p: &ScmosPage) {
+    let s = p.summary;
+    h.push_str("<h2>Charts</h2>");
+    figure(h, "pdf_fit.png", "Per-pixel read noise with the fitted distributions", &format!("Per-pixel read noise (e⁻) of the {} unflagged pixels with the fitted distributions; best by AIC: <b>{}</b>. Inset: log scale, showing the tail of noisy pixels.", s.pixels_used, esc(&s.pdf_best_model)));
+    figure(h, "r_vs_signal.png", "R against signal for this camera, one-number models and an EMCCD", &format!("Mean radial centroid error R against signal: this camera (random windows of its measured noise map, and its fitted distribution), the one-number models (median, mean) and an EMCCD. Lower is better. {}", esc(p.error_bars)));
+    for path in p
+        .heatmaps
         .iter()
-        .filter(|p| p.extension().is_some_and(|e| e == "png"))
+        .filter(|q| q.extension().is_some_and(|e| e == "png"))
     {
-        let name = p
+        let name = path
             .file_name()
             .map(|n| n.to_string_lossy().to_string())
             .unwrap_or_default();
-        fig(&mut h, &name, "Effective Gaussian read noise (e⁻) by sub-aperture size and spot, from the fitted distribution, at the signal in the title. A dash: no constant σ reproduces the camera.");
+        let signal = name
+            .trim_start_matches("effective_noise_S")
+            .trim_end_matches(".png");
+        figure(h, &name, &format!("Effective read noise by sub-aperture size and spot, {signal} photons"), &format!("Effective Gaussian read noise (e⁻) by sub-aperture size and spot, from the fitted distribution, at {signal} photons per sub-aperture; {}, the same for every signal; {} marks a value above it (drawn in its top colour). Grey hatched cells are not results: they show their status word (see the legend below).", esc(&p.scale.describe()), Heatmap::CLIPPED_MARK));
     }
-    fig(
-        &mut h,
+    figure(
+        h,
         "rms_hist.png",
+        "Histogram of the per-pixel read noise",
         "Histogram of the per-pixel read noise (log counts), all pixels including flagged ones.",
     );
-    if has_ptc {
-        fig(&mut h, "ptc.png", "Photon transfer: variance against mean signal of the flats (dark-subtracted), with the fit that gives the conversion gain.");
+    if p.has_ptc {
+        figure(h, "ptc.png", "Photon transfer: variance against mean of the flats", "Photon transfer: variance against mean signal of the flats (dark-subtracted), with the fit that gives the conversion gain. The points are in ptc_points.csv/.json with each level's own gain.");
     }
-    h.push_str("<h2>Effective read noise</h2><table><tr><th>detector model</th><th>sub-aperture (px)</th><th>spot</th><th>signal (photons)</th><th>σ<sub>eff</sub> (e⁻)</th><th>SE (e⁻)</th><th>R (px)</th><th>status</th></tr>");
+}
+
+/// The effective-noise table: value ± SE where `ok`, greyed with its word where `imprecise`,
+/// the status word alone otherwise; then the legend of the words.
+fn effective_table(h: &mut String, effective: &[EffectiveRecord]) {
+    h.push_str("<h2>Effective read noise</h2><table><tr><th>detector model</th><th>sub-aperture (px)</th><th>spot</th><th>signal (photons)</th><th>σ<sub>eff</sub> ± SE (e⁻)</th><th>R ± SE (px)</th></tr>");
     for r in effective {
-        let status = serde_json::to_value(r.effective.status)
-            .ok()
-            .and_then(|v| v.as_str().map(String::from))
-            .unwrap_or_default();
-        let _ = write!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.3}</td><td>{:.4}</td><td>{}</td></tr>", esc(&r.model), r.config.subap_px, esc(&r.config.spot.label()), r.config.signal_photons, r.effective.sigma_eff_e, r.effective.sigma_eff_se_e, r.effective.r_px, status);
+        let e = &r.effective;
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} ± {}</td></tr>",
+            esc(&r.model),
+            r.config.subap_px,
+            esc(&r.config.spot.label()),
+            r.config.signal_photons,
+            fmt_effective(e.sigma_eff_e, e.sigma_eff_se_e, e.status),
+            num(e.r_px, 4),
+            num(e.r_se_px, 4)
+        );
     }
-    h.push_str("</table><h2>Fitted read-noise distributions</h2><table><tr><th>model</th><th>ln L</th><th>ΔAIC</th><th>max CDF distance</th><th>median (e⁻)</th><th>mean (e⁻)</th><th>rms (e⁻)</th><th>&gt;3× median</th></tr>");
+    h.push_str("</table>");
+    status_legend(h);
+}
+
+/// The table of fitted read-noise distributions.
+fn fit_table(h: &mut String, fit: &PdfFitReport) {
+    h.push_str("<h2>Fitted read-noise distributions</h2><table><tr><th>model</th><th>ln L</th><th>ΔAIC</th><th>max CDF distance</th><th>median (e⁻)</th><th>mean (e⁻)</th><th>rms (e⁻)</th><th>&gt;3× median</th></tr>");
     for (name, m) in &fit.models {
-        let opt = |v: Option<f64>| v.map(|x| format!("{x:.1}")).unwrap_or_else(|| "–".into());
-        let _ = write!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.4}</td><td>{:.3}</td><td>{:.3}</td><td>{:.3}</td><td>{:.2} %</td></tr>", esc(name), opt(m.log_likelihood), opt(m.delta_aic), m.max_cdf_distance, m.median_e, m.mean_e, m.rms_e, 100.0 * m.frac_above_3x_median);
+        let opt = |v: Option<f64>| v.map_or_else(|| "–".into(), |x| num(x, 1));
+        let _ = write!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} %</td></tr>", esc(name), opt(m.log_likelihood), opt(m.delta_aic), num(m.max_cdf_distance, 4), num(m.median_e, 3), num(m.mean_e, 3), num(m.rms_e, 3), num(100.0 * m.frac_above_3x_median, 2));
     }
-    h.push_str("</table><h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits, flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise effective --pdf</code>), summary.json (every number above with units, inputs with SHA-256), darks_summary.json.</p></body></html>\n");
-    h
+    h.push_str("</table>");
 }

@@ -1,10 +1,11 @@
 //! What a report returns: its key numbers (the content of `summary.json`), the tables it
 //! computed, and the files it wrote.
 
+use super::point::ChosenPoint;
 use crate::calib::ptc::PtcResult;
 use crate::calib::summary::InputFile;
 use crate::detector::ModelSpec;
-use crate::effective::EffectiveRecord;
+use crate::effective::{EffectiveRecord, Status};
 use crate::fit::emgain::EmGainFit;
 use crate::fit::pdf_fit::PdfFitReport;
 use crate::montecarlo::SimRecord;
@@ -66,13 +67,33 @@ pub enum Summary {
     Emccd(Box<EmccdSummary>),
 }
 
+/// One input file of a report: its role (`darks` or `flats`), path, SHA-256, frames and format.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct ReportInput {
+    /// `darks` or `flats`.
+    pub role: String,
+    /// The file: path, SHA-256 (hex), frames read, format and stored sample type.
+    #[serde(flatten)]
+    pub file: InputFile,
+}
+
+impl ReportInput {
+    /// The records of `files`, each in `role`.
+    pub fn all(role: &str, files: Vec<InputFile>) -> impl Iterator<Item = ReportInput> + '_ {
+        files.into_iter().map(move |file| ReportInput {
+            role: role.into(),
+            file,
+        })
+    }
+}
+
 /// The key numbers of an sCMOS report, written to `summary.json`.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ReportSummary {
     /// Tool and version.
     pub tool: String,
-    /// Inputs with SHA-256.
-    pub inputs: Vec<InputFile>,
+    /// Every input file (darks, then flats), with SHA-256.
+    pub inputs: Vec<ReportInput>,
     /// Dark frames used.
     pub frames: usize,
     /// Frame shape [rows, cols].
@@ -99,8 +120,8 @@ pub struct ReportSummary {
     pub pdf_best_model: String,
     /// Split-half correlation of the noise maps (odd vs even frames).
     pub split_half_correlation: f64,
-    /// The operating point of the headline numbers.
-    pub operating_point: OperatingPoint,
+    /// The operating point and the headline numbers there.
+    pub operating_point: Headline,
     /// Monte-Carlo iterations per configuration.
     pub iters: u64,
     /// Seed.
@@ -111,23 +132,25 @@ pub struct ReportSummary {
     pub quick: bool,
 }
 
-/// The headline configuration of an sCMOS report and its numbers.
+/// The headline numbers of an sCMOS report: the effective read noise at the operating point.
+/// A value whose status is not `ok` is no result (null in JSON where there is none).
 #[derive(Debug, Clone, serde::Serialize)]
-pub struct OperatingPoint {
-    /// Sub-aperture (px).
-    pub subap_px: usize,
-    /// Spot.
-    pub spot: String,
-    /// Signal (photons).
-    pub signal_photons: f64,
+pub struct Headline {
+    /// The operating point: sub-aperture (px), spot, signal (photons), how it was chosen.
+    #[serde(flatten)]
+    pub at: ChosenPoint,
     /// Effective read noise with the fitted pdf (e-).
     pub sigma_eff_fitted_pdf_e: f64,
     /// Its standard error (e-).
     pub sigma_eff_fitted_pdf_se_e: f64,
+    /// Its status.
+    pub sigma_eff_fitted_pdf_status: Status,
     /// Effective read noise with the measured map (e-).
     pub sigma_eff_map_e: f64,
     /// Its standard error (e-).
     pub sigma_eff_map_se_e: f64,
+    /// Its status.
+    pub sigma_eff_map_status: Status,
 }
 
 /// The key numbers of an EMCCD report, written to `summary.json`.
@@ -135,8 +158,8 @@ pub struct OperatingPoint {
 pub struct EmccdSummary {
     /// Tool and version.
     pub tool: String,
-    /// Inputs with SHA-256.
-    pub inputs: Vec<InputFile>,
+    /// Every input file (the frames), with SHA-256.
+    pub inputs: Vec<ReportInput>,
     /// Frames used.
     pub frames: usize,
     /// Frame shape [rows, cols].
@@ -147,10 +170,9 @@ pub struct EmccdSummary {
     pub read_noise_output_e: f64,
     /// The EM-gain fit (gain in e-/e-, bias and read noise in adu, lambda in e-).
     pub emgain: EmGainFit,
-    /// Operating point of the comparison: sub-aperture (px).
-    pub subap_px: usize,
-    /// Operating point: spot.
-    pub spot: String,
+    /// The operating point: the comparison's sub-aperture and spot, and the signal whose
+    /// verdict heads the page.
+    pub operating_point: ChosenPoint,
     /// Monte-Carlo iterations.
     pub iters: u64,
     /// Seed.

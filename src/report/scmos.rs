@@ -5,18 +5,21 @@ use super::charts::effective_heatmaps;
 use super::compare::{
     compare_models, scmos_groups, write_comparison, COMPARISON_FILES, SCMOS_LABELS,
 };
-use super::grid::{Grid, Headline};
+use super::grid::Grid;
+use super::heatmaps::NoiseScale;
 use super::options::{GainSource, ReportOptions};
-use super::page::index_html;
-use super::result::{OperatingPoint, ReportResult, ReportSummary, Summary};
+use super::page::{index_html, ScmosPage};
+use super::point::{ChosenPoint, OperatingPoint};
+use super::result::{Headline, ReportInput, ReportResult, ReportSummary, Summary};
 use crate::calib::darks::write_outputs as write_dark_outputs;
 use crate::calib::darks::{dark_maps, require_dark, DarkMaps, DarkOptions};
 use crate::calib::ptc::chart as ptc_chart;
-use crate::calib::ptc::{photon_transfer, DarkReference, PtcOptions, PtcResult};
-use crate::calib::summary::inputs;
+use crate::calib::ptc::POINTS_NAMES;
+use crate::calib::ptc::{photon_transfer, write_points, DarkReference, PtcOptions, PtcResult};
+use crate::calib::summary::{inputs, InputFile};
 use crate::detector::{ModelParams, ModelSpec};
 use crate::effective::effective_table;
-use crate::effective::EffectiveRecord;
+use crate::effective::{Effective, EffectiveRecord};
 use crate::fit::pdf_fit::chart as pdf_fit_chart;
 use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
 use crate::io::FrameStack;
@@ -39,6 +42,8 @@ struct Gain {
     source: &'static str,
     se_e_per_adu: Option<f64>,
     ptc: Option<PtcResult>,
+    /// The flats' input records (with SHA-256), empty when the gain was given.
+    flat_inputs: Vec<InputFile>,
 }
 
 /// Run the sCMOS report on the dark `stack` into `dir`; `files` of the result are names
@@ -94,12 +99,20 @@ pub(crate) fn run(
     let mut params = o.model_params.clone();
     params.pdf = fit.pdf(None)?;
     params.map = Some(Arc::new(rms_e));
-    let configs = grid.configs(o.qe);
-    let [fitted, measured] = effective_tables(&configs, &params, observer)?;
+    let op = o.operating_point();
+    let in_grid = grid.contains(&op);
+    let grid_len = grid.configs(o.qe).len();
+    // The headline is solved with the table (one stage of progress): beside the grid, last,
+    // when it is not one of the grid's configurations.
+    let configs = with_point(grid, &op, o.qe, in_grid);
+    let [mut fitted, mut measured] = effective_tables(&configs, &params, observer)?;
+    let at = ChosenPoint::new(&op, o.operating_point.is_some(), in_grid);
+    let operating_point = headline(at, &op, &fitted, &measured);
+    fitted.truncate(grid_len);
+    measured.truncate(grid_len);
     let heatmaps = effective_heatmaps(&fitted, dir)?;
     files.extend(heatmaps.iter().map(|p| file_name(p)));
-    let op = grid.operating_point();
-    let operating_point = operating_point(&op, &fitted, &measured);
+    let scale = NoiseScale::from_ok(&fitted);
     let effective: Vec<EffectiveRecord> = fitted.into_iter().chain(measured).collect();
     for (name, format) in [
         ("effective_noise.csv", TableFormat::Csv),
@@ -109,15 +122,20 @@ pub(crate) fn run(
         files.push(name.into());
     }
     let comparison = compare_models(grid, &op, &params, &scmos_groups(o.qe, o.qe_emccd))?;
-    write_comparison(&comparison, dir, &SCMOS_LABELS)?;
+    let error_bars = write_comparison(&comparison, dir, &SCMOS_LABELS)?;
     files.extend(COMPARISON_FILES.map(String::from));
     if let Some(p) = &gain.ptc {
         ptc_chart(p, &dir.path("ptc.png"))?;
+        write_points(p, &dir.path(""))?;
         files.push("ptc.png".into());
+        files.extend(POINTS_NAMES.map(String::from));
     }
+    let mut report_inputs: Vec<ReportInput> =
+        ReportInput::all("darks", dark_summary.inputs.clone()).collect();
+    report_inputs.extend(ReportInput::all("flats", gain.flat_inputs));
     let summary = ReportSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
-        inputs: dark_summary.inputs.clone(),
+        inputs: report_inputs,
         frames: stack.frames,
         shape: [stack.shape.0, stack.shape.1],
         gain_e_per_adu: gain.e_per_adu,
@@ -138,14 +156,17 @@ pub(crate) fn run(
         quick: o.quick,
     };
     write_json(&dir.path("summary.json"), &summary)?;
-    let page = index_html(
-        &summary,
-        &fit,
-        &effective,
-        &comparison,
-        &heatmaps,
-        gain.ptc.is_some(),
-    );
+    let page = index_html(&ScmosPage {
+        summary: &summary,
+        fit: &fit,
+        effective: &effective,
+        comparison: &comparison,
+        heatmaps: &heatmaps,
+        scale: &scale,
+        error_bars: &error_bars,
+        has_ptc: gain.ptc.is_some(),
+        out_dir: &o.out_dir,
+    });
     write_atomic(&dir.path("index.html"), page.as_bytes())?;
     files.extend(["summary.json".into(), "index.html".into()]);
     Ok(ReportResult {
@@ -173,6 +194,7 @@ fn conversion_gain(o: &ReportOptions, maps: &DarkMaps) -> Result<Gain> {
             source: "given",
             se_e_per_adu: None,
             ptc: None,
+            flat_inputs: Vec::new(),
         }),
         GainSource::PhotonTransfer => {
             let flats: Vec<FrameStack> = o
@@ -182,11 +204,13 @@ fn conversion_gain(o: &ReportOptions, maps: &DarkMaps) -> Result<Gain> {
                 .collect::<Result<_>>()?;
             let dark = DarkReference::from_stats(&maps.stats);
             let p = photon_transfer(&flats, &dark, &PtcOptions::default())?;
+            let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
             Ok(Gain {
                 e_per_adu: p.gain_e_per_adu,
                 source: "ptc",
                 se_e_per_adu: Some(p.gain_err_e_per_adu),
                 ptc: Some(p),
+                flat_inputs: flat_inputs.into_iter().flatten().collect(),
             })
         }
     }
@@ -214,15 +238,25 @@ fn effective_tables(
     }))
 }
 
-/// The headline numbers: both tables' records at the operating point (it is in the grid).
-fn operating_point(
-    op: &Headline,
+/// The grid's configurations at quantum efficiency `qe`, and the operating point's after them
+/// when it is not `in_grid`.
+fn with_point(grid: &Grid, op: &OperatingPoint, qe: f64, in_grid: bool) -> Vec<SimConfig> {
+    let mut configs = grid.configs(qe);
+    if !in_grid {
+        configs.push(grid.config(op.subap_px, op.spot, op.signal_photons, qe));
+    }
+    configs
+}
+
+/// The headline numbers: both tables' records at the operating point (solved with them).
+fn headline(
+    at: ChosenPoint,
+    op: &OperatingPoint,
     fitted: &[EffectiveRecord],
     measured: &[EffectiveRecord],
-) -> OperatingPoint {
-    let spot = op.spot.label();
-    let at = |records: &[EffectiveRecord]| -> (f64, f64) {
-        let r = records
+) -> Headline {
+    let find = |records: &[EffectiveRecord]| -> Effective {
+        records
             .iter()
             .find(|r| {
                 let c = &r.config;
@@ -230,18 +264,18 @@ fn operating_point(
                     && c.spot == op.spot
                     && c.signal_photons == op.signal_photons
             })
-            .expect("operating point is in the grid");
-        (r.effective.sigma_eff_e, r.effective.sigma_eff_se_e)
+            .expect("the operating point is solved with the table")
+            .effective
+            .clone()
     };
-    let (fitted_e, fitted_se_e) = at(fitted);
-    let (map_e, map_se_e) = at(measured);
-    OperatingPoint {
-        subap_px: op.subap_px,
-        spot,
-        signal_photons: op.signal_photons,
-        sigma_eff_fitted_pdf_e: fitted_e,
-        sigma_eff_fitted_pdf_se_e: fitted_se_e,
-        sigma_eff_map_e: map_e,
-        sigma_eff_map_se_e: map_se_e,
+    let (f, m) = (find(fitted), find(measured));
+    Headline {
+        at,
+        sigma_eff_fitted_pdf_e: f.sigma_eff_e,
+        sigma_eff_fitted_pdf_se_e: f.sigma_eff_se_e,
+        sigma_eff_fitted_pdf_status: f.status,
+        sigma_eff_map_e: m.sigma_eff_e,
+        sigma_eff_map_se_e: m.sigma_eff_se_e,
+        sigma_eff_map_status: m.status,
     }
 }

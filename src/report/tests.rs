@@ -2,9 +2,11 @@ use super::charts::{comparison_chart, r_against_sweep};
 use super::compare::{verdicts, SCMOS_LABELS};
 use super::*;
 use crate::detector::ModelSpec;
+use crate::effective::{Effective, Status};
 use crate::montecarlo::{SimConfig, SimResult};
 use crate::spot::Spot;
 use crate::Error;
+use std::path::{Path, PathBuf};
 
 fn valid() -> ReportOptions {
     ReportOptions {
@@ -232,4 +234,186 @@ fn r_against_sweep_takes_the_first_axis_that_varies() {
     let svg = std::fs::read_to_string(&path).unwrap();
     assert!(svg.contains("signal (photons per sub-aperture)"), "{svg}");
     assert!(svg.contains("ScmosMean"));
+}
+
+/// A record of the fitted pdf at (n px, airy:d, s photons) with sigma_eff +- se and `status`.
+pub(crate) fn record(
+    n: usize,
+    d: f64,
+    s: f64,
+    sigma: f64,
+    se: f64,
+    status: Status,
+) -> EffectiveRecord {
+    let cfg = SimConfig {
+        spot: Spot::Airy { diameter_px: d },
+        signal_photons: s,
+        ..SimConfig::paper(n)
+    };
+    let e = Effective {
+        sigma_eff_e: sigma,
+        sigma_eff_se_e: se,
+        r_px: 0.3,
+        r_se_px: 0.003,
+        b_opt_e: 0.0,
+        sigma_grid_e: vec![],
+        r_const_px: vec![],
+        status,
+    };
+    EffectiveRecord::new("scmos-random".into(), &cfg, &e)
+}
+
+/// Every status over a 4 x 3 grid at two signals: ok cells 1.0, 1.5, ..., 9.0 e- (17 of
+/// them), and non-ok cells with values far above them that must not set the scale.
+pub(crate) fn every_status() -> Vec<EffectiveRecord> {
+    let subaps = [4, 8, 12, 16];
+    let spots = [1.0, 2.0, 6.0];
+    let mut out = Vec::new();
+    let mut ok = (2..=18).map(|k| k as f64 * 0.5);
+    for s in [20.0, 50.0] {
+        for (i, &n) in subaps.iter().enumerate() {
+            for (j, &d) in spots.iter().enumerate() {
+                let r = match (s == 20.0, i, j) {
+                    (true, 3, 2) => record(n, d, s, 67.31, 120.65, Status::Imprecise),
+                    (true, 3, 1) => record(n, d, s, 0.0, 0.2, Status::LowerBound),
+                    (true, 3, 0) => record(n, d, s, f64::NAN, f64::NAN, Status::Unreachable),
+                    (false, 3, 2) => record(n, d, s, f64::NAN, f64::NAN, Status::NoEligibleLevel),
+                    _ => match ok.next() {
+                        Some(v) => record(n, d, s, v, 0.05, Status::Ok),
+                        None => record(n, d, s, 29.71, 18.47, Status::Imprecise),
+                    },
+                };
+                out.push(r);
+            }
+        }
+    }
+    out
+}
+
+/// The sCMOS page of `effective` with the headline's map value `map` (sigma, se, status).
+fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String {
+    use super::heatmaps::NoiseScale;
+    use super::page::{index_html, ScmosPage};
+    // A smooth spread of per-pixel noise (e-) to fit: the page only prints the fit's numbers.
+    let values: Vec<f64> = (1..=300)
+        .map(|k| 0.6 + 1.5 * (k as f64 * 0.618_034).fract())
+        .collect();
+    let fit = crate::fit::pdf_fit::fit_pdf(&values, &Default::default()).unwrap();
+    let at = ChosenPoint::new(&OperatingPoint::default(), false, true);
+    let summary = ReportSummary {
+        tool: "detnoise test".into(),
+        inputs: vec![],
+        frames: 100,
+        shape: [64, 64],
+        gain_e_per_adu: 0.25,
+        gain_source: "given".into(),
+        gain_se_e_per_adu: None,
+        pixels_used: 300,
+        pixels_flagged: 0,
+        median_rms_e: 1.3,
+        mean_rms_e: 1.35,
+        rms_rms_e: 1.4,
+        frac_above_3x_median: 0.0,
+        pdf_best_model: "lognormal <b>".into(),
+        split_half_correlation: f64::NAN,
+        operating_point: Headline {
+            at,
+            sigma_eff_fitted_pdf_e: 3.47,
+            sigma_eff_fitted_pdf_se_e: 0.09,
+            sigma_eff_fitted_pdf_status: Status::Ok,
+            sigma_eff_map_e: map.0,
+            sigma_eff_map_se_e: map.1,
+            sigma_eff_map_status: map.2,
+        },
+        iters: 2000,
+        seed: 1,
+        sampling: "integrated".into(),
+        quick: true,
+    };
+    let heatmaps = vec![
+        PathBuf::from("out/effective_noise_S20.png"),
+        PathBuf::from("out/effective_noise_S20.svg"),
+    ];
+    index_html(&ScmosPage {
+        summary: &summary,
+        fit: &fit,
+        effective,
+        comparison: &[],
+        heatmaps: &heatmaps,
+        scale: &NoiseScale::from_ok(effective),
+        error_bars: "Error bars are one standard error.",
+        has_ptc: true,
+        out_dir: Path::new("my-report"),
+    })
+}
+
+#[test]
+fn the_page_shows_each_status_by_its_word_with_a_legend_and_no_nan() {
+    let records = every_status();
+    let h = scmos_page(&records, (f64::NAN, f64::NAN, Status::Unreachable));
+    for bad in ["NaN", ">inf", " inf ", "-inf"] {
+        assert!(!h.contains(bad), "{bad:?} is printed");
+    }
+    // The legend: every status word with its meaning.
+    for s in Status::ALL {
+        let entry = format!(
+            "<dt><span class=\"status\">{}</span></dt><dd>{}</dd>",
+            s.label(),
+            crate::output::html_escape(s.meaning())
+        );
+        assert!(h.contains(&entry), "legend lacks {}", s.label());
+    }
+    // ok: value +- SE; imprecise: greyed value +- SE with its word; others: the word alone.
+    assert!(h.contains("<td>1.00 ± 0.05 e⁻</td>"));
+    assert!(h.contains(
+        "<td><span class=\"muted\">67.31 ± 120.65 e⁻ <span class=\"status\">imprecise</span></span></td>"
+    ));
+    for word in ["lower_bound", "unreachable", "no_eligible_level"] {
+        assert!(
+            h.contains(&format!("<td><span class=\"status\">{word}</span></td>")),
+            "{word}"
+        );
+    }
+    // The headline is unreachable: its word, not a number.
+    assert!(h.contains("(measured map)<b><span class=\"status\">unreachable</span></b>"));
+    // Where a cell is unreachable, the page says what to simulate instead, with this report's
+    // files.
+    assert!(h.contains("detnoise simulate --model scmos-map --map my-report/rms_e.fits"));
+    assert!(h.contains("detnoise simulate --model scmos-random --pdf my-report/pdf_fit.json"));
+    // The heatmap's caption states the shared scale.
+    assert!(
+        h.contains("colour scale 0-8.6 e-, 95th percentile of ok cells, the same for every signal")
+    );
+    assert!(h.contains(
+        "Operating point of the headline numbers: 8x8 px, airy:2, 50 photons (default)."
+    ));
+    assert!(h.contains("an 8×8 px sub-aperture") && !h.contains("a 8×8"));
+    // Alt texts are plain words: no markup, escaped or not.
+    for alt in h.split("alt=\"").skip(1) {
+        let alt = &alt[..alt.find('"').unwrap()];
+        assert!(!alt.contains('<') && !alt.contains("&lt;"), "{alt}");
+    }
+    assert!(h.contains("ptc_points.csv"));
+}
+
+#[test]
+fn without_unreachable_cells_the_page_gives_no_advice() {
+    let ok: Vec<EffectiveRecord> = every_status()
+        .into_iter()
+        .filter(|r| r.effective.status == Status::Ok)
+        .collect();
+    let h = scmos_page(&ok, (3.55, 0.1, Status::Ok));
+    assert!(!h.contains("class=\"advice\""));
+    assert!(h.contains("(measured map)<b>3.55 ± 0.10 e⁻</b>"));
+}
+
+#[test]
+fn articles_before_numbers_follow_how_they_are_read() {
+    use super::page::article;
+    for n in [8, 11, 18, 80, 86, 800, 8000, 11_000, 18_000, 11_000_000] {
+        assert_eq!(article(n), "an", "{n}");
+    }
+    for n in [1, 2, 4, 10, 12, 16, 100, 110, 180, 1100, 1800, 110_000] {
+        assert_eq!(article(n), "a", "{n}");
+    }
 }

@@ -1,11 +1,12 @@
 //! `detnoise ptc` as one library call: dark reference and flats in; per-pixel gain, gain error
-//! and read-noise maps, the photon-transfer chart and ptc.json written to an output directory
-//! that appears only when the run succeeds.
+//! and read-noise maps, the photon-transfer chart, its points (ptc_points.csv/.json) and
+//! ptc.json written to an output directory that appears only when the run succeeds.
 
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use super::points::{write_points, POINTS_NAMES};
 use super::transfer::{photon_transfer, DarkReference, Level, PtcOptions, PtcResult};
 use crate::calib::darks::{pixel_stats, Clip};
 use crate::calib::summary::{inputs, Distribution, InputFile};
@@ -17,11 +18,13 @@ use crate::output::{DirPlan, OutputDir};
 use crate::plot::ScatterFit;
 
 /// Files `ptc` writes into its directory.
-pub const OUTPUT_NAMES: [&str; 5] = [
+pub const OUTPUT_NAMES: [&str; 7] = [
     "gain_e_per_adu.fits",
     "gain_err_e_per_adu.fits",
     "read_noise_e.fits",
     "ptc.png",
+    POINTS_NAMES[0],
+    POINTS_NAMES[1],
     "ptc.json",
 ];
 
@@ -173,6 +176,7 @@ pub fn run(job: &PtcRun) -> Result<PtcRunResult> {
         outputs: OUTPUT_NAMES.iter().map(|s| s.to_string()).collect(),
     };
     chart(&r, &dir.path("ptc.png"))?;
+    write_points(&r, &dir.path(""))?;
     let keys = vec![
         key(
             "NLEVELS",
