@@ -2,6 +2,7 @@
 //! `report::run` -> the lines on standard error).
 
 use super::args::{parse_list, real, whole, DetectorArgs};
+use super::effective::PrecisionArgs;
 use super::progress::Terminal;
 use crate::montecarlo::SimConfig;
 use crate::report::ReportOptions;
@@ -38,9 +39,14 @@ pub struct ReportArgs {
     /// Signal levels, photons per sub-aperture, comma-separated (signal x QE at most 1e9).
     #[arg(long, default_value = DEFAULT_SIGNAL, allow_hyphen_values = true)]
     pub signal: String,
-    /// Monte-Carlo iterations per configuration, 2 to 1e9.
+    /// Starting Monte-Carlo iterations per configuration of the effective-noise table, 2 to 1e9
+    /// (also the comparison's count): more are added, up to --max-iters, until each value meets
+    /// the precision target.
     #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
+    /// Precision target of each effective read noise and the iteration cap.
+    #[command(flatten)]
+    pub precision: PrecisionArgs,
     /// Seed of every random stream.
     #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
@@ -101,6 +107,7 @@ impl ReportArgs {
                 .map(|s| parse_list(s, "--signal"))
                 .transpose()?,
             iters: self.iters,
+            precision: self.precision.precision(),
             seed: self.seed,
             sampling: self.sampling,
             qe: self.qe,

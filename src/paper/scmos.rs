@@ -4,7 +4,7 @@
 use super::figure::{airy, r_figure, save_line, Ctx, Curve, SIGNALS};
 use super::options::FigureInfo;
 use crate::detector::ModelSpec;
-use crate::effective::effective_table;
+use crate::effective::{effective_table, Precision};
 use crate::output::write_atomic;
 use crate::pdf::paper_shape;
 use crate::plot::{Heatmap, HistNorm, Histogram, Image, ImageGrid, Inset, Series};
@@ -170,7 +170,7 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     let signals = SIGNALS;
     let model = ModelSpec::ScmosRandom;
     let mut csv = String::from(
-        "subap_px,spot_diameter_px,signal_photons,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px\n",
+        "subap_px,spot_diameter_px,signal_photons,iters,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px,status\n",
     );
     let mut files = vec!["fig12-effective-read-noise.csv".to_string()];
     let spots: Vec<Spot> = ds.iter().map(|&d| airy(d)).collect();
@@ -178,15 +178,39 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
         let mut values = vec![vec![0.0; sizes.len()]; ds.len()];
         // Sub-aperture-major, then spot: record i * ds.len() + j is size i, diameter j.
         let configs = ctx.grid(&sizes, &spots, &[s]).configs()?;
-        let table = effective_table(&configs, std::slice::from_ref(&model), &ctx.params, &Silent)?;
+        // The default precision target, starting at this run's iterations.
+        let precision = Precision {
+            max_iters: Precision::DEFAULT_MAX_ITERS.max(ctx.opts.iters),
+            ..Precision::default()
+        };
+        let table = effective_table(
+            &configs,
+            std::slice::from_ref(&model),
+            &ctx.params,
+            &precision,
+            &Silent,
+        )?;
         for (k, rec) in table.iter().enumerate() {
             let (i, j) = (k / ds.len(), k % ds.len());
             let (n, d, e) = (sizes[i], ds[j], &rec.effective);
             values[j][i] = e.sigma_eff_e;
+            // A value that does not exist (or an infinite SE) is an empty cell, never NaN.
+            let cell = |v: f64| {
+                if v.is_finite() {
+                    v.to_string()
+                } else {
+                    String::new()
+                }
+            };
             let _ = writeln!(
                 csv,
-                "{n},{d},{s},{},{},{},{}",
-                e.sigma_eff_e, e.sigma_eff_se_e, e.r_px, e.r_se_px
+                "{n},{d},{s},{},{},{},{},{},{}",
+                e.iters,
+                cell(e.sigma_eff_e),
+                cell(e.sigma_eff_se_e),
+                e.r_px,
+                e.r_se_px,
+                e.status.label()
             );
         }
         let stem = format!("fig12-effective-read-noise-S{s}");

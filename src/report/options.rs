@@ -4,6 +4,7 @@
 
 use super::grid::{Grid, GridChoice};
 use crate::detector::{EmRegister, ModelParams};
+use crate::effective::Precision;
 use crate::montecarlo::SimConfig;
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
@@ -37,8 +38,10 @@ pub struct ReportOptions {
     pub spots: Option<Vec<Spot>>,
     /// Signals of the table (photons per sub-aperture; signal x QE at most 1e9).
     pub signals_photons: Option<Vec<f64>>,
-    /// Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
+    /// Starting Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
     pub iters: u64,
+    /// Precision target of each effective read noise and the iteration cap (at least `iters`).
+    pub precision: Precision,
     /// Seed of every random stream.
     pub seed: u64,
     /// Spot sampling.
@@ -73,6 +76,7 @@ impl Default for ReportOptions {
             spots: None,
             signals_photons: None,
             iters: 10_000,
+            precision: Precision::default(),
             seed: 1,
             sampling: Sampling::Integrated,
             qe: 1.0,
@@ -113,6 +117,7 @@ impl ReportOptions {
             ));
         }
         let grid = self.grid();
+        self.precision.validate(grid.iters)?;
         // The comparison runs the EMCCD at its own QE: both must be valid configurations.
         for cfg in grid.configs(self.qe) {
             SimConfig {

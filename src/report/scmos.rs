@@ -15,8 +15,7 @@ use crate::calib::ptc::chart as ptc_chart;
 use crate::calib::ptc::{photon_transfer, DarkReference, PtcOptions, PtcResult};
 use crate::calib::summary::inputs;
 use crate::detector::{ModelParams, ModelSpec};
-use crate::effective::effective_table;
-use crate::effective::EffectiveRecord;
+use crate::effective::{effective_table, EffectiveRecord, Precision};
 use crate::fit::pdf_fit::chart as pdf_fit_chart;
 use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
 use crate::io::FrameStack;
@@ -95,7 +94,7 @@ pub(crate) fn run(
     params.pdf = fit.pdf(None)?;
     params.map = Some(Arc::new(rms_e));
     let configs = grid.configs(o.qe);
-    let [fitted, measured] = effective_tables(&configs, &params, observer)?;
+    let [fitted, measured] = effective_tables(&configs, &params, &o.precision, observer)?;
     let heatmaps = effective_heatmaps(&fitted, dir)?;
     files.extend(heatmaps.iter().map(|p| file_name(p)));
     let op = grid.operating_point();
@@ -197,11 +196,12 @@ fn conversion_gain(o: &ReportOptions, maps: &DarkMaps) -> Result<Gain> {
 fn effective_tables(
     configs: &[SimConfig],
     params: &ModelParams,
+    precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<[Vec<EffectiveRecord>; 2]> {
     let specs = EFFECTIVE_MODELS.map(|(spec, _)| spec);
     // Records come model by model, each over every configuration.
-    let mut records = effective_table(configs, &specs, params, observer)?.into_iter();
+    let mut records = effective_table(configs, &specs, params, precision, observer)?.into_iter();
     Ok(EFFECTIVE_MODELS.map(|(_, label)| {
         records
             .by_ref()
