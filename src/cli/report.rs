@@ -63,9 +63,10 @@ pub struct ReportArgs {
     /// level near the top of the stored range); sCMOS reports only. Default: refuse them.
     #[arg(long)]
     pub accept_illuminated: bool,
-    /// Fast preview (under a minute for a small camera): at most 2,000 iterations, and where left
-    /// at their defaults, sub-apertures 4,8,16, spots airy:2,6 and signals 20,50,500 (stated in
-    /// the report). The full grid takes several minutes.
+    /// Fast preview (seconds for a small camera): at most 2,000 starting iterations and 24,000
+    /// per configuration (--max-iters), and where left at their defaults, sub-apertures 4,8,16,
+    /// spots airy:2,6 and signals 20,50,500 (stated in the report). The full grid takes a few
+    /// minutes.
     #[arg(long)]
     pub quick: bool,
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.

@@ -35,7 +35,7 @@ impl Precision {
     /// Default absolute target (e-).
     pub const DEFAULT_TARGET_SE_E: f64 = 0.05;
     /// Default relative target (fraction of sigma_eff).
-    pub const DEFAULT_TARGET_REL: f64 = 0.02;
+    pub const DEFAULT_TARGET_REL: f64 = 0.025;
     /// Default iteration cap per configuration (frames).
     pub const DEFAULT_MAX_ITERS: u64 = 80_000;
     /// Iterations grow at least to this factor of the current count per extension...
@@ -137,6 +137,7 @@ mod tests {
         };
         assert_eq!(p.target_for(1.0), Some(0.05));
         assert_eq!(p.target_for(5.0), Some(0.1));
+        assert_eq!(p.target_for(-5.0), Some(0.1));
         assert_eq!(p.target_for(f64::NAN), Some(0.05));
         assert!(p.met(5.0, 0.09) && !p.met(1.0, 0.09));
         let rel_only = Precision {

@@ -10,6 +10,10 @@ use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
 use std::path::PathBuf;
 
+/// Most iterations per configuration the quick preview's effective-noise solves may use
+/// (frames): it keeps the preview near ten seconds where a value is hard to pin down.
+pub const QUICK_MAX_PRECISION_ITERS: u64 = 24_000;
+
 /// The kind of camera a report is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
@@ -40,7 +44,8 @@ pub struct ReportOptions {
     pub signals_photons: Option<Vec<f64>>,
     /// Starting Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
     pub iters: u64,
-    /// Precision target of each effective read noise and the iteration cap (at least `iters`).
+    /// Precision target of each effective read noise and the iteration cap (at least `iters`;
+    /// `quick` lowers the cap to [`QUICK_MAX_PRECISION_ITERS`]).
     pub precision: Precision,
     /// Seed of every random stream.
     pub seed: u64,
@@ -118,6 +123,7 @@ impl ReportOptions {
         }
         let grid = self.grid();
         self.precision.validate(grid.iters)?;
+        self.precision_in_use().validate(grid.iters)?;
         // The comparison runs the EMCCD at its own QE: both must be valid configurations.
         for cfg in grid.configs(self.qe) {
             SimConfig {
@@ -150,6 +156,19 @@ impl ReportOptions {
             Spot::parse(&spot.label())?;
         }
         Ok(())
+    }
+
+    /// The precision the effective-noise table runs with: `precision`, with `quick` its cap
+    /// lowered to [`QUICK_MAX_PRECISION_ITERS`] (never below the starting iterations).
+    pub(crate) fn precision_in_use(&self) -> Precision {
+        let mut p = self.precision;
+        if self.quick {
+            p.max_iters = p
+                .max_iters
+                .min(QUICK_MAX_PRECISION_ITERS)
+                .max(self.grid().iters);
+        }
+        p
     }
 
     /// The grid of configurations these options ask for.
@@ -194,5 +213,44 @@ impl ReportOptions {
                 "an EMCCD report needs the conversion gain in e- per adu (photon transfer at unity EM gain, or the data sheet)",
             )),
         }
+    }
+}
+
+#[cfg(test)]
+mod precision_tests {
+    use super::*;
+
+    fn options(quick: bool, iters: u64, max_iters: u64) -> ReportOptions {
+        ReportOptions {
+            darks_paths: vec!["darks.fits".into()],
+            gain_e_per_adu: Some(0.25),
+            out_dir: "out".into(),
+            quick,
+            iters,
+            precision: Precision {
+                max_iters,
+                ..Precision::default()
+            },
+            ..ReportOptions::default()
+        }
+    }
+
+    #[test]
+    fn the_cap_is_checked_against_the_starting_iterations_and_lowered_by_quick() {
+        options(false, 10_000, 80_000).validate().unwrap();
+        let err = options(false, 10_000, 5_000).validate().unwrap_err();
+        assert!(err.to_string().contains("`max_iters`"), "{err}");
+        // Quick starts at 2,000 iterations, so a cap of 5,000 is fine there...
+        options(true, 10_000, 5_000).validate().unwrap();
+        // ...and it lowers the cap to its own, never below the start.
+        let quick = options(true, 10_000, 80_000).precision_in_use();
+        assert_eq!(quick.max_iters, QUICK_MAX_PRECISION_ITERS);
+        assert_eq!(
+            options(false, 10_000, 80_000).precision_in_use().max_iters,
+            80_000
+        );
+        let mut small = options(true, 100, 100);
+        small.precision.max_iters = 100;
+        assert_eq!(small.precision_in_use().max_iters, 100);
     }
 }

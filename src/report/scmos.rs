@@ -94,7 +94,7 @@ pub(crate) fn run(
     params.pdf = fit.pdf(None)?;
     params.map = Some(Arc::new(rms_e));
     let configs = grid.configs(o.qe);
-    let [fitted, measured] = effective_tables(&configs, &params, &o.precision, observer)?;
+    let [fitted, measured] = effective_tables(&configs, &params, &o.precision_in_use(), observer)?;
     let heatmaps = effective_heatmaps(&fitted, dir)?;
     files.extend(heatmaps.iter().map(|p| file_name(p)));
     let op = grid.operating_point();
