@@ -38,6 +38,9 @@ impl Precision {
     pub const DEFAULT_TARGET_REL: f64 = 0.025;
     /// Default iteration cap per configuration (frames).
     pub const DEFAULT_MAX_ITERS: u64 = 80_000;
+    /// Iteration cap of the quick previews (`report --quick`, `paper --quick`; frames): it keeps
+    /// them to seconds where a value is hard to pin down.
+    pub const QUICK_MAX_ITERS: u64 = 24_000;
     /// Iterations grow at least to this factor of the current count per extension...
     const MIN_GROWTH: f64 = 2.0;
     /// ...and to the count the SE's 1/sqrt(N) law asks for, with this margin.

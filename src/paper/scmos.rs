@@ -4,7 +4,7 @@
 use super::figure::{airy, r_figure, save_line, Ctx, Curve, SIGNALS};
 use super::options::FigureInfo;
 use crate::detector::ModelSpec;
-use crate::effective::{effective_table, Precision};
+use crate::effective::{effective_table, Precision, Status};
 use crate::output::write_atomic;
 use crate::pdf::paper_shape;
 use crate::plot::{Heatmap, HistNorm, Histogram, Image, ImageGrid, Inset, Series};
@@ -174,15 +174,21 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     );
     let mut files = vec!["fig12-effective-read-noise.csv".to_string()];
     let spots: Vec<Spot> = ds.iter().map(|&d| airy(d)).collect();
+    // The default precision target, starting at this run's iterations; a quick run caps
+    // them like the report's preview.
+    let cap = if ctx.opts.quick {
+        Precision::QUICK_MAX_ITERS
+    } else {
+        Precision::DEFAULT_MAX_ITERS
+    };
+    let precision = Precision {
+        max_iters: cap.max(ctx.opts.iters),
+        ..Precision::default()
+    };
     for s in signals {
         let mut values = vec![vec![0.0; sizes.len()]; ds.len()];
         // Sub-aperture-major, then spot: record i * ds.len() + j is size i, diameter j.
         let configs = ctx.grid(&sizes, &spots, &[s]).configs()?;
-        // The default precision target, starting at this run's iterations.
-        let precision = Precision {
-            max_iters: Precision::DEFAULT_MAX_ITERS.max(ctx.opts.iters),
-            ..Precision::default()
-        };
         let table = effective_table(
             &configs,
             std::slice::from_ref(&model),
@@ -193,7 +199,11 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
         for (k, rec) in table.iter().enumerate() {
             let (i, j) = (k / ds.len(), k % ds.len());
             let (n, d, e) = (sizes[i], ds[j], &rec.effective);
-            values[j][i] = e.sigma_eff_e;
+            // Only results are coloured: an imprecise value is no result (the CSV keeps it).
+            values[j][i] = match e.status {
+                Status::Ok | Status::LowerBound => e.sigma_eff_e,
+                _ => f64::NAN,
+            };
             // A value that does not exist (or an infinite SE) is an empty cell, never NaN.
             let cell = |v: f64| {
                 if v.is_finite() {
@@ -239,7 +249,7 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     Ok(FigureInfo {
         number: 12,
         title: "Effective Gaussian read noise of an sCMOS camera".into(),
-        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. Colours saturate at 6 e-; a dash marks a configuration where no constant sigma reaches the detector's R: a few very noisy pixels pull the centroid further than any uniform Gaussian noise does. {}", ctx.params.pdf.median(), ctx.sampling_note()),
+        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. Each value has a standard error of at most {} e- or {} % of it, iterations added from {} up to {} per configuration. Colours saturate at 6 e-; a dash marks a configuration without a result (the CSV's status column says which): no constant sigma reaches the detector's R (unreachable: a few very noisy pixels pull the centroid further than any uniform Gaussian noise does), or the standard error missed its target at the cap (imprecise). {}", ctx.params.pdf.median(), Precision::DEFAULT_TARGET_SE_E, 100.0 * Precision::DEFAULT_TARGET_REL, ctx.opts.iters, precision.max_iters, ctx.sampling_note()),
         files,
     })
 }

@@ -23,7 +23,7 @@ pub use grid::{
     DEFAULT_AIRY_DIAMETERS_PX, DEFAULT_SIGNALS_PHOTONS, DEFAULT_SUBAPS_PX, QUICK_AIRY_DIAMETERS_PX,
     QUICK_MAX_ITERS, QUICK_SIGNALS_PHOTONS, QUICK_SUBAPS_PX,
 };
-pub use options::{DetectorKind, ReportOptions, QUICK_MAX_PRECISION_ITERS};
+pub use options::{DetectorKind, ReportOptions};
 pub use result::{Compared, EmccdSummary, OperatingPoint, ReportResult, ReportSummary, Summary};
 
 use crate::io::FrameStack;

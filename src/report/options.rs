@@ -10,10 +10,6 @@ use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
 use std::path::PathBuf;
 
-/// Most iterations per configuration the quick preview's effective-noise solves may use
-/// (frames): it keeps the preview near ten seconds where a value is hard to pin down.
-pub const QUICK_MAX_PRECISION_ITERS: u64 = 24_000;
-
 /// The kind of camera a report is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
@@ -45,7 +41,7 @@ pub struct ReportOptions {
     /// Starting Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
     pub iters: u64,
     /// Precision target of each effective read noise and the iteration cap (at least `iters`;
-    /// `quick` lowers the cap to [`QUICK_MAX_PRECISION_ITERS`]).
+    /// `quick` lowers the cap to [`Precision::QUICK_MAX_ITERS`]).
     pub precision: Precision,
     /// Seed of every random stream.
     pub seed: u64,
@@ -159,13 +155,13 @@ impl ReportOptions {
     }
 
     /// The precision the effective-noise table runs with: `precision`, with `quick` its cap
-    /// lowered to [`QUICK_MAX_PRECISION_ITERS`] (never below the starting iterations).
+    /// lowered to [`Precision::QUICK_MAX_ITERS`] (never below the starting iterations).
     pub(crate) fn precision_in_use(&self) -> Precision {
         let mut p = self.precision;
         if self.quick {
             p.max_iters = p
                 .max_iters
-                .min(QUICK_MAX_PRECISION_ITERS)
+                .min(Precision::QUICK_MAX_ITERS)
                 .max(self.grid().iters);
         }
         p
@@ -244,7 +240,7 @@ mod precision_tests {
         options(true, 10_000, 5_000).validate().unwrap();
         // ...and it lowers the cap to its own, never below the start.
         let quick = options(true, 10_000, 80_000).precision_in_use();
-        assert_eq!(quick.max_iters, QUICK_MAX_PRECISION_ITERS);
+        assert_eq!(quick.max_iters, Precision::QUICK_MAX_ITERS);
         assert_eq!(
             options(false, 10_000, 80_000).precision_in_use().max_iters,
             80_000
