@@ -26,20 +26,23 @@ pub struct PrecisionArgs {
     /// [0, 1] (0 = off; 0.02 = 2 %).
     #[arg(long, default_value_t = Precision::DEFAULT_TARGET_REL, value_parser = real(Included(0.0), Included(1.0), "(fraction of the value)"))]
     pub target_rel: f64,
-    /// Iteration cap per configuration, frames, at least --iters (where each starts): a value
-    /// still short of its target there is `imprecise`. 0 targets and --max-iters = --iters give
-    /// a fixed count.
-    #[arg(long, default_value_t = Precision::DEFAULT_MAX_ITERS, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
-    pub max_iters: u64,
+    /// Iteration cap per configuration, frames, at least --iters (where each starts; default:
+    /// 80000, or --iters if larger): a value still short of its target there is `imprecise`.
+    /// 0 targets, or --max-iters = --iters, give a fixed count.
+    #[arg(long, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
+    pub max_iters: Option<u64>,
 }
 
 impl PrecisionArgs {
-    /// The library's precision settings.
-    pub fn precision(&self) -> Precision {
+    /// The library's precision settings for runs starting at `iters` iterations: the cap as
+    /// given, or by default [`Precision::DEFAULT_MAX_ITERS`] raised to `iters`.
+    pub fn precision(&self, iters: u64) -> Precision {
         Precision {
             target_se_e: self.target_se_e,
             target_rel: self.target_rel,
-            max_iters: self.max_iters,
+            max_iters: self
+                .max_iters
+                .unwrap_or(Precision::DEFAULT_MAX_ITERS.max(iters)),
         }
     }
 }
@@ -106,7 +109,9 @@ impl EffectiveArgs {
         let spec = ModelSpec::parse(&self.model)?;
         self.detector.validate(std::slice::from_ref(&spec))?;
         self.sweep.validate()?;
-        self.precision.precision().validate(self.sweep.iters)
+        self.precision
+            .precision(self.sweep.iters)
+            .validate(self.sweep.iters)
     }
 }
 
@@ -131,7 +136,7 @@ pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
     let specs = [ModelSpec::parse(&args.model)?];
     let params = args.detector.params()?;
     let configs = args.sweep.configs()?;
-    let precision = args.precision.precision();
+    let precision = args.precision.precision(args.sweep.iters);
     let records = effective_table(&configs, &specs, &params, &precision, &Terminal::default())?;
     write_outputs(&records, &dir)?;
     print!("{}", terminal_table(&records));
@@ -254,5 +259,23 @@ mod tests {
             assert!(help.contains(flag), "--help lacks {flag}");
         }
         assert!(help.contains("--max-empty-frac") && !help.contains("`max_empty_frac`"));
+    }
+
+    #[test]
+    fn the_default_cap_rises_to_the_starting_iterations_and_a_given_one_is_checked() {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            p: PrecisionArgs,
+        }
+        let parse = |args: &[&str]| Cli::try_parse_from([&["x"], args].concat()).unwrap().p;
+        let default = parse(&[]);
+        assert_eq!(default.precision(10_000), Precision::default());
+        assert_eq!(default.precision(200_000).max_iters, 200_000);
+        let given = parse(&["--max-iters", "5000", "--target-rel", "0"]);
+        assert_eq!(given.precision(10_000).target_rel, 0.0);
+        let err = given.precision(10_000).validate(10_000).unwrap_err();
+        assert!(err.to_string().contains("`max_iters`"), "{err}");
     }
 }

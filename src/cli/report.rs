@@ -108,7 +108,7 @@ impl ReportArgs {
                 .map(|s| parse_list(s, "--signal"))
                 .transpose()?,
             iters: self.iters,
-            precision: self.precision.precision(),
+            precision: self.precision.precision(self.iters),
             seed: self.seed,
             sampling: self.sampling,
             qe: self.qe,
