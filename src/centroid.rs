@@ -138,6 +138,16 @@ impl LevelSums {
         add(&mut self.tail_count, &other.tail_count);
     }
 
+    /// Reset every sum to zero (same levels), keeping the allocations.
+    pub fn clear(&mut self) {
+        self.sum.fill(0.0);
+        self.sum_sq.fill(0.0);
+        self.empty.fill(0);
+        self.tail_sum.fill(0.0);
+        self.tail_sum_sq.fill(0.0);
+        self.tail_count.fill(0);
+    }
+
     /// Per-level totals with the empty tails spread over their levels.
     pub fn finish(&self) -> LevelTotals {
         let (mut ts, mut tq, mut tc) = (0.0, 0.0, 0u64);
@@ -202,5 +212,13 @@ mod tests {
             );
             assert!((d_2 - 2.0 * d).abs() < 1e-12 && e_2 == 2 * empty);
         }
+        // Cleared sums are zero and merge like fresh ones.
+        twice.clear();
+        assert!(twice
+            .finish()
+            .iter()
+            .all(|&(d, d2, e)| d == 0.0 && d2 == 0.0 && e == 0));
+        twice.merge(&acc);
+        assert_eq!(twice.finish(), acc.finish());
     }
 }

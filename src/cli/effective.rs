@@ -1,18 +1,76 @@
 //! `detnoise effective`: the effective Gaussian read noise over a grid of configurations.
 
-use super::args::{DetectorArgs, SweepArgs};
+use super::args::{real, whole, DetectorArgs, SweepArgs};
 use super::progress::Terminal;
 use crate::detector::ModelSpec;
-use crate::effective::{effective_table, write_tables, EffectiveRecord, TABLE_NAMES};
-use crate::output::{render, DirPlan, OutputDir, TableFormat};
+use crate::effective::{
+    effective_table, write_tables, EffectiveRecord, Precision, Status, TABLE_NAMES,
+};
+use crate::montecarlo::SimConfig;
+use crate::output::{DirPlan, OutputDir};
 use crate::Result;
+use std::fmt::Write as _;
+use std::ops::Bound::{Included, Unbounded};
 use std::path::PathBuf;
+
+/// The precision target of the effective read noise and the iteration cap (`effective` and
+/// `report`).
+#[derive(clap::Args, Debug, Clone)]
+pub struct PrecisionArgs {
+    /// Target standard error of each effective read noise, e- (0 = off). A value is `ok` when
+    /// its SE is at most this or at most --target-rel times the value; until then iterations
+    /// are added (same random numbers, continued), up to --max-iters.
+    #[arg(long, default_value_t = Precision::DEFAULT_TARGET_SE_E, value_parser = real(Included(0.0), Unbounded, "e-"), long_help = precision_long_help())]
+    pub target_se_e: f64,
+    /// Relative target: a value is also `ok` when its SE is at most this fraction of it, in
+    /// [0, 1] (0 = off; 0.02 = 2 %).
+    #[arg(long, default_value_t = Precision::DEFAULT_TARGET_REL, value_parser = real(Included(0.0), Included(1.0), "(fraction of the value)"))]
+    pub target_rel: f64,
+    /// Iteration cap per configuration, frames, at least --iters (where each starts; default:
+    /// 80000, or --iters if larger): a value still short of its target there is `imprecise`.
+    /// 0 targets, or --max-iters = --iters, give a fixed count.
+    #[arg(long, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
+    pub max_iters: Option<u64>,
+}
+
+impl PrecisionArgs {
+    /// The library's precision settings for runs starting at `iters` iterations: the cap as
+    /// given, or by default [`Precision::DEFAULT_MAX_ITERS`] raised to `iters`.
+    pub fn precision(&self, iters: u64) -> Precision {
+        Precision {
+            target_se_e: self.target_se_e,
+            target_rel: self.target_rel,
+            max_iters: self
+                .max_iters
+                .unwrap_or(Precision::DEFAULT_MAX_ITERS.max(iters)),
+        }
+    }
+}
+
+/// The long help of `--target-se-e`: the rule, then every status and what it means.
+fn precision_long_help() -> String {
+    let mut h = String::from(
+        "Target standard error of each effective read noise, e- (0 = off). A value is `ok` when \
+         its SE is at most this or at most --target-rel times the value; until then iterations \
+         are added to its configuration (the same experiment continued, on the same random \
+         numbers), up to --max-iters.\n\nStatuses (the `status` column):",
+    );
+    for s in Status::ALL {
+        let meaning = super::fields::flags_in(s.meaning());
+        let _ = write!(h, "\n  {:<18} {meaning}", s.label());
+    }
+    h
+}
 
 /// Options of `detnoise effective`.
 #[derive(clap::Args, Debug)]
 #[command(mut_arg("subap", |a| a.default_value("4,6,8,10,12,14,16")))]
 #[command(mut_arg("spot", |a| a.default_values(["airy:1,2,4,6,8,10"])))]
 #[command(mut_arg("signal", |a| a.default_value("20,50,100,200,500,1000")))]
+#[command(mut_arg("iters", |a| a.help(
+    "Starting Monte-Carlo iterations (frames) per configuration, 2 to 1e9: more are added, up to \
+     --max-iters, until the precision target is met"
+)))]
 pub struct EffectiveArgs {
     /// The detector whose effective read noise is wanted: scmos-random (the rms pdf),
     /// scmos-map (needs --map), or any other model (every model is listed with --help).
@@ -21,6 +79,9 @@ pub struct EffectiveArgs {
     /// The Monte-Carlo sweep: sub-aperture sizes (px), spots, signals (photons), iterations, seed.
     #[command(flatten)]
     pub sweep: SweepArgs,
+    /// Precision target of each value and the iteration cap.
+    #[command(flatten)]
+    pub precision: PrecisionArgs,
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
@@ -47,7 +108,10 @@ impl EffectiveArgs {
     pub fn validate(&self) -> Result<()> {
         let spec = ModelSpec::parse(&self.model)?;
         self.detector.validate(std::slice::from_ref(&spec))?;
-        self.sweep.validate()
+        self.sweep.validate()?;
+        self.precision
+            .precision(self.sweep.iters)
+            .validate(self.sweep.iters)
     }
 }
 
@@ -72,10 +136,146 @@ pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
     let specs = [ModelSpec::parse(&args.model)?];
     let params = args.detector.params()?;
     let configs = args.sweep.configs()?;
-    let records = effective_table(&configs, &specs, &params, &Terminal::default())?;
+    let precision = args.precision.precision(args.sweep.iters);
+    let records = effective_table(&configs, &specs, &params, &precision, &Terminal::default())?;
     write_outputs(&records, &dir)?;
-    print!("{}", render(&records, TableFormat::Table)?);
+    print!("{}", terminal_table(&records));
     let path = dir.commit()?;
     eprintln!("wrote {}", path.display());
     Ok(())
+}
+
+/// The records as the terminal shows them (under 100 columns): the configuration, the value
+/// and its SE, the target, the iterations spent and the status word; no value is printed for
+/// a status that has none.
+pub fn terminal_table(records: &[EffectiveRecord]) -> String {
+    let mut out = String::new();
+    if let Some(first) = records.first() {
+        let c = &first.config;
+        let _ = writeln!(
+            out,
+            "{}: effective read noise (e-), {} sampling, QE {}, seed {}",
+            first.model,
+            c.sampling.label(),
+            c.qe,
+            c.seed
+        );
+    }
+    let _ = writeln!(
+        out,
+        "{:>5}  {:<12} {:>8} {:>9} {:>10} {:>8} {:>8}  status",
+        "subap", "spot", "photons", "iters", "sigma_eff", "SE", "target"
+    );
+    for r in records {
+        let (c, e) = (&r.config, &r.effective);
+        let num = |v: f64, ok: bool| {
+            if ok && v.is_finite() {
+                format!("{v:.3}")
+            } else {
+                "-".to_string()
+            }
+        };
+        let valued = !matches!(e.status, Status::Unreachable | Status::NoEligibleLevel);
+        let _ = writeln!(
+            out,
+            "{:>5}  {:<12} {:>8} {:>9} {:>10} {:>8} {:>8}  {}",
+            c.subap_px,
+            c.spot.label(),
+            c.signal_photons,
+            e.iters,
+            num(e.sigma_eff_e, valued),
+            num(e.sigma_eff_se_e, valued),
+            e.target_se_e.map_or("-".into(), |t| format!("{t:.3}")),
+            e.status.label()
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::effective::Effective;
+
+    #[test]
+    fn terminal_table_shows_status_words_and_fits_100_columns() {
+        let cfg = SimConfig::paper(16);
+        let e = |sigma: f64, se: f64, target: Option<f64>, status| Effective {
+            sigma_eff_e: sigma,
+            sigma_eff_se_e: se,
+            target_se_e: target,
+            iters: 80_000,
+            r_px: 0.5,
+            r_se_px: 0.01,
+            b_opt_e: 2.0,
+            sigma_grid_e: vec![],
+            r_const_px: vec![],
+            status,
+        };
+        let records: Vec<EffectiveRecord> = [
+            e(1.234, 0.021, Some(0.05), Status::Ok),
+            e(18.57, 6.58, Some(0.37), Status::Imprecise),
+            e(0.0, 0.01, Some(0.05), Status::LowerBound),
+            e(f64::NAN, f64::NAN, None, Status::Unreachable),
+            e(f64::NAN, f64::INFINITY, None, Status::NoEligibleLevel),
+        ]
+        .iter()
+        .map(|e| EffectiveRecord::new("scmos-random".into(), &cfg, e))
+        .collect();
+        let text = terminal_table(&records);
+        assert!(
+            !text.to_lowercase().contains("nan") && !text.contains("inf"),
+            "{text}"
+        );
+        assert!(text.lines().all(|l| l.chars().count() <= 100), "{text}");
+        let lines: Vec<&str> = text.lines().collect();
+        assert_eq!(lines.len(), 2 + records.len());
+        assert!(lines[2].contains("1.234") && lines[2].ends_with(" ok"));
+        assert!(lines[3].contains("18.570") && lines[3].contains("6.580"));
+        assert!(lines[3].ends_with(" imprecise") && lines[3].contains("80000"));
+        for (line, s) in lines[2..].iter().zip(Status::ALL) {
+            assert!(line.ends_with(&format!(" {}", s.label())), "{line}");
+        }
+        assert!(
+            lines[5].contains("        -        -        -  unreachable"),
+            "{text}"
+        );
+    }
+
+    #[test]
+    fn help_states_the_precision_rule_and_every_status() {
+        let mut cmd = super::super::command();
+        let sub = cmd.find_subcommand_mut("effective").expect("subcommand");
+        let help = sub.render_long_help().to_string();
+        for s in Status::ALL {
+            assert!(help.contains(s.label()), "--help lacks {}", s.label());
+        }
+        for flag in [
+            "--target-se-e",
+            "--target-rel",
+            "--max-iters",
+            "Starting Monte-Carlo",
+        ] {
+            assert!(help.contains(flag), "--help lacks {flag}");
+        }
+        assert!(help.contains("--max-empty-frac") && !help.contains("`max_empty_frac`"));
+    }
+
+    #[test]
+    fn the_default_cap_rises_to_the_starting_iterations_and_a_given_one_is_checked() {
+        use clap::Parser;
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            p: PrecisionArgs,
+        }
+        let parse = |args: &[&str]| Cli::try_parse_from([&["x"], args].concat()).unwrap().p;
+        let default = parse(&[]);
+        assert_eq!(default.precision(10_000), Precision::default());
+        assert_eq!(default.precision(200_000).max_iters, 200_000);
+        let given = parse(&["--max-iters", "5000", "--target-rel", "0"]);
+        assert_eq!(given.precision(10_000).target_rel, 0.0);
+        let err = given.precision(10_000).validate(10_000).unwrap_err();
+        assert!(err.to_string().contains("`max_iters`"), "{err}");
+    }
 }

@@ -59,6 +59,10 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("pattern_seed", "--pattern-seed"),
     ("pp_rule", "--pp-rule"),
     ("pp_lambda", "--pp-lambda"),
+    // Effective read noise (crate::effective::Precision): precision target and iteration cap.
+    ("target_se_e", "--target-se-e"),
+    ("target_rel", "--target-rel"),
+    ("max_iters", "--max-iters"),
     // report (crate::report::ReportOptions)
     ("darks_paths", "--darks"),
     ("flats_paths", "--flats"),

@@ -34,7 +34,7 @@ impl Observer for Terminal {
         };
         bar.set_style(
             ProgressStyle::with_template(
-                "{prefix:>10} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg} (eta {eta})",
+                "{prefix:>10} [{elapsed_precise}] {wide_bar} {human_pos}/{human_len} {msg} (eta {eta})",
             )
             .expect("valid template"),
         );
@@ -46,8 +46,16 @@ impl Observer for Terminal {
         }
     }
 
+    fn unit(&self, unit: &str) {
+        self.with_bar(|bar| bar.set_message(unit.to_string()));
+    }
+
     fn step(&self, label: &str) {
         self.with_bar(|bar| bar.set_message(label.to_string()));
+    }
+
+    fn grow(&self, more: u64) {
+        self.with_bar(|bar| bar.inc_length(more));
     }
 
     fn advance(&self, iterations: u64) {

@@ -2,6 +2,7 @@
 //! `report::run` -> the lines on standard error).
 
 use super::args::{parse_list, real, whole, DetectorArgs};
+use super::effective::PrecisionArgs;
 use super::progress::Terminal;
 use crate::montecarlo::SimConfig;
 use crate::report::{OperatingPoint, ReportOptions};
@@ -44,9 +45,14 @@ pub struct ReportArgs {
     /// 12,airy:4,100. Simulated even when it is not in the grid. Default: 8,airy:2,50.
     #[arg(long, value_name = "SUBAP,SPOT,SIGNAL", allow_hyphen_values = true)]
     pub operating_point: Option<String>,
-    /// Monte-Carlo iterations (frames) per configuration, 2 to 1e9.
+    /// Starting Monte-Carlo iterations (frames) per configuration of the effective-noise table,
+    /// 2 to 1e9 (also the comparison's count): more are added, up to --max-iters, until each
+    /// value meets the precision target.
     #[arg(long, default_value_t = 10_000, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
     pub iters: u64,
+    /// Precision target of each effective read noise and the iteration cap.
+    #[command(flatten)]
+    pub precision: PrecisionArgs,
     /// Seed of every random stream (a whole number, unitless).
     #[arg(long, default_value_t = 1, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub seed: u64,
@@ -65,9 +71,10 @@ pub struct ReportArgs {
     /// level near the top of the stored range); sCMOS reports only. Default: refuse them.
     #[arg(long)]
     pub accept_illuminated: bool,
-    /// Fast preview (under a minute for a small camera): at most 2,000 iterations, and where left
-    /// at their defaults, sub-apertures 4,8,16, spots airy:2,6 and signals 20,50,500 (stated in
-    /// the report). The full grid takes several minutes.
+    /// Fast preview (seconds for a small camera): at most 2,000 starting iterations and 24,000
+    /// per configuration (--max-iters), and where left at their defaults, sub-apertures 4,8,16,
+    /// spots airy:2,6 and signals 20,50,500 (stated in the report). The full grid takes a few
+    /// minutes.
     #[arg(long)]
     pub quick: bool,
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
@@ -152,6 +159,7 @@ impl ReportArgs {
                 .map(OperatingPoint::parse)
                 .transpose()?,
             iters: self.iters,
+            precision: self.precision.precision(self.iters),
             seed: self.seed,
             sampling: self.sampling,
             qe: self.qe,

@@ -1,7 +1,8 @@
 //! The effective read noise over a grid of configurations: one record per detector model and
 //! configuration, written as `effective_noise.csv` and `effective_noise.json`.
 
-use super::solve::{effective_sigma, Effective};
+use super::precision::Precision;
+use super::solve::{effective_sigma, planned_work, Effective};
 use crate::detector::{ModelParams, ModelSpec};
 use crate::montecarlo::{config_columns, SimConfig};
 use crate::output::{render, write_atomic, TableFormat};
@@ -15,10 +16,14 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 
 /// One configuration's effective read noise.
 ///
-/// Serialised (CSV, JSON) as the columns `model`, the configuration (`subap_px`, `spot`,
-/// `sampling`, `signal_photons`, `qe`, `iters`, `seed`), then `sigma_eff_e`, `sigma_eff_se_e`,
-/// `r_px`, `r_se_px`, `b_opt_e` and `status` (ok, lower_bound: sigma_eff = 0, or unreachable:
-/// no constant sigma gives this R, sigma_eff null).
+/// Serialised (CSV, JSON) as the columns `model`; the configuration (`subap_px`, `spot`,
+/// `sampling`, `signal_photons`, `qe`, then `iters`: the iterations the value rests on, from
+/// the starting count up to the cap, and `seed`); `sigma_eff_e` and `sigma_eff_se_e` (e-;
+/// empty/null for `unreachable` and `no_eligible_level`); `target_se_e` (e-, the standard error
+/// the value had to reach: the larger of the absolute target and the relative one times the
+/// value; empty/null without a target or a value); `r_px`, `r_se_px` (the detector's R and its
+/// SE), `b_opt_e` (its best background level); and `status` (`ok`, `imprecise`, `lower_bound`,
+/// `unreachable`, `no_eligible_level`: see [`crate::effective::Status::meaning`]).
 #[derive(Debug, Clone)]
 pub struct EffectiveRecord {
     /// The detector model (its name, or a caller's label).
@@ -43,11 +48,18 @@ impl EffectiveRecord {
 impl Serialize for EffectiveRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let e = &self.effective;
-        let mut s = serializer.serialize_struct("EffectiveRecord", 14)?;
+        let mut s = serializer.serialize_struct("EffectiveRecord", 15)?;
         s.serialize_field("model", &self.model)?;
-        config_columns(&mut s, &self.config, None)?;
-        s.serialize_field("sigma_eff_e", &e.sigma_eff_e)?;
-        s.serialize_field("sigma_eff_se_e", &e.sigma_eff_se_e)?;
+        let used = SimConfig {
+            iters: e.iters,
+            ..self.config.clone()
+        };
+        config_columns(&mut s, &used, None)?;
+        // Non-finite values (no value, or an infinite SE) are written as empty/null, never NaN.
+        let finite = |v: f64| v.is_finite().then_some(v);
+        s.serialize_field("sigma_eff_e", &finite(e.sigma_eff_e))?;
+        s.serialize_field("sigma_eff_se_e", &finite(e.sigma_eff_se_e))?;
+        s.serialize_field("target_se_e", &e.target_se_e)?;
         s.serialize_field("r_px", &e.r_px)?;
         s.serialize_field("r_se_px", &e.r_se_px)?;
         s.serialize_field("b_opt_e", &e.b_opt_e)?;
@@ -56,24 +68,26 @@ impl Serialize for EffectiveRecord {
     }
 }
 
-/// Solve every configuration for every detector model of `specs` (built with `params` for its
-/// sub-aperture): records in model order, then configuration order. `observer` sees one stage,
-/// `effective`, counting the iterations of the full-length runs.
+/// Solve every configuration (its `iters` the starting count) for every detector model of
+/// `specs` (built with `params` for its sub-aperture) to `precision`: records in model order,
+/// then configuration order. `observer` sees one stage, `effective`, counting pixel-frames
+/// (iterations x models x pixels) of every run, pilot and added iterations included: its total
+/// grows when a solve adds work, and ends exactly advanced.
 pub fn effective_table(
     configs: &[SimConfig],
     specs: &[ModelSpec],
     params: &ModelParams,
+    precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<Vec<EffectiveRecord>> {
-    let iters: u64 = configs.iter().map(|c| c.iters).sum();
-    // Pilot (10 %) plus the detector and four constant sigmas in the final run.
-    let work: u64 = configs
-        .iter()
-        .map(|c| c.iters * (c.subap_px * c.subap_px) as u64 * 6)
-        .sum();
-    let n = specs.len() as u64;
-    observer.begin("effective", n * iters, n * work);
-    let records = solve_all(configs, specs, params, observer);
+    for cfg in configs {
+        cfg.validate()?;
+        precision.validate(cfg.iters)?;
+    }
+    let work: u64 = configs.iter().map(planned_work).sum::<u64>() * specs.len() as u64;
+    observer.begin("effective", work, work);
+    observer.unit("pixel-frames");
+    let records = solve_all(configs, specs, params, precision, observer);
     observer.end();
     records
 }
@@ -82,13 +96,14 @@ fn solve_all(
     configs: &[SimConfig],
     specs: &[ModelSpec],
     params: &ModelParams,
+    precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<Vec<EffectiveRecord>> {
     let mut out = Vec::with_capacity(specs.len() * configs.len());
     for spec in specs {
         for cfg in configs {
             let model = spec.build(params, cfg.subap_px)?;
-            let e = effective_sigma(cfg, model.as_ref(), observer)?;
+            let e = effective_sigma(cfg, model.as_ref(), precision, observer)?;
             out.push(EffectiveRecord::new(model.name(), cfg, &e));
         }
     }
@@ -111,12 +126,15 @@ pub fn write_tables(records: &[EffectiveRecord], dir: &Path) -> Result<Vec<PathB
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::progress::Recorder;
+    use crate::effective::Status;
+    use crate::progress::{Recorder, Silent};
     use std::sync::atomic::Ordering::Relaxed;
 
     #[test]
     fn table_solves_each_model_and_configuration_like_the_solver() {
-        // Records in model-then-configuration order, each equal bit for bit to a direct solve.
+        // Records in model-then-configuration order, each equal bit for bit to a direct solve;
+        // the stage counts pixel-frames and ends with exactly its total advanced, though the
+        // target makes some solves add iterations (the total grows by them).
         let mut configs = Vec::new();
         for (n, s) in [(4usize, 50.0), (6, 200.0)] {
             let mut c = SimConfig::paper(n);
@@ -126,61 +144,122 @@ mod tests {
         }
         let specs = [
             ModelSpec::parse("scmos-constant:0.8").unwrap(),
-            ModelSpec::ScmosMedian,
+            ModelSpec::ScmosRandom,
         ];
         let params = ModelParams::default();
+        let precision = Precision {
+            target_se_e: 0.02,
+            target_rel: 0.0,
+            max_iters: 6000,
+        };
         let recorder = Recorder::default();
-        let table = effective_table(&configs, &specs, &params, &recorder).unwrap();
+        let table = effective_table(&configs, &specs, &params, &precision, &recorder).unwrap();
         assert_eq!(table.len(), 4);
         for (k, rec) in table.iter().enumerate() {
             let (spec, cfg) = (&specs[k / 2], &configs[k % 2]);
             let model = spec.build(&params, cfg.subap_px).unwrap();
-            let direct = effective_sigma(cfg, model.as_ref(), &crate::progress::Silent).unwrap();
+            let direct = effective_sigma(cfg, model.as_ref(), &precision, &Silent).unwrap();
             assert_eq!(rec.model, model.name());
             assert_eq!(rec.config.subap_px, cfg.subap_px);
             assert_eq!(
                 rec.effective.sigma_eff_e.to_bits(),
                 direct.sigma_eff_e.to_bits()
             );
+            assert_eq!(rec.effective.iters, direct.iters);
         }
-        let work = 2 * 600 * (16 + 36) * 6;
+        assert!(table.iter().any(|r| r.effective.iters > 600));
+        // Pilot: 500 frames x 9 models; first final run: 600 frames x 5 models.
+        let planned = 2 * (500 * 9 + 600 * 5) * (16 + 36);
         assert_eq!(
             *recorder.stages.lock().unwrap(),
-            [("effective".to_string(), 2 * 1200, work)]
+            [("effective".to_string(), planned, planned)]
         );
-        // At least every final run is counted once (a fallback to the wide grid counts again).
-        assert!(recorder.advanced.load(Relaxed) >= 2 * 1200);
+        assert_eq!(*recorder.units.lock().unwrap(), ["pixel-frames"]);
+        let grown = recorder.grown.load(Relaxed);
+        assert!(grown > 0);
+        assert_eq!(recorder.advanced.load(Relaxed), planned + grown);
         assert_eq!(recorder.ended.load(Relaxed), 1);
     }
 
     #[test]
-    fn tables_are_written_as_csv_and_json_with_the_record_columns() {
-        let cfg = SimConfig::paper(8);
-        let e = Effective {
-            sigma_eff_e: f64::NAN,
-            sigma_eff_se_e: f64::NAN,
+    fn a_bad_precision_is_refused_before_any_work() {
+        let cfg = SimConfig::paper(4);
+        let recorder = Recorder::default();
+        let err = effective_table(
+            &[cfg],
+            &[ModelSpec::ScmosMedian],
+            &ModelParams::default(),
+            &Precision::fixed(100),
+            &recorder,
+        )
+        .unwrap_err();
+        assert!(err.to_string().contains("`max_iters`"), "{err}");
+        assert!(recorder.stages.lock().unwrap().is_empty());
+    }
+
+    fn effective(sigma: f64, se: f64, target: Option<f64>, status: Status) -> Effective {
+        Effective {
+            sigma_eff_e: sigma,
+            sigma_eff_se_e: se,
+            target_se_e: target,
+            iters: 40_000,
             r_px: 0.5,
             r_se_px: 0.25,
             b_opt_e: 2.0,
             sigma_grid_e: vec![0.0, 1.0],
             r_const_px: vec![0.1, 0.2],
-            status: crate::effective::Status::Unreachable,
-        };
+            status,
+        }
+    }
+
+    #[test]
+    fn tables_are_written_as_csv_and_json_with_the_record_columns() {
+        let cfg = SimConfig::paper(8);
+        let e = effective(f64::NAN, f64::NAN, None, Status::Unreachable);
         let records = [EffectiveRecord::new("scmos-map".into(), &cfg, &e)];
         let dir = tempfile::tempdir().unwrap();
         let written = write_tables(&records, dir.path()).unwrap();
         assert_eq!(written, TABLE_NAMES.map(|n| dir.path().join(n)));
         let csv = std::fs::read_to_string(&written[0]).unwrap();
+        // `iters` is the count the value rests on, not the configuration's starting one.
         assert_eq!(
             csv,
             "model,subap_px,spot,sampling,signal_photons,qe,iters,seed,sigma_eff_e,\
-             sigma_eff_se_e,r_px,r_se_px,b_opt_e,status\n\
-             scmos-map,8,airy:2,integrated,50,1,10000,1,,,0.5,0.25,2,unreachable\n"
+             sigma_eff_se_e,target_se_e,r_px,r_se_px,b_opt_e,status\n\
+             scmos-map,8,airy:2,integrated,50,1,40000,1,,,,0.5,0.25,2,unreachable\n"
         );
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&written[1]).unwrap()).unwrap();
-        assert!(json[0]["sigma_eff_e"].is_null());
+        assert!(json[0]["sigma_eff_e"].is_null() && json[0]["target_se_e"].is_null());
         assert_eq!(json[0]["status"], "unreachable");
-        assert_eq!(json[0].as_object().unwrap().len(), 14);
+        assert_eq!(json[0]["iters"], 40_000);
+        assert_eq!(json[0].as_object().unwrap().len(), 15);
+    }
+
+    #[test]
+    fn no_status_writes_nan_or_infinity() {
+        let cfg = SimConfig::paper(8);
+        let cases = [
+            effective(1.25, 0.02, Some(0.05), Status::Ok),
+            effective(18.5, 6.5, Some(0.37), Status::Imprecise),
+            effective(0.0, f64::INFINITY, Some(0.05), Status::LowerBound),
+            effective(f64::NAN, f64::NAN, None, Status::Unreachable),
+            effective(f64::NAN, f64::NAN, None, Status::NoEligibleLevel),
+        ];
+        let records: Vec<EffectiveRecord> = cases
+            .iter()
+            .map(|e| EffectiveRecord::new("m".into(), &cfg, e))
+            .collect();
+        let dir = tempfile::tempdir().unwrap();
+        let written = write_tables(&records, dir.path()).unwrap();
+        for path in &written {
+            let text = std::fs::read_to_string(path).unwrap().to_lowercase();
+            assert!(!text.contains("nan") && !text.contains("inf"), "{text}");
+        }
+        let csv = std::fs::read_to_string(&written[0]).unwrap();
+        let rows: Vec<&str> = csv.lines().skip(1).collect();
+        assert!(rows[0].contains(",1.25,0.02,0.05,") && rows[0].ends_with(",ok"));
+        assert!(rows[1].contains(",18.5,6.5,0.37,") && rows[1].ends_with(",imprecise"));
+        assert!(rows[2].contains(",0,,0.05,") && rows[2].ends_with(",lower_bound"));
     }
 }

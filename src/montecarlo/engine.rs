@@ -5,7 +5,11 @@
 //! gravity after subtracting each background level. All models of a run share the spot
 //! positions, the photon draws and the read-noise deviates (common random numbers), and every
 //! iteration has its own seeded streams, so results do not depend on the thread count.
+//!
+//! An [`Experiment`] keeps its accumulated sums, so it can be continued: iterations N..N' use
+//! the streams of iterations N..N', so a longer run is the same experiment with more frames.
 
+use super::blocks::{Blocks, Term, SUB_BLOCK};
 use super::config::SimConfig;
 use crate::centroid::{cog, BackgroundSweep, LevelSums};
 use crate::detector::{FrameInput, Readout};
@@ -13,14 +17,15 @@ use crate::progress::Observer;
 use crate::rng::stream;
 use crate::spot::SpotRenderer;
 use crate::stats::poisson;
-use crate::Result;
+use crate::{Error, Result};
 use rand::RngExt;
 use rayon::prelude::*;
 
-/// Iterations per parallel work item (fixed, so sums are added in the same order always).
-const CHUNK: u64 = 256;
+/// Iterations per parallel work item: chunk c holds iterations [c CHUNK, (c + 1) CHUNK) of the
+/// run (fixed, so sums are added in the same order always, whatever the thread count).
+pub const CHUNK: u64 = 256;
 /// Work items held in memory at once (their per-level sums), whatever the iteration count.
-const BATCH_CHUNKS: u64 = 256;
+const BATCH_CHUNKS: u64 = 64;
 
 /// Stream roles of one iteration.
 const POSITION: u64 = 0;
@@ -73,36 +78,209 @@ pub fn run(
     models: &[&dyn Readout],
     observer: &dyn Observer,
 ) -> Result<Vec<SimResult>> {
-    cfg.validate()?;
-    let n = cfg.subap_px;
-    let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, n, cfg.position_half_range_px);
-    let levels = cfg.bg_grid.levels(peak_expected_e(cfg, &renderer));
-    let chunks = cfg.iters.div_ceil(CHUNK);
-    let mut total = vec![LevelSums::new(levels.len()); models.len()];
-    // Chunks run in parallel a batch at a time and are merged in chunk order, so the sums do
-    // not depend on the thread count and memory does not grow with the iterations.
-    for batch in (0..chunks).step_by(BATCH_CHUNKS as usize) {
-        let partials: Vec<Vec<LevelSums>> = (batch..(batch + BATCH_CHUNKS).min(chunks))
-            .into_par_iter()
-            .map(|c| {
-                let first = c * CHUNK;
-                let last = (first + CHUNK).min(cfg.iters);
-                let accs = run_chunk(cfg, &renderer, &levels, models, first..last);
-                observer.advance(last - first);
-                accs
-            })
-            .collect();
-        for part in &partials {
-            for (t, p) in total.iter_mut().zip(part) {
-                t.merge(p);
+    let mut experiment = Experiment::new(cfg, models)?;
+    experiment.extend_to(cfg.iters, observer, 1)?;
+    Ok(experiment.results())
+}
+
+/// A Monte-Carlo run of several readout models on common random numbers that can be continued:
+/// it keeps every model's per-level sums (and, with [`Experiment::with_blocks`], their sums per
+/// block of iterations for paired standard errors).
+pub struct Experiment<'m> {
+    cfg: SimConfig,
+    models: Vec<&'m dyn Readout>,
+    renderer: SpotRenderer,
+    levels: Vec<f64>,
+    totals: Vec<LevelSums>,
+    blocks: Option<Blocks>,
+    done: u64,
+}
+
+/// What one chunk of iterations adds: per-model sums, and the sums of its sub-blocks
+/// `(first iteration, iterations, models x levels sums)` when blocks are kept.
+struct ChunkSums {
+    totals: Vec<LevelSums>,
+    blocks: Vec<(u64, u64, Vec<f64>)>,
+}
+
+impl<'m> Experiment<'m> {
+    /// An experiment of configuration `cfg` (validated; its `iters` is not used) for `models`,
+    /// with no iteration run yet.
+    pub fn new(cfg: &SimConfig, models: &[&'m dyn Readout]) -> Result<Self> {
+        cfg.validate()?;
+        let renderer = SpotRenderer::new(
+            cfg.spot,
+            cfg.sampling,
+            cfg.subap_px,
+            cfg.position_half_range_px,
+        );
+        let levels = cfg.bg_grid.levels(peak_expected_e(cfg, &renderer));
+        Ok(Experiment {
+            cfg: cfg.clone(),
+            models: models.to_vec(),
+            totals: vec![LevelSums::new(levels.len()); models.len()],
+            renderer,
+            levels,
+            blocks: None,
+            done: 0,
+        })
+    }
+
+    /// Also keep the sums per block of iterations, for [`Experiment::paired_se`].
+    pub fn with_blocks(mut self) -> Self {
+        self.blocks = Some(Blocks::new(self.models.len(), self.levels.len()));
+        self
+    }
+
+    /// Iterations run so far.
+    pub fn iters(&self) -> u64 {
+        self.done
+    }
+
+    /// The background levels (e-), ascending.
+    pub fn levels(&self) -> &[f64] {
+        &self.levels
+    }
+
+    /// Run iterations up to `iters` (from those already run; at most [`SimConfig::MAX_ITERS`]).
+    /// `observer` is advanced by `weight` x the iterations of each chunk as it finishes (the
+    /// caller begins and ends the stage and chooses the unit).
+    pub fn extend_to(&mut self, iters: u64, observer: &dyn Observer, weight: u64) -> Result<()> {
+        if iters > SimConfig::MAX_ITERS {
+            return Err(Error::invalid(
+                "iters",
+                format!(
+                    "{iters}: at most {:e} iterations",
+                    SimConfig::MAX_ITERS as f64
+                ),
+            ));
+        }
+        let (start, end) = (self.done, iters.max(self.done));
+        // Chunks are aligned on multiples of CHUNK from the start of the run; the first may be
+        // partial when the experiment is continued.
+        let chunks = (start / CHUNK)..end.div_ceil(CHUNK);
+        let sub = if self.blocks.is_some() {
+            SUB_BLOCK
+        } else {
+            CHUNK
+        };
+        // Chunks run in parallel a batch at a time and are merged in chunk order, so the sums do
+        // not depend on the thread count and memory does not grow with the iterations.
+        for batch in chunks.clone().step_by(BATCH_CHUNKS as usize) {
+            let this = &*self;
+            let partials: Vec<ChunkSums> = (batch..(batch + BATCH_CHUNKS).min(chunks.end))
+                .into_par_iter()
+                .map(|c| {
+                    let first = (c * CHUNK).max(start);
+                    let last = ((c + 1) * CHUNK).min(end);
+                    let sums = this.run_chunk(first..last, sub);
+                    observer.advance((last - first) * weight);
+                    sums
+                })
+                .collect();
+            for part in partials {
+                for (t, p) in self.totals.iter_mut().zip(&part.totals) {
+                    t.merge(p);
+                }
+                if let Some(blocks) = self.blocks.as_mut() {
+                    for (first, count, sums) in &part.blocks {
+                        blocks.add(*first, *count, sums);
+                    }
+                }
             }
         }
+        self.done = end;
+        Ok(())
     }
-    Ok(models
-        .iter()
-        .zip(&total)
-        .map(|(m, acc)| summarise(m.name(), acc, &levels, cfg))
-        .collect())
+
+    /// Every model's result over the iterations run so far.
+    pub fn results(&self) -> Vec<SimResult> {
+        self.models
+            .iter()
+            .zip(&self.totals)
+            .map(|(m, acc)| summarise(m.name(), acc, &self.levels, &self.cfg, self.done))
+            .collect()
+    }
+
+    /// Index of background level `b_e` (e-) in [`Experiment::levels`] (a level of a result).
+    pub fn level_index(&self, b_e: f64) -> Option<usize> {
+        self.levels.iter().position(|&l| l == b_e)
+    }
+
+    /// Standard error (px) of the linear combination sum(coef x R) of `terms` (models at
+    /// levels), from the scatter of block means: it carries the correlation of models run on
+    /// common random numbers. Infinite without blocks kept or with fewer than two blocks.
+    pub fn paired_se(&self, terms: &[Term]) -> f64 {
+        self.blocks
+            .as_ref()
+            .map_or(f64::INFINITY, |b| b.standard_error(terms))
+    }
+
+    /// Run iterations `iters` for every model, in sub-blocks of `sub` iterations (aligned on
+    /// multiples of `sub`).
+    fn run_chunk(&self, iters: std::ops::Range<u64>, sub: u64) -> ChunkSums {
+        let cfg = &self.cfg;
+        let (levels, models) = (&self.levels, &self.models);
+        let n = cfg.subap_px;
+        let npix = n * n;
+        let mut out = ChunkSums {
+            totals: vec![LevelSums::new(levels.len()); models.len()],
+            blocks: Vec::new(),
+        };
+        let mut accs = out.totals.clone();
+        let mut sweep = BackgroundSweep::new(levels.to_vec(), n);
+        let mut expected = vec![0.0; npix];
+        let mut photons = vec![0u32; npix];
+        let mut image = vec![0.0; npix];
+        let h = cfg.position_half_range_px;
+        let mut block_start = iters.start;
+        for it in iters.clone() {
+            let mut pos = stream(cfg.seed, it, POSITION);
+            let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
+            self.renderer.render(x0, y0, &mut expected);
+            let total: f64 = expected.iter().sum();
+            // A spot entirely outside the sub-aperture leaves nothing to measure.
+            let scale = if total > 0.0 {
+                cfg.signal_photons * cfg.qe / total
+            } else {
+                0.0
+            };
+            expected.iter_mut().for_each(|v| *v *= scale);
+            let truth = cog(&expected, n).unwrap_or((0.0, 0.0));
+            let mut ph = stream(cfg.seed, it, PHOTONS);
+            for (k, lambda) in photons.iter_mut().zip(&expected) {
+                *k = poisson(*lambda, &mut ph);
+            }
+            let input = FrameInput {
+                subap_px: n,
+                expected_e: &expected,
+                photo_e: &photons,
+            };
+            for (model, acc) in models.iter().zip(accs.iter_mut()) {
+                let mut noise = stream(cfg.seed, it, NOISE);
+                let mut aux = stream(cfg.seed, it, AUX);
+                model.read(&input, &mut noise, &mut aux, &mut image);
+                sweep.accumulate(&image, truth, acc);
+            }
+            if (it + 1) % sub == 0 || it + 1 == iters.end {
+                // A sub-block ends: its sums join the chunk's (into zeros when it is the whole
+                // chunk, which leaves them exact) and, when kept, the block list.
+                if self.blocks.is_some() {
+                    let sums = accs
+                        .iter()
+                        .flat_map(|a| a.finish().into_iter().map(|(s, _, _)| s))
+                        .collect();
+                    out.blocks.push((block_start, it + 1 - block_start, sums));
+                }
+                for (t, a) in out.totals.iter_mut().zip(accs.iter_mut()) {
+                    t.merge(a);
+                    a.clear();
+                }
+                block_start = it + 1;
+            }
+        }
+        out
+    }
 }
 
 /// Brightest expected pixel (e-) of a centred spot: sizes the automatic background grid.
@@ -118,55 +296,15 @@ fn peak_expected_e(cfg: &SimConfig, renderer: &SpotRenderer) -> f64 {
     }
 }
 
-fn run_chunk(
-    cfg: &SimConfig,
-    renderer: &SpotRenderer,
+/// The result of one model from its sums over `iters` iterations.
+fn summarise(
+    model: String,
+    acc: &LevelSums,
     levels: &[f64],
-    models: &[&dyn Readout],
-    iters: std::ops::Range<u64>,
-) -> Vec<LevelSums> {
-    let n = cfg.subap_px;
-    let npix = n * n;
-    let mut accs = vec![LevelSums::new(levels.len()); models.len()];
-    let mut sweep = BackgroundSweep::new(levels.to_vec(), n);
-    let mut expected = vec![0.0; npix];
-    let mut photons = vec![0u32; npix];
-    let mut image = vec![0.0; npix];
-    let h = cfg.position_half_range_px;
-    for it in iters {
-        let mut pos = stream(cfg.seed, it, POSITION);
-        let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
-        renderer.render(x0, y0, &mut expected);
-        let total: f64 = expected.iter().sum();
-        // A spot entirely outside the sub-aperture leaves nothing to measure.
-        let scale = if total > 0.0 {
-            cfg.signal_photons * cfg.qe / total
-        } else {
-            0.0
-        };
-        expected.iter_mut().for_each(|v| *v *= scale);
-        let truth = cog(&expected, n).unwrap_or((0.0, 0.0));
-        let mut ph = stream(cfg.seed, it, PHOTONS);
-        for (k, lambda) in photons.iter_mut().zip(&expected) {
-            *k = poisson(*lambda, &mut ph);
-        }
-        let input = FrameInput {
-            subap_px: n,
-            expected_e: &expected,
-            photo_e: &photons,
-        };
-        for (model, acc) in models.iter().zip(accs.iter_mut()) {
-            let mut noise = stream(cfg.seed, it, NOISE);
-            let mut aux = stream(cfg.seed, it, AUX);
-            model.read(&input, &mut noise, &mut aux, &mut image);
-            sweep.accumulate(&image, truth, acc);
-        }
-    }
-    accs
-}
-
-fn summarise(model: String, acc: &LevelSums, levels: &[f64], cfg: &SimConfig) -> SimResult {
-    let n = cfg.iters as f64;
+    cfg: &SimConfig,
+    iters: u64,
+) -> SimResult {
+    let n = iters as f64;
     let stats: Vec<LevelStats> = levels
         .iter()
         .zip(acc.finish())
@@ -213,174 +351,4 @@ fn summarise(model: String, acc: &LevelSums, levels: &[f64], cfg: &SimConfig) ->
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::detector::{ModelParams, ModelSpec, ScmosConstant};
-    use crate::progress::{Recorder, Silent};
-
-    fn models(names: &[&str], n: usize) -> Vec<Box<dyn Readout>> {
-        names
-            .iter()
-            .map(|m| {
-                ModelSpec::parse(m)
-                    .unwrap()
-                    .build(&ModelParams::default(), n)
-                    .unwrap()
-            })
-            .collect()
-    }
-
-    fn refs(models: &[Box<dyn Readout>]) -> Vec<&dyn Readout> {
-        models.iter().map(|m| m.as_ref()).collect()
-    }
-
-    /// R(0) of a noiseless readout at `signal` photons, 8x8 px, against the shot-noise limit:
-    /// the centre of gravity of Poisson counts has per-axis variance var_x / S (var_x the
-    /// spot's second moment in the sub-aperture), so R(0) = sqrt(pi/2) sqrt((var_x + var_y) / 2 / S)
-    /// for this nearly isotropic error; within 4 SE.
-    fn check_shot_noise_limit(signal: f64, iters: u64) {
-        let mut cfg = SimConfig::paper(8);
-        cfg.signal_photons = signal;
-        cfg.iters = iters;
-        cfg.position_half_range_px = 0.0;
-        let m = ScmosConstant::new(0.0, "none".into());
-        let r = &run(&cfg, &[&m], &Silent).unwrap()[0];
-        let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, 8, 0.0);
-        let mut img = vec![0.0; 64];
-        renderer.render(0.0, 0.0, &mut img);
-        let total: f64 = img.iter().sum();
-        let var: f64 = img
-            .iter()
-            .enumerate()
-            .map(|(k, v)| {
-                v / total * (((k % 8) as f64 - 3.5).powi(2) + ((k / 8) as f64 - 3.5).powi(2)) / 2.0
-            })
-            .sum();
-        let expected = (std::f64::consts::PI / 2.0).sqrt() * (var / cfg.signal_photons).sqrt();
-        assert!(
-            (r.r0_px - expected).abs() < 4.0 * r.r0_se_px,
-            "S = {signal}: R(0) = {} +- {}, expected {expected}",
-            r.r0_px,
-            r.r0_se_px
-        );
-        assert_eq!(r.zero_frames, 0);
-    }
-
-    #[test]
-    fn noiseless_readout_error_is_the_shot_noise_limit() {
-        check_shot_noise_limit(1e6, 4000);
-    }
-
-    #[test]
-    fn precision_holds_up_to_the_signal_limit() {
-        // At the largest accepted signal the counts still fit (32-bit per pixel) and R keeps
-        // falling as 1/sqrt(S); above it the run is refused, naming the signal and the limit.
-        check_shot_noise_limit(SimConfig::MAX_PHOTO_E, 1000);
-        let mut cfg = SimConfig::paper(8);
-        cfg.signal_photons = 2.0 * SimConfig::MAX_PHOTO_E;
-        let msg = cfg.validate().unwrap_err().to_string();
-        assert!(
-            msg.contains("`signal_photons`") && msg.contains("1e9"),
-            "{msg}"
-        );
-        // The limit applies to photo-electrons: QE 0.4 brings 2e9 photons under it.
-        cfg.qe = 0.4;
-        cfg.validate().unwrap();
-    }
-
-    #[test]
-    fn sums_over_several_batches_do_not_depend_on_thread_count() {
-        // More chunks than one batch holds: batches are merged in chunk order.
-        let mut cfg = SimConfig::paper(2);
-        cfg.iters = CHUNK * BATCH_CHUNKS + 300;
-        let m = ScmosConstant::new(1.0, "one".into());
-        let run_with = |threads| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| run(&cfg, &[&m], &Silent).unwrap().remove(0))
-        };
-        let (a, b) = (run_with(1), run_with(2));
-        assert_eq!(a.r_px.to_bits(), b.r_px.to_bits());
-        assert_eq!(a.r_se_px.to_bits(), b.r_se_px.to_bits());
-    }
-
-    #[test]
-    fn observer_is_advanced_by_every_iteration_once() {
-        // Chunks of a partial last batch and a partial last chunk: the counts add up exactly,
-        // and `run` leaves beginning and ending the stage to its caller.
-        let mut cfg = SimConfig::paper(2);
-        cfg.iters = 3 * CHUNK + 7;
-        let m = ScmosConstant::new(1.0, "one".into());
-        let recorder = Recorder::default();
-        run(&cfg, &[&m], &recorder).unwrap();
-        let advanced = recorder.advanced.load(std::sync::atomic::Ordering::Relaxed);
-        assert_eq!(advanced, cfg.iters);
-        assert!(recorder.stages.lock().unwrap().is_empty());
-    }
-
-    #[test]
-    fn results_do_not_depend_on_thread_count() {
-        let mut cfg = SimConfig::paper(6);
-        cfg.iters = 1000;
-        let names = ["emccd-stochastic", "scmos-random", "emccd-simple"];
-        let run_with = |threads| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            pool.install(|| run(&cfg, &refs(&models(&names, 6)), &Silent).unwrap())
-        };
-        let (a, b) = (run_with(1), run_with(3));
-        for (x, y) in a.iter().zip(&b) {
-            assert_eq!(x.r_px.to_bits(), y.r_px.to_bits());
-            assert_eq!(x.r_se_px.to_bits(), y.r_se_px.to_bits());
-            assert_eq!(x.b_opt_e, y.b_opt_e);
-        }
-    }
-
-    #[test]
-    fn error_grows_with_read_noise_on_common_random_numbers() {
-        // Same spots, photons and deviates: R(sigma) must be increasing.
-        let mut cfg = SimConfig::paper(8);
-        cfg.iters = 2000;
-        let m = models(
-            &[
-                "scmos-constant:0.2",
-                "scmos-constant:0.8",
-                "scmos-constant:2",
-                "scmos-constant:5",
-            ],
-            8,
-        );
-        let r: Vec<f64> = run(&cfg, &refs(&m), &Silent)
-            .unwrap()
-            .iter()
-            .map(|s| s.r_px)
-            .collect();
-        assert!(r.windows(2).all(|w| w[0] < w[1]), "{r:?}");
-    }
-
-    #[test]
-    fn optimum_respects_empty_frame_limit() {
-        // Heavy-tailed noise, large sub-aperture, faint spot: the raw minimum of R(b) lies
-        // where most frames are empty (SPEC 3.7); the reported optimum must not.
-        let mut cfg = SimConfig::paper(16);
-        cfg.iters = 2000;
-        let r = &run(&cfg, &refs(&models(&["scmos-random"], 16)), &Silent).unwrap()[0];
-        assert!(r.zero_frames as f64 <= 0.01 * cfg.iters as f64);
-        assert!(!r.b_at_grid_edge);
-        let raw = r
-            .levels
-            .iter()
-            .min_by(|a, b| a.r_px.total_cmp(&b.r_px))
-            .unwrap();
-        assert!(
-            raw.b_e > r.b_opt_e,
-            "raw minimum {} vs eligible {}",
-            raw.b_e,
-            r.b_opt_e
-        );
-    }
-}
+mod tests;

@@ -4,7 +4,7 @@
 use super::figure::{airy, r_figure, save_line, Ctx, Curve, SIGNALS};
 use super::options::FigureInfo;
 use crate::detector::ModelSpec;
-use crate::effective::effective_table;
+use crate::effective::{effective_table, Precision};
 use crate::output::write_atomic;
 use crate::pdf::paper_shape;
 use crate::plot::{HistNorm, Histogram, Image, ImageGrid, Inset, Series};
@@ -171,14 +171,31 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     let model = ModelSpec::ScmosRandom;
     let stem = "fig12-effective-read-noise";
     let mut csv = String::from(
-        "subap_px,spot_diameter_px,signal_photons,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px,status\n",
+        "subap_px,spot_diameter_px,signal_photons,iters,sigma_eff_e,sigma_eff_se_e,r_px,r_se_px,status\n",
     );
     let spots: Vec<Spot> = ds.iter().map(|&d| airy(d)).collect();
+    // The default precision target, starting at this run's iterations; a quick run caps
+    // them like the report's preview.
+    let cap = if ctx.opts.quick {
+        Precision::QUICK_MAX_ITERS
+    } else {
+        Precision::DEFAULT_MAX_ITERS
+    };
+    let precision = Precision {
+        max_iters: cap.max(ctx.opts.iters),
+        ..Precision::default()
+    };
     let mut records = Vec::new();
     for s in SIGNALS {
         // Sub-aperture-major, then spot: record i * ds.len() + j is size i, diameter j.
         let configs = ctx.grid(&sizes, &spots, &[s]).configs()?;
-        let table = effective_table(&configs, std::slice::from_ref(&model), &ctx.params, &Silent)?;
+        let table = effective_table(
+            &configs,
+            std::slice::from_ref(&model),
+            &ctx.params,
+            &precision,
+            &Silent,
+        )?;
         for (k, rec) in table.iter().enumerate() {
             let (n, d, e) = (sizes[k / ds.len()], ds[k % ds.len()], &rec.effective);
             // Values that are not results (unreachable, no eligible level) are empty cells
@@ -192,7 +209,8 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
             };
             let _ = writeln!(
                 csv,
-                "{n},{d},{s},{},{},{},{},{}",
+                "{n},{d},{s},{},{},{},{},{},{}",
+                e.iters,
                 cell(e.sigma_eff_e),
                 cell(e.sigma_eff_se_e),
                 cell(e.r_px),
@@ -220,7 +238,7 @@ pub(super) fn fig12_effective(ctx: &Ctx) -> Result<FigureInfo> {
     Ok(FigureInfo {
         number: 12,
         title: "Effective Gaussian read noise of an sCMOS camera".into(),
-        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. Colour scale 0-6 e- (the paper's) for every panel, values above it in its top colour with a corner mark. Cells that are not `ok` are grey and hatched with their status: `unreachable` where no constant sigma reaches the detector's R (a few very noisy pixels pull the centroid further than any uniform Gaussian noise does); the CSV gives every cell's status. {}", ctx.params.pdf.median(), ctx.sampling_note()),
+        caption: format!("The constant sigma (e-) whose R equals that of scmos-random with the paper's pdf, by sub-aperture size and spot diameter, one panel per signal level; the pdf's median is {:.3} e-. Each value has a standard error of at most {} e- or {} % of it, iterations added from {} up to {} per configuration. Colour scale 0-6 e- (the paper's) for every panel, values above it in its top colour with a corner mark. Cells that are not `ok` are grey and hatched with their status: `unreachable` where no constant sigma reaches the detector's R (a few very noisy pixels pull the centroid further than any uniform Gaussian noise does), `imprecise` where the standard error missed its target at the cap; the CSV gives every cell's status. {}", ctx.params.pdf.median(), Precision::DEFAULT_TARGET_SE_E, 100.0 * Precision::DEFAULT_TARGET_REL, ctx.opts.iters, precision.max_iters, ctx.sampling_note()),
         files,
     })
 }

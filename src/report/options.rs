@@ -5,6 +5,7 @@
 use super::grid::{Grid, GridChoice};
 use super::point::OperatingPoint;
 use crate::detector::{EmRegister, ModelParams};
+use crate::effective::Precision;
 use crate::montecarlo::SimConfig;
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
@@ -41,8 +42,11 @@ pub struct ReportOptions {
     /// The configuration of the headline numbers (default 8x8 px, airy:2, 50 photons); simulated
     /// beside the grid when it is not one of the grid's configurations.
     pub operating_point: Option<OperatingPoint>,
-    /// Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
+    /// Starting Monte-Carlo iterations per configuration (2 to 1e9; `quick` caps them at 2,000).
     pub iters: u64,
+    /// Precision target of each effective read noise and the iteration cap (at least `iters`;
+    /// `quick` lowers the cap to [`Precision::QUICK_MAX_ITERS`]).
+    pub precision: Precision,
     /// Seed of every random stream.
     pub seed: u64,
     /// Spot sampling.
@@ -78,6 +82,7 @@ impl Default for ReportOptions {
             signals_photons: None,
             operating_point: None,
             iters: 10_000,
+            precision: Precision::default(),
             seed: 1,
             sampling: Sampling::Integrated,
             qe: 1.0,
@@ -118,6 +123,8 @@ impl ReportOptions {
             ));
         }
         let grid = self.grid();
+        self.precision.validate(grid.iters)?;
+        self.precision_in_use().validate(grid.iters)?;
         // The comparison runs the EMCCD at its own QE: both must be valid configurations.
         for cfg in grid.configs(self.qe) {
             SimConfig {
@@ -167,6 +174,19 @@ impl ReportOptions {
         self.operating_point.unwrap_or_default()
     }
 
+    /// The precision the effective-noise table runs with: `precision`, with `quick` its cap
+    /// lowered to [`Precision::QUICK_MAX_ITERS`] (never below the starting iterations).
+    pub(crate) fn precision_in_use(&self) -> Precision {
+        let mut p = self.precision;
+        if self.quick {
+            p.max_iters = p
+                .max_iters
+                .min(Precision::QUICK_MAX_ITERS)
+                .max(self.grid().iters);
+        }
+        p
+    }
+
     /// The grid of configurations these options ask for.
     pub(crate) fn grid(&self) -> Grid {
         Grid::resolve(&GridChoice {
@@ -209,5 +229,44 @@ impl ReportOptions {
                 "an EMCCD report needs the conversion gain in e- per adu (photon transfer at unity EM gain, or the data sheet)",
             )),
         }
+    }
+}
+
+#[cfg(test)]
+mod precision_tests {
+    use super::*;
+
+    fn options(quick: bool, iters: u64, max_iters: u64) -> ReportOptions {
+        ReportOptions {
+            darks_paths: vec!["darks.fits".into()],
+            gain_e_per_adu: Some(0.25),
+            out_dir: "out".into(),
+            quick,
+            iters,
+            precision: Precision {
+                max_iters,
+                ..Precision::default()
+            },
+            ..ReportOptions::default()
+        }
+    }
+
+    #[test]
+    fn the_cap_is_checked_against_the_starting_iterations_and_lowered_by_quick() {
+        options(false, 10_000, 80_000).validate().unwrap();
+        let err = options(false, 10_000, 5_000).validate().unwrap_err();
+        assert!(err.to_string().contains("`max_iters`"), "{err}");
+        // Quick starts at 2,000 iterations, so a cap of 5,000 is fine there...
+        options(true, 10_000, 5_000).validate().unwrap();
+        // ...and it lowers the cap to its own, never below the start.
+        let quick = options(true, 10_000, 80_000).precision_in_use();
+        assert_eq!(quick.max_iters, Precision::QUICK_MAX_ITERS);
+        assert_eq!(
+            options(false, 10_000, 80_000).precision_in_use().max_iters,
+            80_000
+        );
+        let mut small = options(true, 100, 100);
+        small.precision.max_iters = 100;
+        assert_eq!(small.precision_in_use().max_iters, 100);
     }
 }

@@ -18,8 +18,7 @@ use crate::calib::ptc::POINTS_NAMES;
 use crate::calib::ptc::{photon_transfer, write_points, DarkReference, PtcOptions, PtcResult};
 use crate::calib::summary::{inputs, InputFile};
 use crate::detector::{ModelParams, ModelSpec};
-use crate::effective::effective_table;
-use crate::effective::{Effective, EffectiveRecord};
+use crate::effective::{effective_table, Effective, EffectiveRecord, Precision};
 use crate::fit::pdf_fit::chart as pdf_fit_chart;
 use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
 use crate::io::FrameStack;
@@ -105,7 +104,8 @@ pub(crate) fn run(
     // The headline is solved with the table (one stage of progress): beside the grid, last,
     // when it is not one of the grid's configurations.
     let configs = with_point(grid, &op, o.qe, in_grid);
-    let [mut fitted, mut measured] = effective_tables(&configs, &params, observer)?;
+    let [mut fitted, mut measured] =
+        effective_tables(&configs, &params, &o.precision_in_use(), observer)?;
     let at = ChosenPoint::new(&op, o.operating_point.is_some(), in_grid);
     let operating_point = headline(at, &op, &fitted, &measured);
     fitted.truncate(grid_len);
@@ -221,11 +221,12 @@ fn conversion_gain(o: &ReportOptions, maps: &DarkMaps) -> Result<Gain> {
 fn effective_tables(
     configs: &[SimConfig],
     params: &ModelParams,
+    precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<[Vec<EffectiveRecord>; 2]> {
     let specs = EFFECTIVE_MODELS.map(|(spec, _)| spec);
     // Records come model by model, each over every configuration.
-    let mut records = effective_table(configs, &specs, params, observer)?.into_iter();
+    let mut records = effective_table(configs, &specs, params, precision, observer)?.into_iter();
     Ok(EFFECTIVE_MODELS.map(|(_, label)| {
         records
             .by_ref()

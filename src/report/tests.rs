@@ -258,6 +258,8 @@ pub(crate) fn record(
         b_opt_e: 0.0,
         sigma_grid_e: vec![],
         r_const_px: vec![],
+        iters: cfg.iters,
+        target_se_e: Some(0.05),
         status,
     };
     EffectiveRecord::new("scmos-random".into(), &cfg, &e)

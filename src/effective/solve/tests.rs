@@ -1,0 +1,176 @@
+use super::*;
+use crate::detector::ScmosRandom;
+use crate::progress::Silent;
+use std::sync::Arc;
+
+fn paper_random() -> ScmosRandom {
+    ScmosRandom::new(Arc::new(crate::pdf::paper()))
+}
+
+/// `target_se_e` only, from `iters` up to `max_iters`.
+fn absolute(target_se_e: f64, max_iters: u64) -> Precision {
+    Precision {
+        target_se_e,
+        target_rel: 0.0,
+        max_iters,
+    }
+}
+
+#[test]
+fn constant_detector_has_its_own_sigma_within_the_target() {
+    // A detector that is itself constant-sigma must come back at that sigma: with common
+    // random numbers the identical model reproduces R exactly at sigma, so the only error is
+    // the interpolation across the 10 % bracket, far below the reported SE; and the SE meets
+    // the target, iterations added where the start did not suffice.
+    let mut cfg = SimConfig::paper(6);
+    cfg.iters = 3000;
+    let precision = absolute(0.05, 40_000);
+    for sigma in [0.7, 1.6] {
+        let det = ScmosConstant::new(sigma, "det".into());
+        let e = effective_sigma(&cfg, &det, &precision, &Silent).unwrap();
+        assert_eq!(e.status, Status::Ok, "{e:?}");
+        assert_eq!(e.target_se_e, Some(0.05));
+        assert!(
+            e.sigma_eff_se_e > 0.0 && e.sigma_eff_se_e <= 0.05,
+            "se {}",
+            e.sigma_eff_se_e
+        );
+        assert!(
+            (e.sigma_eff_e - sigma).abs() < 2.0 * e.sigma_eff_se_e,
+            "{sigma}: {e:?}"
+        );
+        assert!(e.iters >= cfg.iters && e.iters <= precision.max_iters);
+    }
+}
+
+#[test]
+fn paper_pdf_is_worse_than_its_median_for_large_subapertures() {
+    // The paper's finding: the median (0.79 e-) is optimistic; the heavy tail matters more
+    // the more pixels a sub-aperture has.
+    let mut cfg = SimConfig::paper(12);
+    cfg.iters = 3000;
+    let e = effective_sigma(&cfg, &paper_random(), &Precision::fixed(3000), &Silent).unwrap();
+    assert!(e.sigma_eff_e - 3.0 * e.sigma_eff_se_e > 0.7944, "{e:?}");
+    assert_eq!((e.status, e.iters, e.target_se_e), (Status::Ok, 3000, None));
+}
+
+#[test]
+fn a_cap_too_small_leaves_the_value_imprecise_with_its_se() {
+    // 8x8 px, S = 1000: shot noise dominates and R is flat in sigma (SE near 0.07 e- at 10,000
+    // frames), so 0.01 e- is far out of reach of 2,048 iterations; the value and its SE are
+    // kept, and the cap is what was spent.
+    let mut cfg = SimConfig::paper(8);
+    cfg.signal_photons = 1000.0;
+    cfg.iters = 1024;
+    let precision = absolute(0.01, 2048);
+    let e = effective_sigma(&cfg, &paper_random(), &precision, &Silent).unwrap();
+    assert_eq!(e.status, Status::Imprecise, "{e:?}");
+    assert!(e.sigma_eff_e.is_finite() && e.sigma_eff_e > 0.0, "{e:?}");
+    assert!(
+        e.sigma_eff_se_e.is_finite() && e.sigma_eff_se_e > 0.01,
+        "{e:?}"
+    );
+    assert_eq!(e.iters, 2048);
+    assert_eq!(e.target_se_e, Some(0.01));
+}
+
+#[test]
+fn a_detector_without_an_eligible_level_gets_no_value() {
+    // 0.05 photons and no read noise: 95 % of the frames are empty at every level, far above
+    // the 1 % `max_empty_frac`, so the detector's R is no valid optimum.
+    let mut cfg = SimConfig::paper(4);
+    cfg.signal_photons = 0.05;
+    cfg.iters = 600;
+    let det = ScmosConstant::new(0.0, "noiseless".into());
+    let e = effective_sigma(&cfg, &det, &Precision::default(), &Silent).unwrap();
+    assert_eq!(e.status, Status::NoEligibleLevel, "{e:?}");
+    assert!(e.sigma_eff_e.is_nan() && e.sigma_eff_se_e.is_nan());
+    assert_eq!((e.target_se_e, e.iters), (None, 600));
+}
+
+/// Two-sided 0.1 % bounds of chi-square with `k` degrees of freedom (Wilson-Hilferty: within
+/// 1 % of the exact quantiles from k = 20).
+fn chi_square_bounds(k: f64) -> (f64, f64) {
+    const Z: f64 = 3.2905; // the 0.05 % tail of the standard normal
+    let s = (2.0 / (9.0 * k)).sqrt();
+    let q = |z: f64| k * (1.0 - 2.0 / (9.0 * k) + z * s).powi(3);
+    (q(-Z), q(Z))
+}
+
+/// The scatter of sigma_eff over `seeds` independent solves, in units of the mean reported
+/// variance: chi-square with K - 1 degrees of freedom when the SE is calibrated.
+fn scatter_statistic(cfg: &SimConfig, precision: &Precision, seeds: u64) -> (f64, f64) {
+    let solves: Vec<Effective> = (0..seeds)
+        .map(|seed| {
+            let cfg = SimConfig {
+                seed: 1000 + seed,
+                ..cfg.clone()
+            };
+            effective_sigma(&cfg, &paper_random(), precision, &Silent).unwrap()
+        })
+        .collect();
+    assert!(solves.iter().all(|e| e.status == Status::Ok), "{solves:?}");
+    let k = seeds as f64;
+    let mean = solves.iter().map(|e| e.sigma_eff_e).sum::<f64>() / k;
+    let ss: f64 = solves.iter().map(|e| (e.sigma_eff_e - mean).powi(2)).sum();
+    let var = solves.iter().map(|e| e.sigma_eff_se_e.powi(2)).sum::<f64>() / k;
+    (ss / var, mean)
+}
+
+#[test]
+fn the_standard_error_is_calibrated_across_independent_seeds() {
+    // K = 40 solves of one configuration on independent seeds: the sum of squared deviations
+    // of sigma_eff from their mean, over the mean reported SE^2, must lie within the 0.1 %
+    // bounds of chi-square with 39 degrees of freedom (16.2 to 74.8): an SE too small and one
+    // too large both fail. At S = 1000 common random numbers correlate the two sides of the
+    // difference strongly (rho about 0.93): treating them as independent, as detnoise once did,
+    // gives a statistic near 2.6 here, four times too large an SE.
+    let mut cfg = SimConfig::paper(8);
+    cfg.signal_photons = 1000.0;
+    cfg.iters = 2000;
+    let k = 40;
+    let (lo, hi) = chi_square_bounds(k as f64 - 1.0);
+    let (x, mean) = scatter_statistic(&cfg, &Precision::fixed(2000), k);
+    assert!(
+        x > lo && x < hi,
+        "chi-square {x} outside ({lo}, {hi}); mean {mean}"
+    );
+    println!("chi-square {x} in ({lo}, {hi}); mean {mean}");
+}
+
+#[test]
+fn the_standard_error_is_calibrated_on_the_adaptive_path_too() {
+    // The same check where every solve adds iterations to meet a target (from 512 frames).
+    let mut cfg = SimConfig::paper(6);
+    cfg.signal_photons = 100.0;
+    cfg.iters = 512;
+    let k = 30;
+    let (lo, hi) = chi_square_bounds(k as f64 - 1.0);
+    let (x, mean) = scatter_statistic(&cfg, &absolute(0.04, 20_000), k);
+    assert!(
+        x > lo && x < hi,
+        "chi-square {x} outside ({lo}, {hi}); mean {mean}"
+    );
+    println!("chi-square {x} in ({lo}, {hi}); mean {mean}");
+}
+
+#[test]
+fn the_adaptive_solve_does_not_depend_on_the_thread_count() {
+    // Extensions included: the same iterations, value and SE, bit for bit.
+    let mut cfg = SimConfig::paper(6);
+    cfg.iters = 600;
+    let precision = absolute(0.03, 8000);
+    let solve = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| effective_sigma(&cfg, &paper_random(), &precision, &Silent).unwrap())
+    };
+    let (a, b) = (solve(1), solve(2));
+    assert!(a.iters > cfg.iters, "no extension: {a:?}");
+    assert_eq!(a.iters, b.iters);
+    assert_eq!(a.sigma_eff_e.to_bits(), b.sigma_eff_e.to_bits());
+    assert_eq!(a.sigma_eff_se_e.to_bits(), b.sigma_eff_se_e.to_bits());
+    assert_eq!(a.status, b.status);
+}

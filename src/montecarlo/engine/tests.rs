@@ -1,0 +1,295 @@
+use super::*;
+use crate::detector::{ModelParams, ModelSpec, ScmosConstant};
+use crate::montecarlo::Term;
+use crate::progress::{Recorder, Silent};
+
+fn models(names: &[&str], n: usize) -> Vec<Box<dyn Readout>> {
+    names
+        .iter()
+        .map(|m| {
+            ModelSpec::parse(m)
+                .unwrap()
+                .build(&ModelParams::default(), n)
+                .unwrap()
+        })
+        .collect()
+}
+
+fn refs(models: &[Box<dyn Readout>]) -> Vec<&dyn Readout> {
+    models.iter().map(|m| m.as_ref()).collect()
+}
+
+/// R(0) of a noiseless readout at `signal` photons, 8x8 px, against the shot-noise limit:
+/// the centre of gravity of Poisson counts has per-axis variance var_x / S (var_x the
+/// spot's second moment in the sub-aperture), so R(0) = sqrt(pi/2) sqrt((var_x + var_y) / 2 / S)
+/// for this nearly isotropic error; within 4 SE.
+fn check_shot_noise_limit(signal: f64, iters: u64) {
+    let mut cfg = SimConfig::paper(8);
+    cfg.signal_photons = signal;
+    cfg.iters = iters;
+    cfg.position_half_range_px = 0.0;
+    let m = ScmosConstant::new(0.0, "none".into());
+    let r = &run(&cfg, &[&m], &Silent).unwrap()[0];
+    let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, 8, 0.0);
+    let mut img = vec![0.0; 64];
+    renderer.render(0.0, 0.0, &mut img);
+    let total: f64 = img.iter().sum();
+    let var: f64 = img
+        .iter()
+        .enumerate()
+        .map(|(k, v)| {
+            v / total * (((k % 8) as f64 - 3.5).powi(2) + ((k / 8) as f64 - 3.5).powi(2)) / 2.0
+        })
+        .sum();
+    let expected = (std::f64::consts::PI / 2.0).sqrt() * (var / cfg.signal_photons).sqrt();
+    assert!(
+        (r.r0_px - expected).abs() < 4.0 * r.r0_se_px,
+        "S = {signal}: R(0) = {} +- {}, expected {expected}",
+        r.r0_px,
+        r.r0_se_px
+    );
+    assert_eq!(r.zero_frames, 0);
+}
+
+#[test]
+fn noiseless_readout_error_is_the_shot_noise_limit() {
+    check_shot_noise_limit(1e6, 4000);
+}
+
+#[test]
+fn precision_holds_up_to_the_signal_limit() {
+    // At the largest accepted signal the counts still fit (32-bit per pixel) and R keeps
+    // falling as 1/sqrt(S); above it the run is refused, naming the signal and the limit.
+    check_shot_noise_limit(SimConfig::MAX_PHOTO_E, 1000);
+    let mut cfg = SimConfig::paper(8);
+    cfg.signal_photons = 2.0 * SimConfig::MAX_PHOTO_E;
+    let msg = cfg.validate().unwrap_err().to_string();
+    assert!(
+        msg.contains("`signal_photons`") && msg.contains("1e9"),
+        "{msg}"
+    );
+    // The limit applies to photo-electrons: QE 0.4 brings 2e9 photons under it.
+    cfg.qe = 0.4;
+    cfg.validate().unwrap();
+}
+
+#[test]
+fn sums_over_several_batches_do_not_depend_on_thread_count() {
+    // More chunks than one batch holds: batches are merged in chunk order.
+    let mut cfg = SimConfig::paper(2);
+    cfg.iters = CHUNK * BATCH_CHUNKS + 300;
+    let m = ScmosConstant::new(1.0, "one".into());
+    let run_with = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| run(&cfg, &[&m], &Silent).unwrap().remove(0))
+    };
+    let (a, b) = (run_with(1), run_with(2));
+    assert_eq!(a.r_px.to_bits(), b.r_px.to_bits());
+    assert_eq!(a.r_se_px.to_bits(), b.r_se_px.to_bits());
+}
+
+#[test]
+fn observer_is_advanced_by_every_iteration_once() {
+    // Chunks of a partial last batch and a partial last chunk: the counts add up exactly,
+    // and `run` leaves beginning and ending the stage to its caller.
+    let mut cfg = SimConfig::paper(2);
+    cfg.iters = 3 * CHUNK + 7;
+    let m = ScmosConstant::new(1.0, "one".into());
+    let recorder = Recorder::default();
+    run(&cfg, &[&m], &recorder).unwrap();
+    let advanced = recorder.advanced.load(std::sync::atomic::Ordering::Relaxed);
+    assert_eq!(advanced, cfg.iters);
+    assert!(recorder.stages.lock().unwrap().is_empty());
+}
+
+#[test]
+fn results_do_not_depend_on_thread_count() {
+    let mut cfg = SimConfig::paper(6);
+    cfg.iters = 1000;
+    let names = ["emccd-stochastic", "scmos-random", "emccd-simple"];
+    let run_with = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| run(&cfg, &refs(&models(&names, 6)), &Silent).unwrap())
+    };
+    let (a, b) = (run_with(1), run_with(3));
+    for (x, y) in a.iter().zip(&b) {
+        assert_eq!(x.r_px.to_bits(), y.r_px.to_bits());
+        assert_eq!(x.r_se_px.to_bits(), y.r_se_px.to_bits());
+        assert_eq!(x.b_opt_e, y.b_opt_e);
+    }
+}
+
+#[test]
+fn error_grows_with_read_noise_on_common_random_numbers() {
+    // Same spots, photons and deviates: R(sigma) must be increasing.
+    let mut cfg = SimConfig::paper(8);
+    cfg.iters = 2000;
+    let m = models(
+        &[
+            "scmos-constant:0.2",
+            "scmos-constant:0.8",
+            "scmos-constant:2",
+            "scmos-constant:5",
+        ],
+        8,
+    );
+    let r: Vec<f64> = run(&cfg, &refs(&m), &Silent)
+        .unwrap()
+        .iter()
+        .map(|s| s.r_px)
+        .collect();
+    assert!(r.windows(2).all(|w| w[0] < w[1]), "{r:?}");
+}
+
+#[test]
+fn optimum_respects_empty_frame_limit() {
+    // Heavy-tailed noise, large sub-aperture, faint spot: the raw minimum of R(b) lies
+    // where most frames are empty (SPEC 3.7); the reported optimum must not.
+    let mut cfg = SimConfig::paper(16);
+    cfg.iters = 2000;
+    let r = &run(&cfg, &refs(&models(&["scmos-random"], 16)), &Silent).unwrap()[0];
+    assert!(r.zero_frames as f64 <= 0.01 * cfg.iters as f64);
+    assert!(!r.b_at_grid_edge);
+    let raw = r
+        .levels
+        .iter()
+        .min_by(|a, b| a.r_px.total_cmp(&b.r_px))
+        .unwrap();
+    assert!(
+        raw.b_e > r.b_opt_e,
+        "raw minimum {} vs eligible {}",
+        raw.b_e,
+        r.b_opt_e
+    );
+}
+
+/// Every model's R, SE and optimum, as bits.
+fn bits(results: &[SimResult]) -> Vec<(u64, u64, u64, u64)> {
+    results
+        .iter()
+        .map(|r| {
+            let empty = r.levels.iter().map(|l| l.empty_frames).sum();
+            (
+                r.r_px.to_bits(),
+                r.r_se_px.to_bits(),
+                r.b_opt_e.to_bits(),
+                empty,
+            )
+        })
+        .collect()
+}
+
+#[test]
+fn a_continued_experiment_is_the_same_experiment() {
+    // Extended on chunk boundaries, sums are added in the same order as one long run: the
+    // results are identical bit for bit, with and without blocks; extended elsewhere, the same
+    // frames are summed in another grouping, equal to rounding.
+    let mut cfg = SimConfig::paper(4);
+    cfg.iters = 3 * CHUNK + 100;
+    let m = models(&["scmos-random", "scmos-constant:1"], 4);
+    let m = refs(&m);
+    let whole = run(&cfg, &m, &Silent).unwrap();
+    let mut parts = Experiment::new(&cfg, &m).unwrap();
+    parts.extend_to(2 * CHUNK, &Silent, 1).unwrap();
+    parts.extend_to(cfg.iters, &Silent, 1).unwrap();
+    assert_eq!(parts.iters(), cfg.iters);
+    assert_eq!(bits(&parts.results()), bits(&whole));
+    let blocked = |steps: &[u64]| {
+        let mut e = Experiment::new(&cfg, &m).unwrap().with_blocks();
+        for &s in steps {
+            e.extend_to(s, &Silent, 1).unwrap();
+        }
+        e
+    };
+    let (one, two) = (blocked(&[cfg.iters]), blocked(&[CHUNK, cfg.iters]));
+    assert_eq!(bits(&one.results()), bits(&two.results()));
+    let terms = [
+        Term {
+            model: 0,
+            level: 3,
+            coef: 1.0,
+        },
+        Term {
+            model: 1,
+            level: 5,
+            coef: -1.0,
+        },
+    ];
+    assert_eq!(
+        one.paired_se(&terms).to_bits(),
+        two.paired_se(&terms).to_bits()
+    );
+    let odd = blocked(&[300, 301, 777, cfg.iters]);
+    for (a, b) in odd.results().iter().zip(&whole) {
+        assert!(
+            (a.r_px - b.r_px).abs() < 1e-12 * b.r_px,
+            "{} {}",
+            a.r_px,
+            b.r_px
+        );
+        assert_eq!(a.b_opt_e, b.b_opt_e);
+    }
+    assert!((odd.paired_se(&terms) / one.paired_se(&terms) - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn blocks_of_a_continued_experiment_do_not_depend_on_thread_count() {
+    // Several batches and enough blocks to double their size: the paired SE is the same bit
+    // for bit on one thread and three.
+    let mut cfg = SimConfig::paper(2);
+    cfg.iters = 40_000;
+    let m = models(&["scmos-random", "scmos-constant:0.5"], 2);
+    let m = refs(&m);
+    let terms = [
+        Term {
+            model: 0,
+            level: 0,
+            coef: 1.0,
+        },
+        Term {
+            model: 1,
+            level: 2,
+            coef: -0.5,
+        },
+    ];
+    let run_with = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap();
+        pool.install(|| {
+            let mut e = Experiment::new(&cfg, &m).unwrap().with_blocks();
+            e.extend_to(1000, &Silent, 1).unwrap();
+            e.extend_to(cfg.iters, &Silent, 1).unwrap();
+            (bits(&e.results()), e.paired_se(&terms).to_bits())
+        })
+    };
+    let (a, b) = (run_with(1), run_with(3));
+    assert_eq!(a, b);
+    assert!(f64::from_bits(a.1).is_finite());
+}
+
+#[test]
+fn extensions_advance_the_observer_by_their_weighted_iterations() {
+    let cfg = SimConfig::paper(2);
+    let m = ScmosConstant::new(1.0, "one".into());
+    let recorder = Recorder::default();
+    let mut e = Experiment::new(&cfg, &[&m]).unwrap();
+    e.extend_to(300, &recorder, 4).unwrap();
+    e.extend_to(300, &recorder, 4).unwrap();
+    e.extend_to(1000, &recorder, 4).unwrap();
+    assert_eq!(
+        recorder.advanced.load(std::sync::atomic::Ordering::Relaxed),
+        4000
+    );
+    let err = e
+        .extend_to(SimConfig::MAX_ITERS + 1, &recorder, 1)
+        .unwrap_err();
+    assert!(err.to_string().contains("`iters`"), "{err}");
+}
