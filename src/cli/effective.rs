@@ -22,8 +22,8 @@ pub struct PrecisionArgs {
     /// are added (same random numbers, continued), up to --max-iters.
     #[arg(long, default_value_t = Precision::DEFAULT_TARGET_SE_E, value_parser = real(Included(0.0), Unbounded, "e-"), long_help = precision_long_help())]
     pub target_se_e: f64,
-    /// Relative target: a value is also `ok` when its SE is at most this fraction of it, in
-    /// [0, 1] (0 = off; 0.02 = 2 %).
+    /// Relative target, a unitless fraction of the value in [0, 1]: a value is also `ok` when
+    /// its SE is at most this fraction of it (0 = off; 0.02 = 2 %).
     #[arg(long, default_value_t = Precision::DEFAULT_TARGET_REL, value_parser = real(Included(0.0), Included(1.0), "(fraction of the value)"))]
     pub target_rel: f64,
     /// Iteration cap per configuration, frames, at least --iters (where each starts; default:

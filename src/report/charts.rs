@@ -113,7 +113,7 @@ pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Resul
 pub fn comparison_chart(
     comparison: &[Compared],
     path: &Path,
-    labels: &[(ModelSpec, &str)],
+    labels: &[(ModelSpec, String)],
 ) -> Result<()> {
     comparison_line_chart(comparison, labels)?.save(path)
 }
@@ -121,7 +121,7 @@ pub fn comparison_chart(
 /// The chart of [`comparison_chart`].
 pub(crate) fn comparison_line_chart(
     comparison: &[Compared],
-    labels: &[(ModelSpec, &str)],
+    labels: &[(ModelSpec, String)],
 ) -> Result<LineChart> {
     let first = &comparison
         .first()
@@ -151,7 +151,7 @@ pub(crate) fn comparison_line_chart(
             let label = labels
                 .iter()
                 .find(|(spec, _)| *spec == m.spec)
-                .map_or(m.record.result.model.as_str(), |(_, l)| l);
+                .map_or(m.record.result.model.as_str(), |(_, l)| l.as_str());
             Series::with_errors(
                 label,
                 comparison.iter().filter(|c| c.spec == m.spec).map(|c| {

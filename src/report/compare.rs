@@ -11,28 +11,43 @@ use crate::output::{render, write_atomic, OutputDir, TableFormat};
 use crate::progress::Silent;
 use crate::Result;
 
-/// Legend labels of the comparison chart of an sCMOS report.
-pub(crate) const SCMOS_LABELS: [(ModelSpec, &str); 5] = [
-    (ModelSpec::ScmosRandom, "this camera (fitted pdf)"),
-    (ModelSpec::ScmosMap, "this camera (measured map)"),
-    (ModelSpec::ScmosMedian, "one number: median"),
-    (ModelSpec::ScmosMean, "one number: mean"),
-    (
-        ModelSpec::EmccdStochastic,
-        "EMCCD (g = 500, 50 e- read noise)",
-    ),
-];
+/// A model and its legend label in the comparison chart.
+pub(crate) type Label = (ModelSpec, String);
 
-/// Legend labels of the comparison chart of an EMCCD report.
-pub(crate) const EMCCD_LABELS: [(ModelSpec, &str); 4] = [
-    (
-        ModelSpec::EmccdStochastic,
-        "this EMCCD (fitted gain and read noise)",
-    ),
-    (ModelSpec::ScmosRandom, "sCMOS, the paper's pdf"),
-    (ModelSpec::ScmosMedian, "sCMOS, one number: median"),
-    (ModelSpec::ScmosMean, "sCMOS, one number: mean"),
-];
+/// Legend labels of the comparison chart of an sCMOS report; the compared EMCCD's gain (e-/e-)
+/// and read noise (e-) are those of `params`, the ones it is simulated with.
+pub(crate) fn scmos_labels(params: &ModelParams) -> Vec<Label> {
+    vec![
+        (ModelSpec::ScmosRandom, "this camera (fitted pdf)".into()),
+        (ModelSpec::ScmosMap, "this camera (measured map)".into()),
+        (ModelSpec::ScmosMedian, "one number: median".into()),
+        (ModelSpec::ScmosMean, "one number: mean".into()),
+        (
+            ModelSpec::EmccdStochastic,
+            format!(
+                "EMCCD (g = {}, {} e- read noise)",
+                params.em_gain, params.emccd_read_noise_e
+            ),
+        ),
+    ]
+}
+
+/// Legend labels of the comparison chart of an EMCCD report; the sCMOS models use the rms
+/// pdf of `params` (the paper's unless one was given), named by its label.
+pub(crate) fn emccd_labels(params: &ModelParams) -> Vec<Label> {
+    vec![
+        (
+            ModelSpec::EmccdStochastic,
+            "this EMCCD (fitted gain and read noise)".into(),
+        ),
+        (
+            ModelSpec::ScmosRandom,
+            format!("sCMOS, pdf {}", params.pdf.label()),
+        ),
+        (ModelSpec::ScmosMedian, "sCMOS, one number: median".into()),
+        (ModelSpec::ScmosMean, "sCMOS, one number: mean".into()),
+    ]
+}
 
 /// Names of the files [`write_comparison`] writes.
 pub(crate) const COMPARISON_FILES: [&str; 3] =
@@ -43,7 +58,7 @@ pub(crate) const COMPARISON_FILES: [&str; 3] =
 pub(crate) fn write_comparison(
     comparison: &[Compared],
     dir: &OutputDir,
-    labels: &[(ModelSpec, &str)],
+    labels: &[Label],
 ) -> Result<String> {
     let records: Vec<&SimRecord> = comparison.iter().map(|c| &c.record).collect();
     let [csv, png, svg] = COMPARISON_FILES;

@@ -2,7 +2,7 @@
 //! signal for an EMCCD with the fitted gain and read noise beside sCMOS models.
 
 use super::compare::{
-    compare_models, emccd_groups, write_comparison, COMPARISON_FILES, EMCCD_LABELS,
+    compare_models, emccd_groups, emccd_labels, write_comparison, COMPARISON_FILES,
 };
 use super::grid::Grid;
 use super::options::{GainSource, ReportOptions};
@@ -58,7 +58,7 @@ pub(crate) fn run(
     })?;
     let op = o.operating_point();
     let comparison = compare_models(grid, &op, &params, &emccd_groups(o.qe, o.qe_emccd))?;
-    let error_bars = write_comparison(&comparison, dir, &EMCCD_LABELS)?;
+    let error_bars = write_comparison(&comparison, dir, &emccd_labels(&params))?;
     // The comparison runs at the point's sub-aperture and spot over the grid's signals and the
     // point's, whether or not the point is one of the grid's configurations.
     let operating_point = ChosenPoint::new(&op, o.operating_point.is_some(), grid.contains(&op));

@@ -3,7 +3,7 @@
 
 use super::charts::effective_heatmaps;
 use super::compare::{
-    compare_models, scmos_groups, write_comparison, COMPARISON_FILES, SCMOS_LABELS,
+    compare_models, scmos_groups, scmos_labels, write_comparison, COMPARISON_FILES,
 };
 use super::grid::Grid;
 use super::heatmaps::NoiseScale;
@@ -122,7 +122,7 @@ pub(crate) fn run(
         files.push(name.into());
     }
     let comparison = compare_models(grid, &op, &params, &scmos_groups(o.qe, o.qe_emccd))?;
-    let error_bars = write_comparison(&comparison, dir, &SCMOS_LABELS)?;
+    let error_bars = write_comparison(&comparison, dir, &scmos_labels(&params))?;
     files.extend(COMPARISON_FILES.map(String::from));
     if let Some(p) = &gain.ptc {
         ptc_chart(p, &dir.path("ptc.png"))?;

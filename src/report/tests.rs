@@ -1,7 +1,7 @@
 use super::charts::{comparison_chart, r_against_sweep};
-use super::compare::{verdicts, SCMOS_LABELS};
+use super::compare::{emccd_labels, scmos_labels, verdicts};
 use super::*;
-use crate::detector::ModelSpec;
+use crate::detector::{ModelParams, ModelSpec};
 use crate::effective::{Effective, Status};
 use crate::montecarlo::{SimConfig, SimResult};
 use crate::spot::Spot;
@@ -209,7 +209,8 @@ fn comparison_chart_labels_each_model_once_in_order_of_appearance() {
         compared(ModelSpec::ScmosMap, 50.0, 0.2, 0.01),
         compared(ModelSpec::ScmosConstant(Some(1.5)), 50.0, 0.15, 0.01),
     ];
-    comparison_chart(&comparison, &path, &SCMOS_LABELS).unwrap();
+    let labels = scmos_labels(&ModelParams::default());
+    comparison_chart(&comparison, &path, &labels).unwrap();
     let svg = std::fs::read_to_string(&path).unwrap();
     let mapped = svg
         .find("this camera (measured map)")
@@ -219,7 +220,7 @@ fn comparison_chart_labels_each_model_once_in_order_of_appearance() {
     assert!(mapped < unlabelled);
     assert_eq!(svg.matches("this camera (measured map)").count(), 1);
     assert!(svg.contains("R against signal, 8x8 px, airy:2"));
-    assert!(comparison_chart(&[], &path, &SCMOS_LABELS).is_err());
+    assert!(comparison_chart(&[], &path, &labels).is_err());
 }
 
 #[test]
@@ -418,4 +419,26 @@ fn articles_before_numbers_follow_how_they_are_read() {
     for n in [1, 2, 4, 10, 12, 16, 100, 110, 180, 1100, 1800, 110_000] {
         assert_eq!(article(n), "a", "{n}");
     }
+}
+
+#[test]
+fn comparison_labels_state_the_parameters_simulated() {
+    // The compared EMCCD is labelled with the gain and read noise it runs with, and the
+    // sCMOS models of an EMCCD report with the pdf they draw from.
+    let params = ModelParams {
+        em_gain: 300.0,
+        emccd_read_noise_e: 40.0,
+        ..ModelParams::default()
+    };
+    let label = |labels: Vec<(ModelSpec, String)>, spec: ModelSpec| {
+        labels.into_iter().find(|(s, _)| *s == spec).unwrap().1
+    };
+    assert_eq!(
+        label(scmos_labels(&params), ModelSpec::EmccdStochastic),
+        "EMCCD (g = 300, 40 e- read noise)"
+    );
+    assert_eq!(
+        label(emccd_labels(&params), ModelSpec::ScmosRandom),
+        "sCMOS, pdf paper [0, 10] e-"
+    );
 }
