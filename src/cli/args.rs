@@ -173,7 +173,7 @@ pub struct DetectorArgs {
     #[arg(long, default_value_t = 500.0, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
     pub em_gain: f64,
     /// Retired spelling of `--em-gain`: refused, naming the new option.
-    #[arg(long = "gain", hide = true, value_parser = renamed("`--em-gain` (EM gain, e-/e-); the conversion gain is `--gain-e-per-adu`"))]
+    #[arg(long = "gain", hide = true, value_name = "VALUE", value_parser = renamed("`--em-gain` (EM gain, e-/e-); the conversion gain is `--gain-e-per-adu`"))]
     pub retired_gain: Option<String>,
     /// Stages of the EM register, 1 to 2000 stages, and at least log2(gain) (a stage at most
     /// doubles the charge: p = gain^(1/stages) - 1 <= 1).
