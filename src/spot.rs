@@ -12,6 +12,10 @@ pub const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
 /// Smallest spot size accepted (Airy diameter or Gaussian sigma, px).
 pub const MIN_SIZE_PX: f64 = 0.1;
 
+/// Why a spot size is refused.
+const SIZE_RULE: &str = "sizes must be numbers >= 0.1 px (a smaller spot puts all its light in \
+                         one pixel, and its tables would grow as 1/size)";
+
 /// A spot shape.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Spot {
@@ -40,11 +44,8 @@ impl Spot {
         };
         let positive = |s: &str| -> Result<f64> {
             match s.trim().parse::<f64>() {
-                Ok(v) if v.is_finite() && v >= MIN_SIZE_PX => Ok(v),
-                _ => Err(bad(&format!(
-                    "sizes must be numbers >= {MIN_SIZE_PX} px (a smaller spot puts all its light \
-                     in one pixel, and its tables would grow as 1/size)"
-                ))),
+                Ok(v) if Self::size_ok(v) => Ok(v),
+                _ => Err(bad(SIZE_RULE)),
             }
         };
         match text.split_once(':') {
@@ -62,6 +63,33 @@ impl Spot {
             }
             _ => Err(bad("unknown spot")),
         }
+    }
+
+    /// Check the sizes of a spot made in code (parsing checks them already): each at least
+    /// [`MIN_SIZE_PX`]; the error names `spot`.
+    pub fn validate(&self) -> Result<()> {
+        let sizes = match *self {
+            Spot::Airy { diameter_px } => [diameter_px, diameter_px],
+            Spot::Gauss {
+                sigma_x_px,
+                sigma_y_px,
+            } => [sigma_x_px, sigma_y_px],
+        };
+        if sizes.iter().all(|&v| Self::size_ok(v)) {
+            Ok(())
+        } else {
+            Err(Error::invalid(
+                "spot",
+                format!(
+                    "'{}': {SIZE_RULE} (use airy:D or gauss:SX,SY, in px)",
+                    self.label()
+                ),
+            ))
+        }
+    }
+
+    fn size_ok(v: f64) -> bool {
+        v.is_finite() && v >= MIN_SIZE_PX
     }
 
     /// Parse spot lists: each item is `airy:D1,D2,...` (one Airy spot per diameter) or
@@ -489,5 +517,32 @@ mod tests {
             assert_eq!(Spot::parse(bad).unwrap_err().exit_code(), 2, "{bad}");
         }
         assert!(Spot::parse("airy:0.1").is_ok());
+    }
+
+    #[test]
+    fn spots_made_in_code_meet_the_same_size_rule() {
+        // A library caller can build a spot without parsing it: `validate` (and with it
+        // `SimConfig::validate`) applies the parser's rule, naming `spot`.
+        let small = [
+            Spot::Airy { diameter_px: 0.05 },
+            Spot::Gauss {
+                sigma_x_px: 1.0,
+                sigma_y_px: 0.0,
+            },
+            Spot::Airy {
+                diameter_px: f64::NAN,
+            },
+        ];
+        for spot in small {
+            let msg = spot.validate().unwrap_err().to_string();
+            assert!(msg.contains("`spot`") && msg.contains(">= 0.1 px"), "{msg}");
+            let cfg = crate::montecarlo::SimConfig {
+                spot,
+                ..crate::montecarlo::SimConfig::paper(8)
+            };
+            assert!(cfg.validate().unwrap_err().to_string().contains("`spot`"));
+        }
+        assert!(Spot::Airy { diameter_px: 0.1 }.validate().is_ok());
+        assert!(SIZE_RULE.contains(&format!(">= {MIN_SIZE_PX} px")));
     }
 }

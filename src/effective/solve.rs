@@ -219,42 +219,40 @@ impl Solver<'_> {
         loop {
             budget.spend((to - exp.iters()) * weight, self.observer);
             exp.extend_to(to, self.observer, weight)?;
-            let (det, consts) = split(exp.results());
-            let done = exp.iters();
+            let runs = split(exp.results());
+            let (det, consts) = (&runs.0, &runs.1);
             if det.no_eligible_level {
                 let none = (f64::NAN, f64::NAN);
-                let e = self.assemble(&exp, grid, none, Status::NoEligibleLevel);
+                let e = self.assemble(&exp, &runs, grid, none, Status::NoEligibleLevel);
                 return Ok(Refined::Settled(e));
             }
-            let inv = match invert(det.r_px, &r_values(&consts), grid) {
+            let inv = match invert(det.r_px, &r_values(consts), grid) {
                 Ok(inv) => inv,
                 Err(side) => return Ok(Refined::Outside(side, Box::new(exp))),
             };
-            let (sigma, se) = (inv.sigma, paired_se(&exp, &det, &consts, &inv));
-            let status = match self.precision.target_for(sigma) {
-                Some(target) if se > target => {
-                    if done >= self.precision.max_iters {
-                        Status::Imprecise
-                    } else {
-                        to = self.precision.next_iters(done, se, target);
-                        continue;
-                    }
-                }
-                _ => Status::Ok,
+            let (sigma, se) = (inv.sigma, paired_se(&exp, det, consts, &inv));
+            let status = if self.precision.met(sigma, se) {
+                Status::Ok
+            } else if exp.iters() >= self.precision.max_iters {
+                Status::Imprecise
+            } else {
+                let target = self
+                    .precision
+                    .target_for(sigma)
+                    .expect("a target was missed");
+                to = self.precision.next_iters(exp.iters(), se, target);
+                continue;
             };
-            return Ok(Refined::Settled(self.assemble(
-                &exp,
-                grid,
-                (sigma, se),
-                status,
-            )));
+            let e = self.assemble(&exp, &runs, grid, (sigma, se), status);
+            return Ok(Refined::Settled(e));
         }
     }
 
     /// The result when the detector's R lies outside R of the whole wide `grid` (`grid[0]` =
     /// 0): a lower bound of 0 below it, unreachable above it.
     fn bound(&self, side: Outside, exp: &Experiment, grid: &[f64]) -> Effective {
-        let (det, consts) = split(exp.results());
+        let runs = split(exp.results());
+        let (det, consts) = (&runs.0, &runs.1);
         match side {
             Outside::Below => {
                 // The SE of a value at the foot of the grid: R_det - R(0) over the first slope.
@@ -263,22 +261,26 @@ impl Solver<'_> {
                     slope: (consts[1].r_px - consts[0].r_px) / (grid[1] - grid[0]),
                     weights: vec![(0, 1.0)],
                 };
-                let se = paired_se(exp, &det, &consts, &at_zero);
-                self.assemble(exp, grid, (0.0, se), Status::LowerBound)
+                let se = paired_se(exp, det, consts, &at_zero);
+                self.assemble(exp, &runs, grid, (0.0, se), Status::LowerBound)
             }
-            Outside::Above => self.assemble(exp, grid, (f64::NAN, f64::NAN), Status::Unreachable),
+            Outside::Above => {
+                let none = (f64::NAN, f64::NAN);
+                self.assemble(exp, &runs, grid, none, Status::Unreachable)
+            }
         }
     }
 
-    /// A result from the experiment on `grid` and the solved (sigma, SE) in e-.
+    /// A result from the experiment on `grid`, its results `(detector, constants)` and the
+    /// solved (sigma, SE) in e-.
     fn assemble(
         &self,
         exp: &Experiment,
+        (det, consts): &(SimResult, Vec<SimResult>),
         grid: &[f64],
         (sigma, se): (f64, f64),
         status: Status,
     ) -> Effective {
-        let (det, consts) = split(exp.results());
         let has_value = !matches!(status, Status::Unreachable | Status::NoEligibleLevel);
         Effective {
             sigma_eff_e: sigma,

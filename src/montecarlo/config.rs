@@ -162,6 +162,7 @@ impl SimConfig {
                 Err(Error::invalid(field, msg))
             }
         };
+        self.spot.validate()?;
         let n = self.subap_px;
         check(
             (Self::MIN_SUBAP_PX..=Self::MAX_SUBAP_PX).contains(&n),

@@ -137,11 +137,6 @@ impl<'m> Experiment<'m> {
         self.done
     }
 
-    /// The background levels (e-), ascending.
-    pub fn levels(&self) -> &[f64] {
-        &self.levels
-    }
-
     /// Run iterations up to `iters` (from those already run; at most [`SimConfig::MAX_ITERS`]).
     /// `observer` is advanced by `weight` x the iterations of each chunk as it finishes (the
     /// caller begins and ends the stage and chooses the unit).

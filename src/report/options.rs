@@ -123,8 +123,9 @@ impl ReportOptions {
             ));
         }
         let grid = self.grid();
+        // `precision_in_use` only lowers the cap towards the starting iterations: valid when
+        // this is.
         self.precision.validate(grid.iters)?;
-        self.precision_in_use().validate(grid.iters)?;
         // The comparison runs the EMCCD at its own QE: both must be valid configurations.
         for cfg in grid.configs(self.qe) {
             SimConfig {
@@ -137,11 +138,8 @@ impl ReportOptions {
         // The headline is simulated at both QEs too (this camera, and the EMCCD compared).
         let op = self.operating_point();
         for qe in [self.qe, self.qe_emccd] {
-            Spot::parse(&op.spot.label())
-                .and_then(|_| {
-                    grid.config(op.subap_px, op.spot, op.signal_photons, qe)
-                        .validate()
-                })
+            grid.config(op.subap_px, op.spot, op.signal_photons, qe)
+                .validate()
                 .map_err(|e| op.blame(e))?;
         }
         let p = &self.model_params;
@@ -162,9 +160,8 @@ impl ReportOptions {
         if let Some((field, _)) = empty.iter().find(|(_, n)| *n == Some(0)) {
             return Err(Error::invalid(*field, "empty list"));
         }
-        // A spot's label is its text form: parsing it back applies the spot's own size checks.
         for spot in self.spots.iter().flatten() {
-            Spot::parse(&spot.label())?;
+            spot.validate()?;
         }
         Ok(())
     }
