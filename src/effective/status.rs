@@ -58,8 +58,8 @@ impl Status {
                  pixels dominate): simulate the measured map or the fitted pdf instead"
             }
             Status::NoEligibleLevel => {
-                "no background level leaves at most `max_empty_frac` of the frames empty: no \
-                 valid optimum, so no value"
+                "no background level leaves few enough frames empty (the empty-frame limit, 1 % \
+                 of frames by default): no valid optimum, so no value"
             }
         }
     }
