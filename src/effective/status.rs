@@ -58,8 +58,8 @@ impl Status {
                  pixels dominate): simulate the measured map or the fitted pdf instead"
             }
             Status::NoEligibleLevel => {
-                "no background level leaves few enough frames empty (the empty-frame limit, 1 % \
-                 of frames by default): no valid optimum, so no value"
+                "every background level leaves more frames empty than the empty-frame limit \
+                 allows: no valid optimum, so no value"
             }
         }
     }
