@@ -11,12 +11,12 @@
 
 use super::blocks::{Blocks, Term, SUB_BLOCK};
 use super::config::SimConfig;
+use super::photons::ShotNoise;
 use crate::centroid::{cog, BackgroundSweep, LevelSums};
 use crate::detector::{FrameInput, Readout};
 use crate::progress::Observer;
 use crate::rng::stream;
 use crate::spot::SpotRenderer;
-use crate::stats::poisson;
 use crate::{Error, Result};
 use rand::RngExt;
 use rayon::prelude::*;
@@ -226,6 +226,7 @@ impl<'m> Experiment<'m> {
         let mut sweep = BackgroundSweep::new(levels.to_vec(), n);
         let mut expected = vec![0.0; npix];
         let mut photons = vec![0u32; npix];
+        let mut shot = ShotNoise::new(npix);
         let mut image = vec![0.0; npix];
         let h = cfg.position_half_range_px;
         let mut block_start = iters.start;
@@ -242,18 +243,27 @@ impl<'m> Experiment<'m> {
             };
             expected.iter_mut().for_each(|v| *v *= scale);
             let truth = cog(&expected, n).unwrap_or((0.0, 0.0));
-            let mut ph = stream(cfg.seed, it, PHOTONS);
-            for (k, lambda) in photons.iter_mut().zip(&expected) {
-                *k = poisson(*lambda, &mut ph);
-            }
+            let total = if total > 0.0 {
+                cfg.signal_photons * cfg.qe
+            } else {
+                0.0
+            };
+            shot.draw(
+                &expected,
+                total,
+                &mut stream(cfg.seed, it, PHOTONS),
+                &mut photons,
+            );
             let input = FrameInput {
                 subap_px: n,
                 expected_e: &expected,
                 photo_e: &photons,
             };
+            // Every model starts from the same noise and auxiliary streams (common random
+            // numbers): copies of the states, not re-derived seeds.
+            let (noise0, aux0) = (stream(cfg.seed, it, NOISE), stream(cfg.seed, it, AUX));
             for (model, acc) in models.iter().zip(accs.iter_mut()) {
-                let mut noise = stream(cfg.seed, it, NOISE);
-                let mut aux = stream(cfg.seed, it, AUX);
+                let (mut noise, mut aux) = (noise0.clone(), aux0.clone());
                 model.read(&input, &mut noise, &mut aux, &mut image);
                 sweep.accumulate(&image, truth, acc);
             }

@@ -1,11 +1,13 @@
 //! The Shack-Hartmann sub-aperture Monte-Carlo of Basden (2015), section 2: one configuration
 //! (`config`), the engine that runs it for several readout models (`engine`; an [`Experiment`]
-//! can be continued, and keeps per-block sums for paired standard errors, `blocks`), and the
+//! can be continued, and keeps per-block sums for paired standard errors, `blocks`; shot noise
+//! by placing a Poisson total of photons, `photons`), and the
 //! sweep over a grid of configurations (`sweep`) whose rows are [`SimRecord`]s (`record`).
 
 mod blocks;
 mod config;
 mod engine;
+mod photons;
 mod record;
 mod sweep;
 
