@@ -8,7 +8,8 @@ const MAX_CELLS: usize = 8192;
 /// cell are compared (at most one when the cell is no wider than the closest pair of levels).
 #[derive(Debug, Clone)]
 pub(super) struct LevelIndex {
-    levels: Vec<f64>,
+    /// The levels, then +infinity (so one comparison past the last level needs no check).
+    padded: Vec<f64>,
     lo: f64,
     inv_width: f64,
     base: Vec<u32>,
@@ -33,7 +34,7 @@ impl LevelIndex {
             (1, 0.0)
         };
         let mut index = LevelIndex {
-            levels: levels.to_vec(),
+            padded: levels.iter().copied().chain([f64::INFINITY]).collect(),
             lo,
             inv_width,
             base: Vec::new(),
@@ -50,23 +51,22 @@ impl LevelIndex {
         index
     }
 
-    /// Cell of value `v` (>= lo) among `cells`; monotone in `v`, so a level in a lower cell is
-    /// below `v` and one in a higher cell above it.
+    /// Cell of value `v` among `cells` (values below the first level, and NaN, in cell 0);
+    /// monotone in `v`, so a level in a lower cell is below `v` and one in a higher cell above.
     #[inline]
     fn cell(&self, v: f64, cells: usize) -> usize {
-        (((v - self.lo) * self.inv_width) as usize).min(cells - 1)
+        (((v - self.lo) * self.inv_width).max(0.0) as usize).min(cells - 1)
     }
 
     /// Number of levels strictly below `v` (0 for NaN).
     #[inline]
     pub(super) fn count_below(&self, v: f64) -> usize {
-        // `!(v > lo)` also sends NaN to 0: nothing lies below it.
-        if !(v > self.lo) {
-            return 0;
-        }
         let c = self.cell(v, self.base.len() - 1);
         let (mut k, end) = (self.base[c] as usize, self.base[c + 1] as usize);
-        while k < end && self.levels[k] < v {
+        // A cell holds at most one level unless levels are closer than the cell width: one
+        // branch-free step, then a loop that rarely runs (`padded[end]` exists).
+        k += usize::from((k < end) & (self.padded[k] < v));
+        while k < end && self.padded[k] < v {
             k += 1;
         }
         k

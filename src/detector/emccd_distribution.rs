@@ -63,14 +63,13 @@ impl Readout for EmccdDistribution {
         "emccd-distribution".into()
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
-        for (o, &k) in out.iter_mut().zip(input.photo_e) {
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+        for ((o, &k), &z) in out.iter_mut().zip(input.photo_e).zip(input.normals) {
             let em = if k == 0 {
                 0.0
             } else {
                 self.register_output(k, aux)
             };
-            let z: f64 = StandardNormal.sample(noise);
             *o = (em + self.read_noise_e * z) / self.gain;
         }
     }

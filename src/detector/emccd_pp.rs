@@ -2,7 +2,6 @@
 //! thresholding into photon counts, with or without the photometric correction. The threshold
 //! rule is a reconstruction of Basden, Haniff & Mackay (2003); see [`crate::detector::pp`].
 
-use rand_distr::{Distribution, StandardNormal};
 
 use super::params::ModelParams;
 use super::pp::{PpCache, PpConfig};
@@ -87,7 +86,7 @@ impl Readout for EmccdPp {
         }
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
         let lambda = self.lambda_ref.unwrap_or_else(|| {
             input.expected_e.iter().sum::<f64>() / input.expected_e.len() as f64
         });
@@ -98,13 +97,12 @@ impl Readout for EmccdPp {
             .get(lambda.max(1e-9))
             .expect("PP thresholds for a valid light level");
         let g = self.register.gain();
-        for (o, &k) in out.iter_mut().zip(input.photo_e) {
+        for ((o, &k), &z) in out.iter_mut().zip(input.photo_e).zip(input.normals) {
             let em = if k == 0 {
                 0.0
             } else {
                 self.register.sample(k as u64, aux)
             };
-            let z: f64 = StandardNormal.sample(noise);
             let x = (em + self.read_noise_e * z) / g;
             *o = if self.corrected {
                 counter.corrected(x)

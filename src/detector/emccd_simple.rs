@@ -1,6 +1,6 @@
 //! `emccd-simple` (paper section 2.2): the EM register's excess noise as a halved QE.
 
-use rand_distr::{Binomial, Distribution, StandardNormal};
+use rand_distr::{Binomial, Distribution};
 
 use super::readout::{FrameInput, Readout};
 use super::spec::{ModelEntry, ModelSpec, Sensor};
@@ -42,8 +42,8 @@ impl Readout for EmccdSimple {
         "emccd-simple".into()
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
-        for (o, &k) in out.iter_mut().zip(input.photo_e) {
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+        for ((o, &k), &z) in out.iter_mut().zip(input.photo_e).zip(input.normals) {
             let kept = match k {
                 0 => 0,
                 k if k > BINOMIAL_ABOVE_E => Binomial::new(k as u64, 0.5)
@@ -51,7 +51,6 @@ impl Readout for EmccdSimple {
                     .sample(aux) as u32,
                 k => binomial_half(k, aux),
             };
-            let z: f64 = StandardNormal.sample(noise);
             *o = kept as f64 + self.read_noise_e * z;
         }
     }

@@ -1,6 +1,5 @@
 //! `emccd-stochastic` (paper section 2.2): the exact multiplication register.
 
-use rand_distr::{Distribution, StandardNormal};
 
 use super::readout::{FrameInput, Readout};
 use super::register::EmRegister;
@@ -48,15 +47,14 @@ impl Readout for EmccdStochastic {
         "emccd-stochastic".into()
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
         let g = self.register.gain();
-        for (o, &k) in out.iter_mut().zip(input.photo_e) {
+        for ((o, &k), &z) in out.iter_mut().zip(input.photo_e).zip(input.normals) {
             let em = match (k, self.cascade) {
                 (0, _) => 0.0,
                 (k, false) => self.register.sample(k as u64, aux),
                 (k, true) => self.register.sample_cascade(k as u64, aux),
             };
-            let z: f64 = StandardNormal.sample(noise);
             *o = (em + self.read_noise_e * z) / g;
         }
     }

@@ -29,7 +29,7 @@ pub use emccd_pp::EmccdPp;
 pub use emccd_simple::EmccdSimple;
 pub use emccd_stochastic::EmccdStochastic;
 pub use params::ModelParams;
-pub use readout::{FrameInput, Readout};
+pub use readout::{draw_normals, FrameInput, Readout};
 pub use register::EmRegister;
 pub use scmos_constant::ScmosConstant;
 pub use scmos_fixed::PerPixelSigma;

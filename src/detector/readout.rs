@@ -11,6 +11,15 @@ pub struct FrameInput<'a> {
     pub expected_e: &'a [f64],
     /// Photo-electrons per pixel after shot noise (shared by all models of a sweep).
     pub photo_e: &'a [u32],
+    /// One standard normal deviate per pixel, the frame's read-noise draws: every model of a
+    /// sweep reads with the same ones (common random numbers), drawn once per frame.
+    pub normals: &'a [f64],
+}
+
+/// Standard normal deviates, one per pixel, into `out` from `rng` (in pixel order).
+pub fn draw_normals(rng: &mut SimRng, out: &mut [f64]) {
+    use rand_distr::{Distribution, StandardNormal};
+    out.iter_mut().for_each(|z| *z = StandardNormal.sample(rng));
 }
 
 /// A detector readout model. Output is in electrons referred to the input (EMCCD output is
@@ -18,9 +27,10 @@ pub struct FrameInput<'a> {
 pub trait Readout: Send + Sync {
     /// Model name as reported in tables, e.g. `emccd-stochastic` or `scmos-fixed:3`.
     fn name(&self) -> String;
-    /// Read one frame into `out` (e-). `noise` drives the per-frame read noise and is the same
-    /// stream for every model of a sweep; `aux` drives model-specific draws (per-pixel sigmas).
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]);
+    /// Read one frame into `out` (e-). The read noise scales `input.normals`; `aux` drives
+    /// model-specific draws (per-pixel sigmas, the EM register), the same stream for every
+    /// model of a sweep.
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]);
     /// Typical per-pixel read noise (e-), used to size the default background grid.
     fn noise_scale_e(&self) -> f64;
 }
@@ -28,7 +38,7 @@ pub trait Readout: Send + Sync {
 /// Samplers shared by the readouts' exact tests.
 #[cfg(test)]
 pub(super) mod sampling {
-    use super::{FrameInput, Readout};
+    use super::{draw_normals, FrameInput, Readout};
     use crate::rng::stream;
     use crate::stats::poisson;
 
@@ -38,16 +48,18 @@ pub(super) mod sampling {
         let mut noise = stream(21, 0, 1);
         let mut aux = stream(21, 0, 2);
         let expected = [lambda];
-        let mut out = [0.0];
+        let (mut out, mut z) = ([0.0], [0.0]);
         (0..n)
             .map(|_| {
                 let k = [poisson(lambda, &mut rng)];
+                draw_normals(&mut noise, &mut z);
                 let input = FrameInput {
                     subap_px: 1,
                     expected_e: &expected,
                     photo_e: &k,
+                    normals: &z,
                 };
-                model.read(&input, &mut noise, &mut aux, &mut out);
+                model.read(&input, &mut aux, &mut out);
                 out[0]
             })
             .collect()
@@ -64,15 +76,17 @@ pub(super) mod sampling {
         let (mut noise, mut aux) = (stream(seed, 0, 0), stream(seed, 0, 1));
         let npx = subap_px * subap_px;
         let (zeros, expected) = (vec![0u32; npx], vec![0.0; npx]);
-        let input = FrameInput {
-            subap_px,
-            expected_e: &expected,
-            photo_e: &zeros,
-        };
-        let mut out = vec![0.0; npx];
+        let (mut out, mut z) = (vec![0.0; npx], vec![0.0; npx]);
         let mut per_px = vec![Vec::with_capacity(frames); npx];
         for _ in 0..frames {
-            model.read(&input, &mut noise, &mut aux, &mut out);
+            draw_normals(&mut noise, &mut z);
+            let input = FrameInput {
+                subap_px,
+                expected_e: &expected,
+                photo_e: &zeros,
+                normals: &z,
+            };
+            model.read(&input, &mut aux, &mut out);
             for (px, &o) in per_px.iter_mut().zip(&out) {
                 px.push(o);
             }

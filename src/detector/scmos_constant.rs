@@ -1,6 +1,5 @@
 //! `scmos-constant`, `scmos-median` and `scmos-mean`: one read-noise sigma for every pixel.
 
-use rand_distr::{Distribution, StandardNormal};
 
 use super::readout::{FrameInput, Readout};
 use super::spec::{ModelEntry, ModelSpec, Sensor};
@@ -73,9 +72,8 @@ impl Readout for ScmosConstant {
         self.name.clone()
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, _aux: &mut SimRng, out: &mut [f64]) {
-        for (o, &k) in out.iter_mut().zip(input.photo_e) {
-            let z: f64 = StandardNormal.sample(noise);
+    fn read(&self, input: &FrameInput, _aux: &mut SimRng, out: &mut [f64]) {
+        for ((o, &k), &z) in out.iter_mut().zip(input.photo_e).zip(input.normals) {
             *o = k as f64 + self.sigma_e * z;
         }
     }

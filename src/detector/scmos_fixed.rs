@@ -1,6 +1,5 @@
 //! `scmos-fixed[:PATTERN]`: a per-pixel read-noise sigma drawn once from the rms pdf.
 
-use rand_distr::{Distribution, StandardNormal};
 
 use super::readout::{FrameInput, Readout};
 use super::spec::{ModelEntry, ModelSpec, Sensor};
@@ -70,9 +69,13 @@ impl Readout for PerPixelSigma {
         self.name.clone()
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, _aux: &mut SimRng, out: &mut [f64]) {
-        for ((o, &k), s) in out.iter_mut().zip(input.photo_e).zip(&self.sigma_e) {
-            let z: f64 = StandardNormal.sample(noise);
+    fn read(&self, input: &FrameInput, _aux: &mut SimRng, out: &mut [f64]) {
+        for (((o, &k), s), &z) in out
+            .iter_mut()
+            .zip(input.photo_e)
+            .zip(&self.sigma_e)
+            .zip(input.normals)
+        {
             *o = k as f64 + s * z;
         }
     }

@@ -2,7 +2,6 @@
 
 use std::sync::Arc;
 
-use rand_distr::{Distribution, StandardNormal};
 
 use crate::calib::{Map, Unit};
 use super::readout::{FrameInput, Readout};
@@ -77,19 +76,19 @@ impl Readout for ScmosMap {
         "scmos-map".into()
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
         use rand::RngExt;
         let n = self.n;
         let r0 = aux.random_range(0..=self.map.rows - n);
         let c0 = aux.random_range(0..=self.map.cols - n);
-        for (i, (orow, krow)) in out
+        for (i, ((orow, krow), zrow)) in out
             .chunks_exact_mut(n)
             .zip(input.photo_e.chunks_exact(n))
+            .zip(input.normals.chunks_exact(n))
             .enumerate()
         {
             let mrow = &self.map.data[(r0 + i) * self.map.cols + c0..][..n];
-            for ((o, &k), &s) in orow.iter_mut().zip(krow).zip(mrow) {
-                let z: f64 = StandardNormal.sample(noise);
+            for (((o, &k), &s), &z) in orow.iter_mut().zip(krow).zip(mrow).zip(zrow) {
                 let s = if s.is_finite() { s } else { self.rms_e };
                 *o = k as f64 + s * z;
             }

@@ -2,7 +2,6 @@
 
 use std::sync::Arc;
 
-use rand_distr::{Distribution, StandardNormal};
 
 use super::readout::{FrameInput, Readout};
 use super::spec::{ModelEntry, ModelSpec, Sensor};
@@ -38,11 +37,10 @@ impl Readout for ScmosRandom {
         "scmos-random".into()
     }
 
-    fn read(&self, input: &FrameInput, noise: &mut SimRng, aux: &mut SimRng, out: &mut [f64]) {
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
         // Gaussian deviates come from `noise` as in the constant models, sigmas from `aux`:
         // the two then differ only by the sigmas (common random numbers).
-        for (o, &k) in out.iter_mut().zip(input.photo_e) {
-            let z: f64 = StandardNormal.sample(noise);
+        for ((o, &k), &z) in out.iter_mut().zip(input.photo_e).zip(input.normals) {
             *o = k as f64 + self.pdf.sample(aux) * z;
         }
     }

@@ -13,7 +13,7 @@ use super::blocks::{Blocks, Term, SUB_BLOCK};
 use super::config::SimConfig;
 use super::photons::ShotNoise;
 use crate::centroid::{cog, BackgroundSweep, LevelSums};
-use crate::detector::{FrameInput, Readout};
+use crate::detector::{draw_normals, FrameInput, Readout};
 use crate::progress::Observer;
 use crate::rng::stream;
 use crate::spot::SpotRenderer;
@@ -227,6 +227,7 @@ impl<'m> Experiment<'m> {
         let mut expected = vec![0.0; npix];
         let mut photons = vec![0u32; npix];
         let mut shot = ShotNoise::new(npix);
+        let mut normals = vec![0.0; npix];
         let mut image = vec![0.0; npix];
         let h = cfg.position_half_range_px;
         let mut block_start = iters.start;
@@ -254,17 +255,18 @@ impl<'m> Experiment<'m> {
                 &mut stream(cfg.seed, it, PHOTONS),
                 &mut photons,
             );
+            // Every model reads with the same normal deviates and starts from the same auxiliary
+            // stream (common random numbers): drawn once, the stream's state copied.
+            draw_normals(&mut stream(cfg.seed, it, NOISE), &mut normals);
             let input = FrameInput {
                 subap_px: n,
                 expected_e: &expected,
                 photo_e: &photons,
+                normals: &normals,
             };
-            // Every model starts from the same noise and auxiliary streams (common random
-            // numbers): copies of the states, not re-derived seeds.
-            let (noise0, aux0) = (stream(cfg.seed, it, NOISE), stream(cfg.seed, it, AUX));
+            let aux0 = stream(cfg.seed, it, AUX);
             for (model, acc) in models.iter().zip(accs.iter_mut()) {
-                let (mut noise, mut aux) = (noise0.clone(), aux0.clone());
-                model.read(&input, &mut noise, &mut aux, &mut image);
+                model.read(&input, &mut aux0.clone(), &mut image);
                 sweep.accumulate(&image, truth, acc);
             }
             if (it + 1) % sub == 0 || it + 1 == iters.end {

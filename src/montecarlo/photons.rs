@@ -15,11 +15,15 @@ use rand::RngExt;
 /// placing one costs a few ns, a per-pixel draw ten or more.
 const PLACE_UP_TO_PER_PIXEL: f64 = 2.0;
 
+/// Largest mean total whose Poisson distribution is tabulated (exp(-500) is still normal).
+const TABLE_MAX_MEAN: f64 = 500.0;
+
 /// Reusable scratch for shot noise on frames of one size.
 #[derive(Debug, Clone)]
 pub struct ShotNoise {
     cumulative: Vec<f64>,
     guide: Vec<u32>,
+    totals: Option<PoissonTable>,
 }
 
 impl ShotNoise {
@@ -28,7 +32,21 @@ impl ShotNoise {
         ShotNoise {
             cumulative: Vec::with_capacity(pixels),
             guide: Vec::with_capacity(pixels),
+            totals: None,
         }
+    }
+
+    /// One Poisson(`mean`) total: by a table when every frame of a run has the same mean (the
+    /// usual case: the spot is scaled to the signal), else drawn directly.
+    fn total(&mut self, mean: f64, rng: &mut SimRng) -> u32 {
+        if !(mean > 0.0 && mean <= TABLE_MAX_MEAN) {
+            return poisson(mean, rng);
+        }
+        if self.totals.as_ref().is_none_or(|t| t.mean != mean) {
+            self.totals = Some(PoissonTable::new(mean));
+        }
+        let table = self.totals.as_ref().expect("set above");
+        table.sample(rng).unwrap_or_else(|| poisson(mean, rng))
     }
 
     /// Independent Poisson counts with means `expected` (e-, >= 0, summing to `total`) into
@@ -54,7 +72,7 @@ impl ShotNoise {
         }));
         // The total used is the sum as accumulated here, so placement and total agree exactly.
         let total = acc;
-        let photons = poisson(total, rng);
+        let photons = self.total(total, rng);
         if photons == 0 {
             return;
         }
@@ -80,6 +98,56 @@ impl ShotNoise {
             }
             out[p] += 1;
         }
+    }
+}
+
+/// Inverse-CDF table of one Poisson distribution, with a guide over the uniform deviate.
+#[derive(Debug, Clone)]
+struct PoissonTable {
+    mean: f64,
+    cdf: Vec<f64>,
+    guide: Vec<u32>,
+}
+
+impl PoissonTable {
+    /// Buckets of the guide: the search from a bucket's start takes one or two steps.
+    const GUIDE: usize = 256;
+
+    /// Table of Poisson(`mean`), 0 < mean <= [`TABLE_MAX_MEAN`], out to 12 standard
+    /// deviations past the mean (the mass beyond, < 1e-30, is drawn directly).
+    fn new(mean: f64) -> Self {
+        let last = (mean + 12.0 * mean.sqrt() + 20.0).ceil() as usize;
+        let mut cdf = Vec::with_capacity(last + 1);
+        let (mut p, mut acc) = ((-mean).exp(), 0.0);
+        for k in 0..=last {
+            acc += p;
+            cdf.push(acc);
+            p *= mean / (k + 1) as f64;
+        }
+        let mut guide = Vec::with_capacity(Self::GUIDE);
+        let mut k = 0;
+        for g in 0..Self::GUIDE {
+            let u = g as f64 / Self::GUIDE as f64;
+            while k < last && cdf[k] <= u {
+                k += 1;
+            }
+            guide.push(k as u32);
+        }
+        PoissonTable { mean, cdf, guide }
+    }
+
+    /// One draw by inversion (the smallest k with CDF(k) > u, as the direct sampler does),
+    /// or None for the far tail beyond the table.
+    fn sample(&self, rng: &mut SimRng) -> Option<u32> {
+        let u: f64 = rng.random();
+        let mut k = self.guide[((u * Self::GUIDE as f64) as usize).min(Self::GUIDE - 1)] as usize;
+        while self.cdf[k] <= u {
+            k += 1;
+            if k == self.cdf.len() {
+                return None;
+            }
+        }
+        Some(k as u32)
     }
 }
 
@@ -134,6 +202,31 @@ mod tests {
             }
             let se_cov = (expected[0] * expected[1] / n).sqrt();
             assert!(cov.abs() < 4.0 * se_cov, "cov {cov} (se {se_cov})");
+        }
+    }
+
+    #[test]
+    fn tabulated_totals_are_poisson() {
+        // Mean, variance and P(0) of the tabulated totals: SE(mean) = sqrt(m / N), SE(var) =
+        // m sqrt((2 + 1/m) / N), SE(P0) = sqrt(P0 (1 - P0) / N); 4 SE.
+        let n = 200_000;
+        for mean in [0.3, 4.5, 45.0, 480.0] {
+            let table = PoissonTable::new(mean);
+            let mut rng = stream(3, 0, 0);
+            let xs: Vec<f64> = (0..n)
+                .map(|_| table.sample(&mut rng).expect("tail beyond 12 sd") as f64)
+                .collect();
+            let (m, v) = crate::stats::mean_var(&xs);
+            let nf = n as f64;
+            assert!(
+                (m - mean).abs() < 4.0 * (mean / nf).sqrt(),
+                "{mean}: mean {m}"
+            );
+            let se_v = mean * ((2.0 + 1.0 / mean) / nf).sqrt();
+            assert!((v - mean).abs() < 4.0 * se_v, "{mean}: var {v}");
+            let p0 = (-mean).exp();
+            let f0 = xs.iter().filter(|x| **x == 0.0).count() as f64 / nf;
+            assert!((f0 - p0).abs() <= 4.0 * (p0 * (1.0 - p0) / nf).sqrt() + 1e-12);
         }
     }
 
