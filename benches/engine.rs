@@ -105,7 +105,7 @@ fn main() {
             let built = ModelSpec::parse(&name)
                 .and_then(|s| s.build(&params, n))
                 .expect("bench models build");
-            let mut figures = vec![f64::NAN; 2];
+            let mut figures = [f64::NAN; 2];
             let mut iters = 0;
             for &sampling in &samplings {
                 let mut cfg = SimConfig::paper(n);

@@ -4,15 +4,27 @@
 const MAX_CELLS: usize = 8192;
 
 /// Counts the levels strictly below a value with a uniform grid of cells over the levels'
-/// range: cell c starts at `base[c]` levels, and only the few levels inside the value's own
-/// cell are compared (at most one when the cell is no wider than the closest pair of levels).
+/// range: a cell holds the number of levels in the cells below it and its own first level, so
+/// one load and one comparison answer unless the cell holds several levels (only when levels
+/// are closer than the cell width).
 #[derive(Debug, Clone)]
 pub(super) struct LevelIndex {
-    /// The levels, then +infinity (so one comparison past the last level needs no check).
-    padded: Vec<f64>,
+    levels: Vec<f64>,
     lo: f64,
     inv_width: f64,
-    base: Vec<u32>,
+    last_cell: f64,
+    cells: Vec<Cell>,
+}
+
+/// One cell of the grid.
+#[derive(Debug, Clone, Copy)]
+struct Cell {
+    /// The cell's first level, or +infinity when it has none.
+    first: f64,
+    /// Levels in the cells below.
+    below: u32,
+    /// Levels in this cell.
+    count: u32,
 }
 
 impl LevelIndex {
@@ -28,48 +40,66 @@ impl LevelIndex {
             .map(|w| w[1] - w[0])
             .fold(f64::INFINITY, f64::min);
         let width = closest.max(range / MAX_CELLS as f64);
-        let (cells, inv_width) = if range > 0.0 && width > 0.0 {
+        let (count, inv_width) = if range > 0.0 && width > 0.0 {
             (((range / width) as usize + 1).min(MAX_CELLS), 1.0 / width)
         } else {
             (1, 0.0)
         };
         let mut index = LevelIndex {
-            padded: levels.iter().copied().chain([f64::INFINITY]).collect(),
+            levels: levels.to_vec(),
             lo,
             inv_width,
-            base: Vec::new(),
+            last_cell: (count - 1) as f64,
+            cells: Vec::new(),
         };
-        // base[c] = levels whose cell is below c; the last entry holds them all.
-        let mut base = vec![0u32; cells + 1];
-        for &l in levels {
-            base[index.cell(l, cells) + 1] += 1;
+        let empty = Cell {
+            first: f64::INFINITY,
+            below: 0,
+            count: 0,
+        };
+        let mut cells = vec![empty; count];
+        for (k, &l) in levels.iter().enumerate() {
+            let cell = &mut cells[index.cell(l)];
+            if cell.count == 0 {
+                cell.first = l;
+                cell.below = k as u32;
+            }
+            cell.count += 1;
         }
-        for c in 1..=cells {
-            base[c] += base[c - 1];
+        // Empty cells: every level of the cells below.
+        let mut below = 0;
+        for cell in &mut cells {
+            if cell.count == 0 {
+                cell.below = below;
+            }
+            below = cell.below + cell.count;
         }
-        index.base = base;
+        index.cells = cells;
         index
     }
 
-    /// Cell of value `v` among `cells` (values below the first level, and NaN, in cell 0);
-    /// monotone in `v`, so a level in a lower cell is below `v` and one in a higher cell above.
+    /// Cell of value `v` (values below the first level, and NaN, in cell 0); monotone in `v`,
+    /// so a level in a lower cell is below `v` and one in a higher cell above it.
     #[inline]
-    fn cell(&self, v: f64, cells: usize) -> usize {
-        (((v - self.lo) * self.inv_width).max(0.0) as usize).min(cells - 1)
+    fn cell(&self, v: f64) -> usize {
+        // `max` sends NaN to 0; the value is then finite and within 0..cells.
+        let t = ((v - self.lo) * self.inv_width)
+            .max(0.0)
+            .min(self.last_cell);
+        // SAFETY: t is finite, >= 0 and at most the last cell index, so it fits in usize.
+        unsafe { t.to_int_unchecked::<usize>() }
     }
 
     /// Number of levels strictly below `v` (0 for NaN).
     #[inline]
     pub(super) fn count_below(&self, v: f64) -> usize {
-        let c = self.cell(v, self.base.len() - 1);
-        let (mut k, end) = (self.base[c] as usize, self.base[c + 1] as usize);
-        // A cell holds at most one level unless levels are closer than the cell width: one
-        // branch-free step, then a loop that rarely runs (`padded[end]` exists).
-        k += usize::from((k < end) & (self.padded[k] < v));
-        while k < end && self.padded[k] < v {
-            k += 1;
+        let cell = self.cells[self.cell(v)];
+        let k = cell.below as usize + usize::from(cell.first < v);
+        if cell.count <= 1 {
+            return k;
         }
-        k
+        let end = (cell.below + cell.count) as usize;
+        k + self.levels[k..end].iter().take_while(|l| **l < v).count()
     }
 }
 

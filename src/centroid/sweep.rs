@@ -31,7 +31,8 @@ impl BackgroundSweep {
         let count = levels.len();
         BackgroundSweep {
             index: LevelIndex::new(&levels),
-            bins: vec![[0.0; 6]; count + 1],
+            // Buckets 0..=count, then 8 spare ones for pixels below every level.
+            bins: vec![[0.0; 6]; count + 9],
             occupied: vec![0; count / 64 + 1],
             mass: vec![0.0; count],
             moment_sq: vec![0.0; count],
@@ -90,31 +91,46 @@ impl BackgroundSweep {
 
     /// Put every pixel of `img` in its bucket (positions relative to `truth`, px from the
     /// centre); the highest bucket used, which is the number of levels below the brightest
-    /// pixel. Bucket 0 (no level below) collects pixels that count nowhere.
+    /// pixel.
     fn bin_pixels(&mut self, img: &[f64], truth: (f64, f64)) -> usize {
         let n = self.n;
         let c = (n as f64 - 1.0) / 2.0;
         let (tx, ty) = (truth.0 + c, truth.1 + c);
         let mut top = 0;
-        // Branch-free: a pixel below every level is added to bucket 0 and ignored, because at
-        // low light about half the pixels are and a branch on it would be mispredicted.
+        // Occupancy of the first 128 buckets (the low levels, where most pixels fall) is kept
+        // in registers: a read-modify-write of memory per pixel would chain every pixel to the
+        // previous one.
+        let (mut low, mut mid) = (0u64, 0u64);
+        let junk = self.levels.len() + 1;
         for (i, row) in img.chunks_exact(n).enumerate() {
             let y = i as f64 - ty;
             for (j, &v) in row.iter().enumerate() {
                 let k = self.index.count_below(v);
+                // A pixel below every level counts nowhere; it is added to one of 8 spare
+                // buckets in turn, without a branch (at low light about half the pixels are
+                // such, unpredictably) and without chaining them all through one bucket.
+                let slot = if k == 0 { junk + (j & 7) } else { k };
                 let x = j as f64 - tx;
-                let b = &mut self.bins[k];
+                let b = &mut self.bins[slot];
                 b[0] += v;
                 b[1] += v * x;
                 b[2] += v * y;
                 b[3] += 1.0;
                 b[4] += x;
                 b[5] += y;
-                self.occupied[k / 64] |= 1 << (k % 64);
+                low |= u64::from(k < 64) << (k % 64);
+                mid |= u64::from((64..128).contains(&k)) << (k % 64);
+                if k >= 128 {
+                    self.occupied[k / 64] |= 1 << (k % 64);
+                }
                 top = top.max(k);
             }
         }
-        self.bins[0] = [0.0; 6];
+        self.occupied[0] |= low;
+        if let Some(w) = self.occupied.get_mut(1) {
+            *w |= mid;
+        }
+        self.bins[junk..].fill([0.0; 6]);
         top
     }
 
