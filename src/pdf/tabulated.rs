@@ -23,6 +23,8 @@ pub struct TabulatedPdf {
     mean: f64,
     rms: f64,
     label: String,
+    /// Alias table over the cells for sampling, built on the first draw.
+    alias: std::sync::OnceLock<Vec<u64>>,
 }
 
 impl TabulatedPdf {
@@ -90,6 +92,7 @@ impl TabulatedPdf {
             mean: m1,
             rms: m2.sqrt(),
             label: label.to_string(),
+            alias: std::sync::OnceLock::new(),
         }
     }
 
@@ -130,9 +133,50 @@ impl TabulatedPdf {
     }
 }
 
+/// Walker's alias table over cells of masses `cdf[i + 1] - cdf[i]` (Vose's construction):
+/// entry i packs the probability of keeping cell i (high 32 bits, in units of 2^-32) and the
+/// cell taken otherwise (low 32 bits). One draw reads one entry, wherever the mass lies, so a
+/// sample costs one cache access instead of a guide lookup and a search.
+fn alias_table(cdf: &[f64]) -> Vec<u64> {
+    let cells = cdf.len() - 1;
+    let mut scaled: Vec<f64> = cdf
+        .windows(2)
+        .map(|w| (w[1] - w[0]) * cells as f64)
+        .collect();
+    let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+        (0..cells).partition(|&i| scaled[i] < 1.0);
+    let mut table = vec![0u64; cells];
+    let keep = |p: f64| ((p.clamp(0.0, 1.0) * 4_294_967_296.0) as u64).min(u32::MAX as u64);
+    while let (Some(&s), Some(&l)) = (small.last(), large.last()) {
+        small.pop();
+        table[s] = (keep(scaled[s]) << 32) | l as u64;
+        scaled[l] -= 1.0 - scaled[s];
+        if scaled[l] < 1.0 {
+            large.pop();
+            small.push(l);
+        }
+    }
+    // Left over (round-off): cells kept with certainty.
+    for i in small.into_iter().chain(large) {
+        table[i] = (u64::from(u32::MAX) << 32) | i as u64;
+    }
+    table
+}
+
 impl RmsPdf for TabulatedPdf {
     fn sample(&self, rng: &mut SimRng) -> f64 {
-        self.invert(rng.random::<f64>())
+        let table = self.alias.get_or_init(|| alias_table(&self.cdf));
+        // bits x cells / 2^64: the integer part picks the cell (each with probability 1/cells
+        // to 2^-64), the fractional part, uniform and independent of it, decides keep or alias.
+        let product = u128::from(rng.random::<u64>()) * table.len() as u128;
+        let i = (product >> 64) as usize;
+        let entry = table[i];
+        let cell = if ((product as u64) >> 32) < (entry >> 32) {
+            i
+        } else {
+            (entry & 0xffff_ffff) as usize
+        };
+        self.lo + (cell as f64 + rng.random::<f64>()) * self.step
     }
 
     fn quantile(&self, p: f64) -> f64 {

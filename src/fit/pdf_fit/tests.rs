@@ -33,6 +33,15 @@ fn check_paper_recovery(side: usize, seed: u64) -> PdfFitReport {
         (s - 1.0) / se
     );
     assert!((s - 1.0).abs() < 3.0 * se, "scale {s} +- {se}");
+    // The fitted models' mean and median against the map's, within 2 % or 3 standard errors
+    // of the map's own mean and median (sd / sqrt(N); sqrt(1 / 4N) / f(median), f the
+    // fitted scaled paper pdf), whichever is wider: a heavy-tailed 64x64 map's mean alone has a
+    // 1.5 % standard error.
+    let n = values.len() as f64;
+    let (mean, var) = crate::stats::mean_var(&values);
+    let mean_tol = 0.02f64.max(3.0 * var.sqrt() / n.sqrt() / mean);
+    let f_median = crate::pdf::paper().density(r.data.median_e / s) / s;
+    let median_tol = 0.02f64.max(3.0 * (0.25 / n).sqrt() / f_median / r.data.median_e);
     for (name, m) in &r.models {
         let dm = m.median_e / r.data.median_e - 1.0;
         let da = m.mean_e / r.data.mean_e - 1.0;
@@ -45,7 +54,10 @@ fn check_paper_recovery(side: usize, seed: u64) -> PdfFitReport {
             100.0 * da,
             m.iterations
         );
-        assert!(dm.abs() < 0.02 && da.abs() < 0.02, "{name}: {dm} {da}");
+        assert!(
+            dm.abs() < median_tol && da.abs() < mean_tol,
+            "{name}: {dm} {da} (tolerances {median_tol} {mean_tol})"
+        );
     }
     r
 }
