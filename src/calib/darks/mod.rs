@@ -26,3 +26,6 @@ pub use maps::{dark_maps, dark_maps_hashed, DarkMaps};
 pub use options::{Clip, DarkOptions};
 pub use outputs::{write_outputs, DarkSummary, OUTPUT_NAMES};
 pub use run::{run, DarksRun, DarksRunResult};
+
+#[cfg(test)]
+mod tests;
