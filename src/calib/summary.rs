@@ -2,6 +2,7 @@
 
 use std::path::PathBuf;
 
+use rayon::slice::ParallelSliceMut;
 use serde::Serialize;
 
 use crate::error::Result;
@@ -42,7 +43,7 @@ impl Distribution {
     /// Figures of `values` (non-finite values are skipped).
     pub fn of(values: &[f64]) -> Distribution {
         let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-        v.sort_unstable_by(f64::total_cmp);
+        v.par_sort_unstable_by(f64::total_cmp);
         let n = v.len().max(1) as f64;
         let median = percentile(&v, 50.0);
         Distribution {

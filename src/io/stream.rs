@@ -10,7 +10,7 @@ use std::sync::{mpsc, Arc, Mutex};
 use super::digest::ByteTap;
 use super::frame::{FrameData, FrameOrigin};
 use super::stack::FrameStack;
-use crate::error::Result;
+use crate::error::{Error, Result};
 
 /// Bytes read per batch (as delivered: stored bytes for raw frames, 8 per value otherwise).
 /// A batch is one sweep of the caller over its per-pixel accumulators, so bigger batches
@@ -122,7 +122,8 @@ pub fn read_batches(
     let (tx, rx) = mpsc::sync_channel::<Result<Arc<SharedBatch>>>(0);
     std::thread::scope(|s| {
         let reader_pool = pool.clone();
-        s.spawn(move || {
+        let reader = std::thread::Builder::new().name("detnoise-read".into());
+        let spawned = reader.spawn_scoped(s, move || {
             let mut reader = stack.reader();
             loop {
                 let free = reader_pool.lock().ok().and_then(|mut p| p.pop());
@@ -147,6 +148,11 @@ pub fn read_batches(
                 }
             }
         });
+        if let Err(e) = spawned {
+            return Err(Error::Numeric(format!(
+                "cannot start the reading thread: {e}"
+            )));
+        }
         // Returning (at the end or on an error) drops `rx`, which stops the reader.
         for msg in rx {
             let batch = msg?;

@@ -4,8 +4,9 @@
 //! The frames are read in batches on a thread of their own ([`read_batches`]), which can
 //! share them with the checksum thread. Each batch is swept tile by tile across pixels
 //! (rayon; `kernel`), adding every sample to per-pixel sums over the whole stack (`tile`):
-//! exact for integer samples, and the same for any thread count. Memory is the sums (ten
-//! f64 per pixel) and a few batches of frames.
+//! exact for integer samples, and the same for any thread count. Memory is the sums (eight
+//! f64 per pixel, ten with clipping, plus the tracked extremes) and a few batches of frames
+//! (`io::stream`), O(frame).
 
 use rayon::prelude::*;
 
@@ -18,6 +19,7 @@ use crate::io::{read_batches, ByteTap, FrameData, FrameStack};
 
 /// Pixels per tile (one rayon task per batch).
 const TILE: usize = 4096;
+
 /// A per-frame transformation applied before accumulation; returns a scalar recorded per
 /// frame (common-mode offset, lamp level). Called on frames in order.
 pub type FrameHook<'a> = &'a (dyn Fn(usize, &mut [f64]) -> f64 + Sync);
@@ -79,6 +81,21 @@ fn decode_into(frame: &FrameData, out: &mut Vec<f64>) {
     }
 }
 
+/// While a core hashes the stack (`tap`), the statistics run on one worker thread fewer than
+/// the global pool has, so that the checksum thread keeps its core (SHA-256 bounds the run);
+/// with two cores that is one thread, and no hand-over between threads per batch.
+fn hashing_pool(tap: Option<&ByteTap>) -> Option<rayon::ThreadPool> {
+    let threads = rayon::current_num_threads();
+    if tap.is_none() || threads < 2 {
+        return None;
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads - 1)
+        .thread_name(|i| format!("detnoise-stats-{i}"))
+        .build()
+        .ok()
+}
+
 /// Accumulate one pass over `stack`: the frames flagged in `select` (all when None), numbered
 /// among themselves, transformed by `hook`, tracking `extremes` per pixel and end, within
 /// `window`. Batches read go to `tap` too.
@@ -111,55 +128,61 @@ fn pass(
         None => Vec::new(),
     };
     let mut decoded: Vec<Vec<f64>> = Vec::new();
-    read_batches(stack, tap, |batch| {
-        read = batch.origins().last().map_or(read, |o| o.index + 1);
-        let chosen: Vec<&FrameData> = batch
-            .frames()
-            .iter()
-            .zip(batch.origins())
-            .filter(|(_, o)| select.is_none_or(|s| s[o.index]))
-            .map(|(f, _)| f)
-            .collect();
-        if chosen.is_empty() {
-            return Ok(());
-        }
-        let views: Vec<FrameView> = match hook {
-            None => chosen
+    let mut reading = || {
+        read_batches(stack, tap, |batch| {
+            read = batch.origins().last().map_or(read, |o| o.index + 1);
+            let chosen: Vec<&FrameData> = batch
+                .frames()
                 .iter()
-                .map(|f| match f {
-                    FrameData::Values(v) => FrameView::Values(v),
-                    FrameData::Raw(b, layout) => FrameView::Raw(b, *layout),
-                })
-                .collect(),
-            Some(h) => {
-                decoded.resize_with(chosen.len(), Vec::new);
-                let decoded = &mut decoded[..chosen.len()];
-                decoded
-                    .par_iter_mut()
-                    .zip(&chosen)
-                    .for_each(|(out, f)| decode_into(f, out));
-                raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
-                    for f in decoded.iter() {
-                        for (mi, x) in m.iter_mut().zip(&f[t * TILE..]) {
-                            *mi = mi.max(*x);
-                        }
-                    }
-                });
-                let values: Vec<f64> = decoded
-                    .par_iter_mut()
-                    .enumerate()
-                    .map(|(j, f)| h(used + j, f))
-                    .collect();
-                per_frame.extend(values);
-                decoded.iter().map(|v| FrameView::Values(v)).collect()
+                .zip(batch.origins())
+                .filter(|(_, o)| select.is_none_or(|s| s[o.index]))
+                .map(|(f, _)| f)
+                .collect();
+            if chosen.is_empty() {
+                return Ok(());
             }
-        };
-        tiles
-            .par_iter_mut()
-            .for_each(|t| sweep(t, &views, used, window.is_none(), extremes));
-        used += views.len();
-        Ok(())
-    })?;
+            let views: Vec<FrameView> = match hook {
+                None => chosen
+                    .iter()
+                    .map(|f| match f {
+                        FrameData::Values(v) => FrameView::Values(v),
+                        FrameData::Raw(b, layout) => FrameView::Raw(b, *layout),
+                    })
+                    .collect(),
+                Some(h) => {
+                    decoded.resize_with(chosen.len(), Vec::new);
+                    let decoded = &mut decoded[..chosen.len()];
+                    decoded
+                        .par_iter_mut()
+                        .zip(&chosen)
+                        .for_each(|(out, f)| decode_into(f, out));
+                    raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
+                        for f in decoded.iter() {
+                            for (mi, x) in m.iter_mut().zip(&f[t * TILE..]) {
+                                *mi = mi.max(*x);
+                            }
+                        }
+                    });
+                    let values: Vec<f64> = decoded
+                        .par_iter_mut()
+                        .enumerate()
+                        .map(|(j, f)| h(used + j, f))
+                        .collect();
+                    per_frame.extend(values);
+                    decoded.iter().map(|v| FrameView::Values(v)).collect()
+                }
+            };
+            tiles
+                .par_iter_mut()
+                .for_each(|t| sweep(t, &views, used, window.is_none(), extremes));
+            used += views.len();
+            Ok(())
+        })
+    };
+    match hashing_pool(tap) {
+        Some(pool) => pool.install(reading)?,
+        None => reading()?,
+    }
     if read != stack.frames {
         return Err(Error::input(
             &stack.sources[0].path,

@@ -188,12 +188,15 @@ pub(super) fn mean_var(s: Sums) -> (f64, f64) {
     if n < 1.0 {
         return (f64::NAN, f64::NAN);
     }
-    let integral = |v: f64| v.fract() == 0.0 && v.abs() < EXACT;
+    // (A conversion to i64 and back keeps the check to two instructions.)
+    let integral = |v: f64| v.abs() < EXACT && (v as i64) as f64 == v;
     if integral(shift) && integral(s1) && integral(s2) && integral(n) {
-        let (ni, si, s1i, s2i) = (n as i128, shift as i128, s1 as i128, s2 as i128);
-        let mean = (ni * si + s1i) as f64 / n;
+        let [ni, si, s1i, s2i] = [n, shift, s1, s2].map(|v| v as i64 as i128);
+        // Rounded once to f64 (through i64 when it fits: the same value, in hardware).
+        let float = |v: i128| i64::try_from(v).map_or(v as f64, |v| v as f64);
+        let mean = float(ni * si + s1i) / n;
         let var = if n >= 2.0 {
-            (ni * s2i - s1i * s1i).max(0) as f64 / (n * (n - 1.0))
+            float((ni * s2i - s1i * s1i).max(0)) / (n * (n - 1.0))
         } else {
             f64::NAN
         };
