@@ -1,35 +1,34 @@
 //! Benchmark of `detnoise darks`: a 512 x 512 x 2000 uint16 FITS cube (1 GiB) in the page
 //! cache, calibrated as the command does (statistics, maps, outputs), with and without the
 //! SHA-256 checksums of the inputs. Prints GB/s of file read (1 GB = 1e9 bytes), CPU seconds
-//! and the peak resident memory (VmHWM) of each run, and the two floors of this machine: one
-//! thread reading the file (`cat`) and one thread hashing it (SHA-256 of one file cannot be
-//! split across cores, so it bounds `darks` with checksums).
+//! and the peak resident memory (VmHWM) of each run, and the floors of this machine: one
+//! thread reading the file (`cat`), one thread reading and hashing it, and SHA-256 of data
+//! already in cache on one core (SHA-256 of one file cannot be split across cores, so that
+//! bounds `darks` with checksums). Every measurement runs in a fresh process of this
+//! program, as the command would, so that its peak memory is its own.
 //!
 //! cargo run --release --example bench_darks [-- FRAMES [ROWS COLS]]
 //! DETNOISE_BENCH_CUBE=PATH keeps the cube at PATH (reused when it has the right size);
 //! DETNOISE_BENCH_RUNS=N runs each measurement N times (default 3) and reports the fastest.
 
+use std::hint::black_box;
 use std::io::Read;
 use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::time::Instant;
 
 use detnoise::calib::darks::{run, DarkOptions, DarksRun};
 use detnoise::calib::summary::sha256_file;
 use detnoise::progress::Silent;
+use sha2::{Digest, Sha256};
 
-/// Peak resident memory of this process since the last reset (KiB).
+/// Peak resident memory of this process (KiB).
 fn vm_hwm_kib() -> u64 {
     let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     s.lines()
         .find(|l| l.starts_with("VmHWM:"))
         .and_then(|l| l.split_whitespace().nth(1)?.parse().ok())
         .unwrap_or(0)
-}
-
-/// Reset VmHWM to the current resident size (Linux: "5" to clear_refs), so that each run
-/// reports its own peak.
-fn reset_hwm() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 
 /// CPU time (user + system) of this process so far, in seconds.
@@ -46,25 +45,90 @@ fn cpu_seconds() -> f64 {
     ticks / 100.0
 }
 
-/// One measurement: wall seconds, CPU seconds, peak resident memory (MiB).
-#[derive(Clone, Copy)]
+/// One measurement: wall seconds, CPU seconds, peak resident memory of the process (MiB),
+/// and the seconds of the reading phase (statistics and checksums) of a darks run.
+#[derive(Clone, Copy, Debug)]
 struct Run {
     wall: f64,
     cpu: f64,
     hwm_mib: f64,
+    reading: Option<f64>,
 }
 
-/// The fastest of `runs` runs of `f`.
-fn best(runs: usize, mut f: impl FnMut()) -> Run {
+/// SHA-256 of `bytes` bytes of data in L2 cache (a 1 MiB buffer, hashed repeatedly).
+fn sha256_in_cache(bytes: u64) {
+    let buf = vec![0x5au8; 1 << 20];
+    let mut h = Sha256::new();
+    for _ in 0..bytes.div_ceil(buf.len() as u64) {
+        h.update(black_box(&buf));
+    }
+    black_box(h.finalize());
+}
+
+/// Run measurement `what` on `cube` in this process and print it as one line (child side).
+fn measure(what: &str, cube: &Path, out: &Path) {
+    let bytes = std::fs::metadata(cube).expect("cube").len();
+    let (t, c) = (Instant::now(), cpu_seconds());
+    let reading = match what {
+        "cat" => {
+            let mut buf = vec![0u8; 1 << 20];
+            let mut f = std::fs::File::open(cube).expect("open cube");
+            while f.read(&mut buf).expect("read cube") > 0 {}
+            None
+        }
+        "hash" => {
+            sha256_file(cube).expect("hash");
+            None
+        }
+        "sha" => {
+            sha256_in_cache(bytes);
+            None
+        }
+        "darks" | "darks-no-checksums" => {
+            let job = DarksRun {
+                stack: vec![cube.to_path_buf()],
+                out: out.to_path_buf(),
+                force: false,
+                options: DarkOptions::default(),
+                gain_e_per_adu: Some(0.25),
+                checksums: what == "darks",
+                accept_illuminated: false,
+            };
+            Some(run(&job, &Silent).expect("darks").read_seconds)
+        }
+        other => panic!("unknown measurement {other}"),
+    };
+    println!(
+        "{} {} {} {}",
+        t.elapsed().as_secs_f64(),
+        cpu_seconds() - c,
+        vm_hwm_kib() as f64 / 1024.0,
+        reading.unwrap_or(f64::NAN)
+    );
+}
+
+/// The fastest of `runs` child processes measuring `what`.
+fn best(runs: usize, what: &str, cube: &Path, out: &Path) -> Run {
+    let exe = std::env::current_exe().expect("own path");
     (0..runs)
         .map(|_| {
-            reset_hwm();
-            let (t, c) = (Instant::now(), cpu_seconds());
-            f();
+            let _ = std::fs::remove_dir_all(out);
+            let o = Command::new(&exe)
+                .arg(format!("--measure={what}"))
+                .arg(cube)
+                .arg(out)
+                .output()
+                .expect("run a measurement");
+            assert!(o.status.success(), "{what}: {o:?}");
+            let v: Vec<f64> = String::from_utf8_lossy(&o.stdout)
+                .split_whitespace()
+                .map(|x| x.parse().expect("a number"))
+                .collect();
             Run {
-                wall: t.elapsed().as_secs_f64(),
-                cpu: cpu_seconds() - c,
-                hwm_mib: vm_hwm_kib() as f64 / 1024.0,
+                wall: v[0],
+                cpu: v[1],
+                hwm_mib: v[2],
+                reading: Some(v[3]).filter(|r| r.is_finite()),
             }
         })
         .min_by(|a, b| a.wall.total_cmp(&b.wall))
@@ -72,9 +136,13 @@ fn best(runs: usize, mut f: impl FnMut()) -> Run {
 }
 
 fn line(what: &str, bytes: u64, r: Run) {
+    let gbs = |s: f64| bytes as f64 / 1e9 / s;
+    let reading = r.reading.map_or(String::new(), |s| {
+        format!(" (reading: {s:.3} s = {:.2} GB/s)", gbs(s))
+    });
     println!(
-        "  {what:<34} {:>5.2} GB/s  {:.3} s wall, {:.3} CPU s, peak {:.1} MiB",
-        bytes as f64 / 1e9 / r.wall,
+        "  {what:<36} {:>5.2} GB/s  {:.3} s wall, {:.3} CPU s, peak {:.1} MiB{reading}",
+        gbs(r.wall),
         r.wall,
         r.cpu,
         r.hwm_mib
@@ -110,10 +178,11 @@ fn ensure_cube(path: &Path, shape: (usize, usize), frames: usize) {
 }
 
 fn main() {
-    let args: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(what) = all.first().and_then(|a| a.strip_prefix("--measure=")) {
+        return measure(what, Path::new(&all[1]), Path::new(&all[2]));
+    }
+    let args: Vec<usize> = all.iter().filter_map(|a| a.parse().ok()).collect();
     let frames = args.first().copied().unwrap_or(2000);
     let shape = (
         args.get(1).copied().unwrap_or(512),
@@ -130,32 +199,11 @@ fn main() {
         .unwrap_or_else(|| dir.path().join("cube.fits"));
     ensure_cube(&cube, shape, frames);
     let bytes = std::fs::metadata(&cube).expect("cube").len();
-
-    let mut buf = vec![0u8; 1 << 20];
-    let cat = best(runs, || {
-        let mut f = std::fs::File::open(&cube).expect("open cube");
-        while f.read(&mut buf).expect("read cube") > 0 {}
-    });
-    drop(buf);
-    let hash = best(runs, || {
-        sha256_file(&cube).expect("hash");
-    });
-    let darks = |checksums: bool| {
-        let job = DarksRun {
-            stack: vec![cube.clone()],
-            out: dir.path().join("out"),
-            force: false,
-            options: DarkOptions::default(),
-            gain_e_per_adu: Some(0.25),
-            checksums,
-            accept_illuminated: false,
-        };
-        move || {
-            run(&job, &Silent).expect("darks");
-        }
-    };
-    let with = best(runs, darks(true));
-    let without = best(runs, darks(false));
+    // Warm the page cache.
+    best(1, "cat", &cube, &dir.path().join("out"));
+    let m = |what: &str| best(runs, what, &cube, &dir.path().join("out"));
+    let (cat, hash, sha) = (m("cat"), m("hash"), m("sha"));
+    let (with, without) = (m("darks"), m("darks-no-checksums"));
 
     println!(
         "darks bench: {} ({:.3} GB), {frames} frames of {}x{} uint16, best of {runs} runs",
@@ -165,7 +213,8 @@ fn main() {
         shape.1
     );
     line("read alone (cat, one thread)", bytes, cat);
-    line("SHA-256 alone (one thread)", bytes, hash);
+    line("read and SHA-256 (one thread)", bytes, hash);
+    line("SHA-256 of data in cache (one core)", bytes, sha);
     line("darks with checksums", bytes, with);
     line("darks without checksums", bytes, without);
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
