@@ -191,16 +191,28 @@ pub(super) fn mean_var(s: Sums) -> (f64, f64) {
     // (A conversion to i64 and back keeps the check to two instructions.)
     let integral = |v: f64| v.abs() < EXACT && (v as i64) as f64 == v;
     if integral(shift) && integral(s1) && integral(s2) && integral(n) {
-        let [ni, si, s1i, s2i] = [n, shift, s1, s2].map(|v| v as i64 as i128);
-        // Rounded once to f64 (through i64 when it fits: the same value, in hardware).
-        let float = |v: i128| i64::try_from(v).map_or(v as f64, |v| v as f64);
-        let mean = float(ni * si + s1i) / n;
+        let [ni, si, s1i, s2i] = [n, shift, s1, s2].map(|v| v as i64);
+        // n sum x and n^2 M2 as exact integers: in i64 when they fit (16-bit samples: always
+        // below 46,000 frames), else in i128; rounded once to f64.
+        let in_i64 = || {
+            Some((
+                ni.checked_mul(si)?.checked_add(s1i)?,
+                ni.checked_mul(s2i)?.checked_sub(s1i.checked_mul(s1i)?)?,
+            ))
+        };
+        let (sum, m2n) = match in_i64() {
+            Some((a, b)) => (a as f64, b.max(0) as f64),
+            None => {
+                let [ni, si, s1i, s2i] = [ni, si, s1i, s2i].map(i128::from);
+                ((ni * si + s1i) as f64, (ni * s2i - s1i * s1i).max(0) as f64)
+            }
+        };
         let var = if n >= 2.0 {
-            float((ni * s2i - s1i * s1i).max(0)) / (n * (n - 1.0))
+            m2n / (n * (n - 1.0))
         } else {
             f64::NAN
         };
-        return (mean, var);
+        return (sum / n, var);
     }
     let mean = shift + s1 / n;
     let var = if n >= 2.0 {
@@ -240,6 +252,14 @@ mod tests {
         let s = sums_of(&x, 0.0);
         assert_eq!((s.s2 - s.s1 * s.s1 / 3.0) / 2.0, 2.5);
         assert_eq!(mean_var(s), (base + 4.0 / 3.0, 7.0 / 3.0));
+        // Products beyond i64 (n sum (x - shift)^2 = 2^64) take 128-bit integers.
+        let big = Sums {
+            n: 4096.0,
+            shift: 0.0,
+            s1: 0.0,
+            s2: 4_503_599_627_370_496.0,
+        };
+        assert_eq!(mean_var(big), (0.0, 4_503_599_627_370_496.0 / 4095.0));
         // One sample: a mean, no variance; none: neither.
         let (m, v) = mean_var(sums_of(&[7.0], 7.0));
         assert!(m == 7.0 && v.is_nan());
