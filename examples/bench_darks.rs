@@ -1,24 +1,34 @@
-//! Benchmark of `darks`: writes a 512 x 512 x 2000 uint16 FITS cube (1 GiB) to a temporary
-//! directory, reads it once to warm the page cache, then runs the dark calibration and its
-//! outputs, printing throughput (MB/s of stored samples) and peak resident memory (VmHWM).
+//! Benchmark of `detnoise darks`: a 512 x 512 x 2000 uint16 FITS cube (1 GiB) in the page
+//! cache, calibrated as the command does (statistics, maps, outputs), with and without the
+//! SHA-256 checksums of the inputs. Prints GB/s of file read (1 GB = 1e9 bytes), CPU seconds
+//! and the peak resident memory (VmHWM) of each run, and the floors of this machine: one
+//! thread reading the file (`cat`), one thread reading and hashing it, and SHA-256 of data
+//! already in cache on one core (SHA-256 of one file cannot be split across cores, so that
+//! bounds `darks` with checksums). Every measurement runs in a fresh process of this
+//! program, as the command would, so that its peak memory is its own.
 //!
 //! cargo run --release --example bench_darks [-- FRAMES [ROWS COLS]]
-//! For an external view of memory: /usr/bin/time -v target/release/examples/bench_darks
+//! DETNOISE_BENCH_CUBE=PATH keeps the cube at PATH (reused when it has the right size);
+//! DETNOISE_BENCH_RUNS=N runs each measurement N times (default 3) and reports the fastest.
 
+use std::hint::black_box;
 use std::io::Read;
+use std::path::{Path, PathBuf};
+use std::process::Command;
 use std::time::Instant;
 
-use detnoise::calib::darks::{dark_maps, DarkOptions};
-use detnoise::io::FrameStack;
+use detnoise::calib::darks::{run, DarkOptions, DarksRun};
+use detnoise::calib::summary::sha256_file;
+use detnoise::progress::Silent;
+use sha2::{Digest, Sha256};
 
-fn vm_hwm_kib() -> Option<u64> {
-    let s = std::fs::read_to_string("/proc/self/status").ok()?;
+/// Peak resident memory of this process (KiB).
+fn vm_hwm_kib() -> u64 {
+    let s = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     s.lines()
-        .find(|l| l.starts_with("VmHWM:"))?
-        .split_whitespace()
-        .nth(1)?
-        .parse()
-        .ok()
+        .find(|l| l.starts_with("VmHWM:"))
+        .and_then(|l| l.split_whitespace().nth(1)?.parse().ok())
+        .unwrap_or(0)
 }
 
 /// CPU time (user + system) of this process so far, in seconds.
@@ -29,24 +39,124 @@ fn cpu_seconds() -> f64 {
         .split_whitespace()
         .filter_map(|x| x.parse().ok())
         .collect();
-    // Fields 14 and 15 of stat (utime, stime); the state letter (field 3) is not numeric, so they are the 11th and 12th numbers after the command name.
-    (f.get(10).copied().unwrap_or(0.0) + f.get(11).copied().unwrap_or(0.0)) / 100.0
+    // utime and stime are fields 14 and 15 of stat: the 11th and 12th numbers after the
+    // command name (the state letter, field 3, is not a number).
+    let ticks = f.get(10).copied().unwrap_or(0.0) + f.get(11).copied().unwrap_or(0.0);
+    ticks / 100.0
 }
 
-fn main() {
-    let args: Vec<usize> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
-    let frames = args.first().copied().unwrap_or(2000);
-    let (rows, cols) = (
-        args.get(1).copied().unwrap_or(512),
-        args.get(2).copied().unwrap_or(512),
+/// One measurement: wall seconds, CPU seconds, peak resident memory of the process (MiB),
+/// and the seconds of the reading phase (statistics and checksums) of a darks run.
+#[derive(Clone, Copy, Debug)]
+struct Run {
+    wall: f64,
+    cpu: f64,
+    hwm_mib: f64,
+    reading: Option<f64>,
+}
+
+/// SHA-256 of `bytes` bytes of data in L2 cache (a 1 MiB buffer, hashed repeatedly).
+fn sha256_in_cache(bytes: u64) {
+    let buf = vec![0x5au8; 1 << 20];
+    let mut h = Sha256::new();
+    for _ in 0..bytes.div_ceil(buf.len() as u64) {
+        h.update(black_box(&buf));
+    }
+    black_box(h.finalize());
+}
+
+/// Run measurement `what` on `cube` in this process and print it as one line (child side).
+fn measure(what: &str, cube: &Path, out: &Path) {
+    let bytes = std::fs::metadata(cube).expect("cube").len();
+    let (t, c) = (Instant::now(), cpu_seconds());
+    let reading = match what {
+        "cat" => {
+            let mut buf = vec![0u8; 1 << 20];
+            let mut f = std::fs::File::open(cube).expect("open cube");
+            while f.read(&mut buf).expect("read cube") > 0 {}
+            None
+        }
+        "hash" => {
+            sha256_file(cube).expect("hash");
+            None
+        }
+        "sha" => {
+            sha256_in_cache(bytes);
+            None
+        }
+        "darks" | "darks-no-checksums" => {
+            let job = DarksRun {
+                stack: vec![cube.to_path_buf()],
+                out: out.to_path_buf(),
+                force: false,
+                options: DarkOptions::default(),
+                gain_e_per_adu: Some(0.25),
+                checksums: what == "darks",
+                accept_illuminated: false,
+            };
+            Some(run(&job, &Silent).expect("darks").read_seconds)
+        }
+        other => panic!("unknown measurement {other}"),
+    };
+    println!(
+        "{} {} {} {}",
+        t.elapsed().as_secs_f64(),
+        cpu_seconds() - c,
+        vm_hwm_kib() as f64 / 1024.0,
+        reading.unwrap_or(f64::NAN)
     );
-    let dir = tempfile::tempdir().expect("temp dir");
-    let cube = dir.path().join("cube.fits");
-    let npix = rows * cols;
-    // Cheap deterministic noise (xorshift): the bench measures reading, not simulation.
+}
+
+/// The fastest of `runs` child processes measuring `what`.
+fn best(runs: usize, what: &str, cube: &Path, out: &Path) -> Run {
+    let exe = std::env::current_exe().expect("own path");
+    (0..runs)
+        .map(|_| {
+            let _ = std::fs::remove_dir_all(out);
+            let o = Command::new(&exe)
+                .arg(format!("--measure={what}"))
+                .arg(cube)
+                .arg(out)
+                .output()
+                .expect("run a measurement");
+            assert!(o.status.success(), "{what}: {o:?}");
+            let v: Vec<f64> = String::from_utf8_lossy(&o.stdout)
+                .split_whitespace()
+                .map(|x| x.parse().expect("a number"))
+                .collect();
+            Run {
+                wall: v[0],
+                cpu: v[1],
+                hwm_mib: v[2],
+                reading: Some(v[3]).filter(|r| r.is_finite()),
+            }
+        })
+        .min_by(|a, b| a.wall.total_cmp(&b.wall))
+        .expect("at least one run")
+}
+
+fn line(what: &str, bytes: u64, r: Run) {
+    let gbs = |s: f64| bytes as f64 / 1e9 / s;
+    let reading = r.reading.map_or(String::new(), |s| {
+        format!(" (reading: {s:.3} s = {:.2} GB/s)", gbs(s))
+    });
+    println!(
+        "  {what:<36} {:>5.2} GB/s  {:.3} s wall, {:.3} CPU s, peak {:.1} MiB{reading}",
+        gbs(r.wall),
+        r.wall,
+        r.cpu,
+        r.hwm_mib
+    );
+}
+
+/// Write the benchmark cube at `path` (cheap deterministic noise around 100 adu: the bench
+/// measures reading, not simulation), unless a file of the expected size is there already.
+fn ensure_cube(path: &Path, shape: (usize, usize), frames: usize) {
+    let npix = shape.0 * shape.1;
+    let data = (npix * frames * 2) as u64;
+    if std::fs::metadata(path).is_ok_and(|m| m.len() >= data && m.len() < data + 2 * 2880 * 4) {
+        return;
+    }
     let mut state = 0x9e37_79b9_7f4a_7c15u64;
     let mut next = || {
         (0..npix)
@@ -59,70 +169,66 @@ fn main() {
             .collect::<Vec<f64>>()
     };
     let t = Instant::now();
-    detnoise::io::fits::write_cube(&cube, (rows, cols), frames, true, &mut next, &[])
-        .expect("write cube");
-    let bytes = std::fs::metadata(&cube).unwrap().len();
+    detnoise::io::fits::write_cube(path, shape, frames, true, &mut next, &[]).expect("write cube");
     eprintln!(
-        "wrote {} ({:.1} MB) in {:.1} s",
-        cube.display(),
-        bytes as f64 / 1e6,
+        "wrote {} in {:.1} s",
+        path.display(),
         t.elapsed().as_secs_f64()
     );
-    // Warm the page cache.
-    let mut f = std::fs::File::open(&cube).unwrap();
-    let mut buf = vec![0u8; 1 << 22];
-    while f.read(&mut buf).unwrap() > 0 {}
-    drop(buf);
-    let hwm_before = vm_hwm_kib().unwrap_or(0);
+}
 
-    let stack = FrameStack::open(std::slice::from_ref(&cube)).unwrap();
-    let (t, c) = (Instant::now(), cpu_seconds());
-    let mut frame = vec![0.0; npix];
-    let mut reader = stack.reader();
-    while reader.next_frame(&mut frame).unwrap().is_some() {}
-    let t_read = t.elapsed().as_secs_f64();
-    let c_read = cpu_seconds() - c;
-    drop(frame);
-
-    let (t, c) = (Instant::now(), cpu_seconds());
-    let opts = DarkOptions::default();
-    let maps = dark_maps(&stack, &opts).unwrap();
-    let t_maps = t.elapsed().as_secs_f64();
-    let c_maps = cpu_seconds() - c;
-    let (_, inputs) = detnoise::calib::summary::with_inputs_hashed(&stack, || Ok(())).unwrap();
-    let t_hash = t.elapsed().as_secs_f64() - t_maps;
-    detnoise::calib::darks::write_outputs(
-        &dir.path().join("out"),
-        &stack,
-        &maps,
-        &opts,
-        None,
-        inputs,
-        "summary.json",
-    )
-    .unwrap();
-    let t_all = t.elapsed().as_secs_f64();
-    let mb = stack.stored_bytes() as f64 / 1e6;
-    println!("darks bench: {frames} frames of {rows}x{cols} uint16, {mb:.1} MB of samples");
-    println!("  reading alone (one thread, decode to f64): {t_read:.2} s = {:.0} MB/s ({c_read:.2} CPU s)", mb / t_read);
-    println!(
-        "  statistics: {t_maps:.2} s = {:.0} MB/s ({c_maps:.2} CPU s, {:.0} MB per CPU-second)",
-        mb / t_maps,
-        mb / c_maps
+fn main() {
+    let all: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(what) = all.first().and_then(|a| a.strip_prefix("--measure=")) {
+        return measure(what, Path::new(&all[1]), Path::new(&all[2]));
+    }
+    let args: Vec<usize> = all.iter().filter_map(|a| a.parse().ok()).collect();
+    let frames = args.first().copied().unwrap_or(2000);
+    let shape = (
+        args.get(1).copied().unwrap_or(512),
+        args.get(2).copied().unwrap_or(512),
     );
+    let runs: usize = std::env::var("DETNOISE_BENCH_RUNS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(3)
+        .max(1);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let cube = std::env::var_os("DETNOISE_BENCH_CUBE")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| dir.path().join("cube.fits"));
+    ensure_cube(&cube, shape, frames);
+    let bytes = std::fs::metadata(&cube).expect("cube").len();
+    // Warm the page cache.
+    best(1, "cat", &cube, &dir.path().join("out"));
+    let m = |what: &str| best(runs, what, &cube, &dir.path().join("out"));
+    let (cat, hash, sha) = (m("cat"), m("hash"), m("sha"));
+    let (with, without) = (m("darks"), m("darks-no-checksums"));
+
+    println!(
+        "darks bench: {} ({:.3} GB), {frames} frames of {}x{} uint16, best of {runs} runs",
+        cube.display(),
+        bytes as f64 / 1e9,
+        shape.0,
+        shape.1
+    );
+    line("read alone (cat, one thread)", bytes, cat);
+    line("read and SHA-256 (one thread)", bytes, hash);
+    line("SHA-256 of data in cache (one core)", bytes, sha);
+    line("darks with checksums", bytes, with);
+    line("darks without checksums", bytes, without);
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
-        "  load average (2 cores): {}",
+        "  cores: {}, load average: {}",
+        std::thread::available_parallelism().map_or(0, |n| n.get()),
         load.split_whitespace()
             .take(3)
             .collect::<Vec<_>>()
             .join(" ")
     );
-    println!("  SHA-256 of inputs (run alone here; the CLI overlaps it with the statistics): {t_hash:.2} s = {:.0} MB/s", mb / t_hash);
     println!(
-        "  statistics + hash + outputs: {t_all:.2} s = {:.0} MB/s",
-        mb / t_all
+        "  one frame: {:.2} MiB stored, {:.2} MiB as f64",
+        (shape.0 * shape.1 * 2) as f64 / 1048576.0,
+        (shape.0 * shape.1 * 8) as f64 / 1048576.0
     );
-    println!("  peak resident memory (VmHWM): {:.1} MiB (before the run: {:.1} MiB); one f64 frame = {:.1} MiB",
-        vm_hwm_kib().unwrap_or(0) as f64 / 1024.0, hwm_before as f64 / 1024.0, (npix * 8) as f64 / 1048576.0);
 }

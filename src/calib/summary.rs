@@ -1,13 +1,13 @@
 //! Shared pieces of calibration summaries: distribution figures and input provenance.
 
-use std::io::Read;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
+use rayon::slice::ParallelSliceMut;
 use serde::Serialize;
-use sha2::{Digest, Sha256};
 
-use crate::error::{Error, Result};
-use crate::io::FrameStack;
+use crate::error::Result;
+pub use crate::io::sha256_file;
+use crate::io::{hash_stack_while, ByteTap, FrameStack};
 use crate::stats::percentile_sorted as percentile;
 
 /// Distribution figures of a map's finite values (in the map's unit).
@@ -43,7 +43,7 @@ impl Distribution {
     /// Figures of `values` (non-finite values are skipped).
     pub fn of(values: &[f64]) -> Distribution {
         let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-        v.sort_unstable_by(f64::total_cmp);
+        v.par_sort_unstable_by(f64::total_cmp);
         let n = v.len().max(1) as f64;
         let median = percentile(&v, 50.0);
         Distribution {
@@ -78,46 +78,15 @@ pub struct InputFile {
     pub sample_type: crate::io::SampleType,
 }
 
-/// SHA-256 of a file (hex).
-pub fn sha256_file(path: &Path) -> Result<String> {
-    let mut f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
-    let mut h = Sha256::new();
-    let mut buf = vec![0u8; 1 << 20];
-    loop {
-        let n = f.read(&mut buf).map_err(|e| Error::io(path, e))?;
-        if n == 0 {
-            break;
-        }
-        h.update(&buf[..n]);
-    }
-    Ok(h.finalize().iter().map(|b| format!("{b:02x}")).collect())
-}
-
-/// Checksums of every file of a stack.
-pub fn inputs(stack: &FrameStack) -> Result<Vec<InputFile>> {
+/// Input records of a stack's files, with the given checksums (one per file, in order).
+fn records(stack: &FrameStack, sha256: impl IntoIterator<Item = Option<String>>) -> Vec<InputFile> {
     stack
         .sources
         .iter()
-        .map(|s| {
-            Ok(InputFile {
-                path: s.path.clone(),
-                sha256: Some(sha256_file(&s.path)?),
-                frames: s.frames,
-                format: s.format,
-                sample_type: s.sample_type,
-            })
-        })
-        .collect()
-}
-
-/// Input records without checksums.
-pub fn unhashed(stack: &FrameStack) -> Vec<InputFile> {
-    stack
-        .sources
-        .iter()
-        .map(|s| InputFile {
+        .zip(sha256)
+        .map(|(s, sha256)| InputFile {
             path: s.path.clone(),
-            sha256: None,
+            sha256,
             frames: s.frames,
             format: s.format,
             sample_type: s.sample_type,
@@ -125,17 +94,24 @@ pub fn unhashed(stack: &FrameStack) -> Vec<InputFile> {
         .collect()
 }
 
+/// Checksums of every file of a stack.
+pub fn inputs(stack: &FrameStack) -> Result<Vec<InputFile>> {
+    Ok(with_inputs_hashed(stack, |_| Ok(()))?.1)
+}
+
+/// Input records without checksums.
+pub fn unhashed(stack: &FrameStack) -> Vec<InputFile> {
+    records(stack, std::iter::repeat(None))
+}
+
 /// Run `work` while the stack's files are hashed on another thread; returns both results.
+/// `work` may hand the tap to the stack reader
+/// ([`read_batches`](crate::io::read_batches)) so that the frames it reads are hashed from
+/// memory rather than read twice.
 pub fn with_inputs_hashed<T>(
     stack: &FrameStack,
-    work: impl FnOnce() -> Result<T>,
+    work: impl FnOnce(&ByteTap) -> Result<T>,
 ) -> Result<(T, Vec<InputFile>)> {
-    std::thread::scope(|s| {
-        let h = s.spawn(|| inputs(stack));
-        let r = work();
-        let hashes = h
-            .join()
-            .map_err(|_| Error::Numeric("hashing thread panicked".into()))?;
-        Ok((r?, hashes?))
-    })
+    let (value, sha256) = hash_stack_while(stack, work)?;
+    Ok((value, records(stack, sha256.into_iter().map(Some))))
 }

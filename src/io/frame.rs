@@ -23,8 +23,9 @@ pub(crate) trait FileFrames {
         None
     }
 
-    /// Read the stored bytes of frame `k` (only when `raw_layout(k)` is Some).
-    fn read_raw(&mut self, k: usize, _bytes: &mut Vec<u8>) -> Result<()> {
+    /// Read the stored bytes of frame `k` (only when `raw_layout(k)` is Some); returns their
+    /// byte offset in the file.
+    fn read_raw(&mut self, k: usize, _bytes: &mut Vec<u8>) -> Result<u64> {
         Err(Error::Numeric(format!(
             "frame {k}: no raw read for this format"
         )))
@@ -68,19 +69,19 @@ impl RawLayout {
         }
     }
 
-    /// Decode `bytes` (a whole number of samples) into `out`.
+    /// Decode `bytes` (a whole number of samples) into `out`, as many samples as both hold.
+    /// Always inlined, so that callers compiled for wider vectors decode with them.
+    #[inline(always)]
     pub fn decode(&self, bytes: &[u8], out: &mut [f64]) {
         let (scale, zero) = (self.scale, self.zero);
+        // One loop per type and byte order: each vectorises (byte swap and conversion of a
+        // vector of samples at a time).
         macro_rules! dec {
             ($t:ty, $n:expr) => {
-                for (o, c) in out.iter_mut().zip(bytes.chunks_exact($n)) {
-                    let a: [u8; $n] = c.try_into().expect("chunk size");
-                    let v = if self.big_endian {
-                        <$t>::from_be_bytes(a)
-                    } else {
-                        <$t>::from_le_bytes(a)
-                    };
-                    *o = v as f64 * scale + zero;
+                if self.big_endian {
+                    fill::<$n>(out, bytes, scale, zero, |a| <$t>::from_be_bytes(a) as f64)
+                } else {
+                    fill::<$n>(out, bytes, scale, zero, |a| <$t>::from_le_bytes(a) as f64)
                 }
             };
         }
@@ -91,6 +92,43 @@ impl RawLayout {
             RawKind::I64 => dec!(i64, 8),
         }
     }
+}
+
+/// `out[i] = stored(sample i of bytes) x scale + zero`. Multiplying by a scale of 1 is exact,
+/// so that case skips it and gives the same values.
+#[inline(always)]
+fn fill<const N: usize>(
+    out: &mut [f64],
+    bytes: &[u8],
+    scale: f64,
+    zero: f64,
+    stored: impl Fn([u8; N]) -> f64,
+) {
+    let samples = bytes
+        .chunks_exact(N)
+        .map(|c| <[u8; N]>::try_from(c).expect("N bytes"));
+    if scale == 1.0 {
+        for (o, a) in out.iter_mut().zip(samples) {
+            *o = stored(a) + zero;
+        }
+    } else {
+        for (o, a) in out.iter_mut().zip(samples) {
+            *o = stored(a) * scale + zero;
+        }
+    }
+}
+
+/// Where a frame came from: its index in the stack, the file holding it, and for stored bytes
+/// handed over undecoded, their byte offset in that file (so the bytes can be checksummed
+/// without reading them again).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrameOrigin {
+    /// Frame index in the stack (0-based).
+    pub index: usize,
+    /// Index of its file in the stack's `sources`.
+    pub source: usize,
+    /// Byte offset of the stored bytes in the file (raw frames only).
+    pub offset: Option<u64>,
 }
 
 /// One frame as a stack reader delivers it

@@ -7,10 +7,13 @@
 //!
 //! Layout: `inputs` expands stack arguments to files, `format` detects a file's format,
 //! `file` dispatches to the format's reader (`fits`, `tiff`, `exr`), `stack` checks that the
-//! files form one stack, `reader` reads its frames in order as `frame` data; `checks` holds
-//! the limits and the errors naming file and frame.
+//! files form one stack, `reader` reads its frames in order as `frame` data, `stream` reads
+//! them in batches on a thread of their own and `digest` hashes the stack's files (taking
+//! the bytes `stream` has read from memory); `checks` holds the limits and the errors naming
+//! file and frame.
 
 mod checks;
+mod digest;
 pub mod exr;
 mod file;
 pub mod fits;
@@ -19,12 +22,15 @@ mod frame;
 mod inputs;
 mod reader;
 mod stack;
+mod stream;
 pub mod tiff;
 
 pub use checks::{name_file, MAX_EXPANSION, MAX_SAMPLE_ABS};
+pub use digest::{hash_stack_while, sha256_file, ByteTap};
 pub use file::{read_first_frame, SourceFile};
 pub use format::{SampleType, StackFormat};
-pub use frame::{FrameData, RawKind, RawLayout};
+pub use frame::{FrameData, FrameOrigin, RawKind, RawLayout};
 pub use inputs::expand_inputs;
 pub use reader::StackReader;
 pub use stack::FrameStack;
+pub use stream::{read_batches, FrameBatch};

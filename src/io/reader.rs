@@ -3,7 +3,7 @@
 
 use super::checks::{add_stack_frame, check_samples, prefix_frame};
 use super::file::open_file;
-use super::frame::{FileFrames, FrameData};
+use super::frame::{FileFrames, FrameData, FrameOrigin};
 use super::stack::FrameStack;
 use crate::error::Result;
 
@@ -31,8 +31,9 @@ pub struct StackReader<'a> {
 
 impl StackReader<'_> {
     /// Read the next frame into `slot`, as stored integer bytes when the file allows it
-    /// (reusing the slot's buffers), else as values. Returns the stack frame index, or None.
-    pub fn next_frame_data(&mut self, slot: &mut FrameData) -> Result<Option<usize>> {
+    /// (reusing the slot's buffers), else as values. Returns where the frame came from, or
+    /// None at the end.
+    pub fn next_frame_data(&mut self, slot: &mut FrameData) -> Result<Option<FrameOrigin>> {
         self.skip_finished_files();
         let Some(src) = self.stack.sources.get(self.file_index) else {
             return Ok(None);
@@ -47,23 +48,32 @@ impl StackReader<'_> {
                 FrameData::Values(_) => Vec::new(),
             };
             bytes.resize(self.stack.pixels() * layout.width(), 0);
-            reader
+            let offset = reader
                 .read_raw(self.local, &mut bytes)
                 .map_err(|e| add_stack_frame(e, self.global))?;
             *slot = FrameData::Raw(bytes, layout);
-            let k = self.global;
+            let origin = FrameOrigin {
+                index: self.global,
+                source: self.file_index,
+                offset: Some(offset),
+            };
             self.local += 1;
             self.global += 1;
-            return Ok(Some(k));
+            return Ok(Some(origin));
         }
         let mut values = match std::mem::replace(slot, FrameData::Values(Vec::new())) {
             FrameData::Values(v) => v,
             FrameData::Raw(..) => Vec::new(),
         };
         values.resize(self.stack.pixels(), 0.0);
+        let source = self.file_index;
         let r = self.next_frame(&mut values);
         *slot = FrameData::Values(values);
-        r
+        Ok(r?.map(|index| FrameOrigin {
+            index,
+            source,
+            offset: None,
+        }))
     }
 
     fn skip_finished_files(&mut self) {

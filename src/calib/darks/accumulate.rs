@@ -1,33 +1,24 @@
 //! Per-pixel statistics of a frame stack: mean, sample standard deviation, split-half maps,
 //! clipping and a per-frame hook (common-mode removal, lamp normalisation).
 //!
-//! Accumulation is in f64. Frames are added to per-pixel shifted sums (shift = the pixel's
-//! first sample, which keeps the sums small and, for integer data, exact), and every
-//! `BLOCK` frames the block's (count, mean, M2) is merged into the running Welford state
-//! with Chan's formula. Even and odd frames have separate accumulators (the split-half
-//! maps); the totals are their Chan merge. Frames are processed in batches, and each
-//! batch is swept tile by tile across pixels (rayon), so the accumulators of one tile stay
-//! in cache while it sees every frame of the batch. The reading runs on its own thread
-//! (CFITSIO handles are not `Send`); memory is the accumulators plus a few frames.
-
-use std::sync::mpsc;
+//! The frames are read in batches on a thread of their own ([`read_batches`]), which can
+//! share them with the checksum thread. Each batch is swept tile by tile across pixels
+//! (rayon; `kernel`), adding every sample to per-pixel sums over the whole stack (`tile`):
+//! exact for integer samples, and the same for any thread count. Memory is the sums (eight
+//! f64 per pixel, ten with clipping, plus the tracked extremes) and a few batches of frames
+//! (`io::stream`), O(frame).
 
 use rayon::prelude::*;
 
+use super::kernel::{sweep, FrameView};
 use super::options::Clip;
-use super::tile::{merge, sample_std, zeros, Tile};
+use super::tile::{mean_var, Tile};
 use crate::calib::{Map, Unit};
 use crate::error::{Error, Result};
-use crate::io::{FrameData, FrameStack};
+use crate::io::{read_batches, ByteTap, FrameData, FrameStack};
 
-/// Frames per parity accumulated as shifted sums before a Chan merge.
-const BLOCK: usize = 64;
-/// Frames read ahead and swept together.
-const BATCH: usize = 4;
-/// Pixels per tile.
+/// Pixels per tile (one rayon task per batch).
 const TILE: usize = 4096;
-/// Pixels per cache block within a tile.
-const SUB: usize = 256;
 
 /// A per-frame transformation applied before accumulation; returns a scalar recorded per
 /// frame (common-mode offset, lamp level). Called on frames in order.
@@ -56,178 +47,142 @@ pub struct PixelStats {
     pub per_frame: Vec<f64>,
 }
 
-/// Run `consume` on batches of frames read on a separate thread (one being read while one is used).
-fn stream_batches(
-    stack: &FrameStack,
-    mut consume: impl FnMut(&mut [FrameData], usize) -> Result<()>,
-) -> Result<()> {
-    let (tx, rx) = mpsc::sync_channel::<Result<(Vec<FrameData>, usize)>>(0);
-    let (back_tx, back_rx) = mpsc::channel::<Vec<FrameData>>();
-    std::thread::scope(|s| {
-        let reader_stack = stack.clone();
-        s.spawn(move || {
-            let mut reader = reader_stack.reader();
-            let mut first = 0;
-            loop {
-                let mut batch = back_rx.try_recv().unwrap_or_default();
-                batch.resize_with(BATCH, || FrameData::Values(Vec::new()));
-                let mut filled = 0;
-                let mut failed = None;
-                while filled < BATCH {
-                    match reader.next_frame_data(&mut batch[filled]) {
-                        Ok(Some(_)) => filled += 1,
-                        Ok(None) => break,
-                        Err(e) => {
-                            failed = Some(e);
-                            break;
-                        }
-                    }
-                }
-                if let Some(e) = failed {
-                    let _ = tx.send(Err(e));
-                    return;
-                }
-                if filled == 0 {
-                    return;
-                }
-                batch.truncate(filled);
-                if tx.send(Ok((batch, first))).is_err() {
-                    return;
-                }
-                first += filled;
-            }
-        });
-        let result = (|| {
-            for msg in rx.iter() {
-                let (mut batch, first) = msg?;
-                consume(&mut batch, first)?;
-                let _ = back_tx.send(batch);
-            }
-            Ok(())
-        })();
-        drop(rx);
-        result
-    })
+/// The sums of one pass over a stack.
+struct Pass {
+    tiles: Vec<Tile>,
+    /// Values returned by the hook, one per frame used.
+    per_frame: Vec<f64>,
+    /// Frames used.
+    frames: usize,
 }
 
-/// Accumulate one pass over `stack`. `window` (per-pixel lo, hi) restricts the samples used;
-/// `select` (one flag per stack frame) the frames, which are then numbered among themselves.
+impl Pass {
+    /// Frames of each parity (even, odd) of the frame index.
+    fn parity_frames(&self) -> [f64; 2] {
+        [self.frames.div_ceil(2) as f64, (self.frames / 2) as f64]
+    }
+}
+
+/// Acceptance window of sigma clipping's second pass: per pixel shift, lowest and highest
+/// sample kept.
+type Window<'a> = (&'a [f64], &'a [f64], &'a [f64]);
+
+/// Decode `frame` into `out` (the hook transforms values in place).
+fn decode_into(frame: &FrameData, out: &mut Vec<f64>) {
+    match frame {
+        FrameData::Values(v) => {
+            out.clear();
+            out.extend_from_slice(v);
+        }
+        FrameData::Raw(bytes, layout) => {
+            out.resize(bytes.len() / layout.width(), 0.0);
+            layout.decode(bytes, out);
+        }
+    }
+}
+
+/// While a core hashes the stack (`tap`), the statistics run on one worker thread fewer than
+/// the global pool has, so that the checksum thread keeps its core (SHA-256 bounds the run);
+/// with two cores that is one thread, and no hand-over between threads per batch.
+fn hashing_pool(tap: Option<&ByteTap>) -> Option<rayon::ThreadPool> {
+    let threads = rayon::current_num_threads();
+    if tap.is_none() || threads < 2 {
+        return None;
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads - 1)
+        .thread_name(|i| format!("detnoise-stats-{i}"))
+        .build()
+        .ok()
+}
+
+/// Accumulate one pass over `stack`: the frames flagged in `select` (all when None), numbered
+/// among themselves, transformed by `hook`, tracking `extremes` per pixel and end, within
+/// `window`. Batches read go to `tap` too.
 fn pass(
     stack: &FrameStack,
     hook: Option<FrameHook>,
     extremes: usize,
-    window: Option<(&[f64], &[f64])>,
-    shift: Option<&[f64]>,
+    window: Option<Window>,
     select: Option<&[bool]>,
-) -> Result<(Vec<Tile>, Vec<f64>, usize)> {
+    tap: Option<&ByteTap>,
+) -> Result<Pass> {
     let npix = stack.pixels();
     let mut tiles: Vec<Tile> = (0..npix.div_ceil(TILE))
-        .map(|t| Tile::new(t * TILE, TILE.min(npix - t * TILE), extremes))
+        .map(|t| {
+            let r = t * TILE..npix.min((t + 1) * TILE);
+            match window {
+                None => Tile::new(r.start, r.len(), extremes),
+                Some((shift, lo, hi)) => {
+                    Tile::windowed(r.start, &shift[r.clone()], &lo[r.clone()], &hi[r])
+                }
+            }
+        })
         .collect();
-    if let Some((lo, hi)) = window {
-        for t in &mut tiles {
-            t.window = Some((
-                lo[t.start..t.start + t.len].to_vec(),
-                hi[t.start..t.start + t.len].to_vec(),
-            ));
-            t.cnt = Some([zeros(t.len), zeros(t.len)]);
-        }
-    }
-    let mut per_frame = Vec::with_capacity(stack.frames);
-    let mut frames = 0usize;
-    let mut pending = [0usize; 2];
-    // With a hook the tiles see transformed frames, so the raw maximum is kept here.
-    let mut raw_max = if hook.is_some() {
-        vec![f64::NEG_INFINITY; npix]
-    } else {
-        Vec::new()
-    };
+    let mut per_frame = Vec::new();
+    let mut used = 0usize;
     let mut read = 0usize;
-    stream_batches(stack, |batch, first_read| {
-        read = first_read + batch.len();
-        // Selected frames move to the front of the batch and take the next indices.
-        let (batch, first) = match select {
-            None => (batch, first_read),
-            Some(sel) => {
-                let mut n = 0;
-                for j in 0..batch.len() {
-                    if sel[first_read + j] {
-                        batch.swap(n, j);
-                        n += 1;
-                    }
-                }
-                (&mut batch[..n], frames)
-            }
-        };
-        if batch.is_empty() {
-            return Ok(());
-        }
-        if let Some(h) = hook {
-            batch.par_iter_mut().for_each(|f| f.decode_in_place());
-            raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
-                for f in batch.iter() {
-                    for (mi, x) in m.iter_mut().zip(&f.values()[t * TILE..]) {
-                        *mi = mi.max(*x);
-                    }
-                }
-            });
-            let values: Vec<f64> = batch
-                .par_iter_mut()
-                .enumerate()
-                .map(|(j, f)| h(first + j, f.values_mut()))
+    // With a hook the tiles see transformed frames, so the raw maximum is kept here.
+    let mut raw_max = match hook {
+        Some(_) => vec![f64::NEG_INFINITY; npix],
+        None => Vec::new(),
+    };
+    let mut decoded: Vec<Vec<f64>> = Vec::new();
+    let mut reading = || {
+        read_batches(stack, tap, |batch| {
+            read = batch.origins().last().map_or(read, |o| o.index + 1);
+            let chosen: Vec<&FrameData> = batch
+                .frames()
+                .iter()
+                .zip(batch.origins())
+                .filter(|(_, o)| select.is_none_or(|s| s[o.index]))
+                .map(|(f, _)| f)
                 .collect();
-            per_frame.extend(values);
-        }
-        tiles.par_iter_mut().for_each(|t| {
-            if first == 0 {
-                if let Some(sh) = shift {
-                    // Second pass (window): prev and vn are not used.
-                    t.shift.copy_from_slice(&sh[t.start..t.start + t.len]);
-                }
+            if chosen.is_empty() {
+                return Ok(());
             }
-            // Cache blocking: each run of SUB pixels sees every frame of the batch while its
-            // accumulators sit in L1.
-            // Raw frames are decoded here, a run at a time, so the stored bytes cross between
-            // threads instead of 8-byte values.
-            let mut local = [0.0f64; SUB];
-            for a in (0..t.len).step_by(SUB) {
-                let r = a..(a + SUB).min(t.len);
-                let (lo, hi) = (t.start + r.start, t.start + r.end);
-                for (j, f) in batch.iter().enumerate() {
-                    let k = first + j;
-                    let x: &[f64] = match f {
-                        FrameData::Values(v) => &v[lo..hi],
-                        FrameData::Raw(b, layout) => {
-                            let w = layout.width();
-                            layout.decode(&b[lo * w..hi * w], &mut local[..r.len()]);
-                            &local[..r.len()]
+            let views: Vec<FrameView> = match hook {
+                None => chosen
+                    .iter()
+                    .map(|f| match f {
+                        FrameData::Values(v) => FrameView::Values(v),
+                        FrameData::Raw(b, layout) => FrameView::Raw(b, *layout),
+                    })
+                    .collect(),
+                Some(h) => {
+                    decoded.resize_with(chosen.len(), Vec::new);
+                    let decoded = &mut decoded[..chosen.len()];
+                    decoded
+                        .par_iter_mut()
+                        .zip(&chosen)
+                        .for_each(|(out, f)| decode_into(f, out));
+                    raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
+                        for f in decoded.iter() {
+                            for (mi, x) in m.iter_mut().zip(&f[t * TILE..]) {
+                                *mi = mi.max(*x);
+                            }
                         }
-                    };
-                    t.add(x, k % 2, k == 0 && shift.is_none(), extremes, r.clone());
+                    });
+                    let values: Vec<f64> = decoded
+                        .par_iter_mut()
+                        .enumerate()
+                        .map(|(j, f)| h(used + j, f))
+                        .collect();
+                    per_frame.extend(values);
+                    decoded.iter().map(|v| FrameView::Values(v)).collect()
                 }
-            }
-        });
-        for j in 0..batch.len() {
-            let k = first + j;
-            pending[k % 2] += 1;
-        }
-        for (p, count) in pending.iter_mut().enumerate() {
-            if *count >= BLOCK {
-                let block = *count as f64;
-                tiles.par_iter_mut().for_each(|t| t.flush(p, block));
-                *count = 0;
-            }
-        }
-        frames = first + batch.len();
-        Ok(())
-    })?;
-    tiles.par_iter_mut().for_each(|t| {
-        t.flush(0, pending[0] as f64);
-        t.flush(1, pending[1] as f64);
-        if !raw_max.is_empty() {
-            t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);
-        }
-    });
+            };
+            tiles
+                .par_iter_mut()
+                .for_each(|t| sweep(t, &views, used, window.is_none(), extremes));
+            used += views.len();
+            Ok(())
+        })
+    };
+    match hashing_pool(tap) {
+        Some(pool) => pool.install(reading)?,
+        None => reading()?,
+    }
     if read != stack.frames {
         return Err(Error::input(
             &stack.sources[0].path,
@@ -237,7 +192,16 @@ fn pass(
             ),
         ));
     }
-    Ok((tiles, per_frame, frames))
+    if !raw_max.is_empty() {
+        for t in &mut tiles {
+            t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);
+        }
+    }
+    Ok(Pass {
+        tiles,
+        per_frame,
+        frames: used,
+    })
 }
 
 /// Per-pixel statistics of `stack` (needs >= 2 frames). `hook` transforms each frame first.
@@ -252,6 +216,17 @@ pub fn pixel_stats_of(
     clip: Clip,
     hook: Option<FrameHook>,
     select: Option<&[bool]>,
+) -> Result<PixelStats> {
+    stats_tapped(stack, clip, hook, select, None)
+}
+
+/// [`pixel_stats_of`], handing the frames read in the first pass to `tap` (checksums).
+pub(super) fn stats_tapped(
+    stack: &FrameStack,
+    clip: Clip,
+    hook: Option<FrameHook>,
+    select: Option<&[bool]>,
+    tap: Option<&ByteTap>,
 ) -> Result<PixelStats> {
     stack.require_frames(2, "a variance")?;
     let used = match select {
@@ -282,18 +257,17 @@ pub fn pixel_stats_of(
         Clip::Extremes(n) => n,
         _ => 0,
     };
-    let (mut tiles, per_frame, frames) = pass(stack, hook, extremes, None, None, select)?;
+    let mut p = pass(stack, hook, extremes, None, select, tap)?;
     let (rows, cols) = stack.shape;
     let npix = stack.pixels();
+    let frames = p.frames;
+    let nf = p.parity_frames();
+    // The von Neumann ratio and the maximum see every sample (before clipping).
     let mut vn_ratio = vec![f64::NAN; npix];
     let mut max = vec![f64::NAN; npix];
-    for t in &tiles {
+    for t in &p.tiles {
         for i in 0..t.len {
-            let tot = merge(
-                (t.n[0][i], t.mean[0][i], t.m2[0][i]),
-                (t.n[1][i], t.mean[1][i], t.m2[1][i]),
-            );
-            let var = tot.2 / (tot.0 - 1.0);
+            let (_, var) = mean_var(t.sums(i, None, nf));
             vn_ratio[t.start + i] = if var > 0.0 {
                 t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
             } else {
@@ -303,50 +277,40 @@ pub fn pixel_stats_of(
         }
     }
     if extremes > 0 {
-        tiles.par_iter_mut().for_each(|t| {
-            for i in 0..t.len {
-                for j in 0..extremes {
-                    let (v, p) = t.hi[i * extremes + j];
-                    t.remove(i, p as usize, v);
-                    let (v, p) = t.lo[i * extremes + j];
-                    t.remove(i, p as usize, v);
-                }
-            }
-        });
+        p.tiles
+            .par_iter_mut()
+            .for_each(|t| t.remove_extremes(extremes, nf));
     }
     if let Clip::Sigma(k) = clip {
-        let (mut lo, mut hi, mut centre) = (vec![0.0; npix], vec![0.0; npix], vec![0.0; npix]);
-        for t in &tiles {
+        let (mut lo, mut hi, mut shift) = (vec![0.0; npix], vec![0.0; npix], vec![0.0; npix]);
+        for t in &p.tiles {
             for i in 0..t.len {
-                let (n, m, m2) = merge(
-                    (t.n[0][i], t.mean[0][i], t.m2[0][i]),
-                    (t.n[1][i], t.mean[1][i], t.m2[1][i]),
-                );
-                let s = sample_std(n, m2);
+                let (m, var) = mean_var(t.sums(i, None, nf));
+                let s = var.sqrt();
                 lo[t.start + i] = m - k * s;
                 hi[t.start + i] = m + k * s;
-                centre[t.start + i] = m;
+                shift[t.start + i] = t.shift[i];
             }
         }
-        // The second pass replays the hook so frames are transformed identically.
-        tiles = pass(stack, hook, 0, Some((&lo, &hi)), Some(&centre), select)?.0;
+        // The second pass replays the hook so frames are transformed identically; it keeps
+        // the first pass's shifts (samples, so integer data keep exact sums).
+        p.tiles = pass(stack, hook, 0, Some((&shift, &lo, &hi)), select, None)?.tiles;
     }
     let mut mean = vec![f64::NAN; npix];
     let mut rms = vec![f64::NAN; npix];
     let mut rms_even = vec![f64::NAN; npix];
     let mut rms_odd = vec![f64::NAN; npix];
     let mut count = vec![0.0; npix];
-    for t in &tiles {
+    for t in &p.tiles {
         for i in 0..t.len {
-            let e = (t.n[0][i], t.mean[0][i], t.m2[0][i]);
-            let o = (t.n[1][i], t.mean[1][i], t.m2[1][i]);
-            let tot = merge(e, o);
             let g = t.start + i;
-            count[g] = tot.0;
-            mean[g] = tot.1;
-            rms[g] = sample_std(tot.0, tot.2);
-            rms_even[g] = sample_std(e.0, e.2);
-            rms_odd[g] = sample_std(o.0, o.2);
+            let tot = t.sums(i, None, nf);
+            let (m, var) = mean_var(tot);
+            count[g] = tot.n;
+            mean[g] = m;
+            rms[g] = var.sqrt();
+            rms_even[g] = mean_var(t.sums(i, Some(0), nf)).1.sqrt();
+            rms_odd[g] = mean_var(t.sums(i, Some(1), nf)).1.sqrt();
         }
     }
     Ok(PixelStats {
@@ -358,6 +322,6 @@ pub fn pixel_stats_of(
         count,
         von_neumann: vn_ratio,
         max,
-        per_frame,
+        per_frame: p.per_frame,
     })
 }

@@ -1,12 +1,13 @@
 //! The maps of a dark stack: offset and read noise (adu), pixel flags, split-half correlation
 //! and the common-mode offsets removed.
 
-use super::accumulate::{pixel_stats, FrameHook, PixelStats};
+use super::accumulate::{stats_tapped, FrameHook, PixelStats};
 use super::flags::flag_pixels;
 use super::options::DarkOptions;
+use crate::calib::summary::{with_inputs_hashed, InputFile};
 use crate::calib::{Map, Unit};
 use crate::error::Result;
-use crate::io::FrameStack;
+use crate::io::{ByteTap, FrameStack};
 use crate::stats::{correlation, median};
 
 /// Dark-stack calibration: offset and read-noise maps, flags and summary figures.
@@ -28,13 +29,27 @@ pub struct DarkMaps {
 
 /// Compute dark maps of `stack` with `opts`.
 pub fn dark_maps(stack: &FrameStack, opts: &DarkOptions) -> Result<DarkMaps> {
+    maps(stack, opts, None)
+}
+
+/// [`dark_maps`] with the SHA-256 of every input file, computed on another thread while the
+/// statistics run (the frames read for them are hashed from memory, not read again).
+pub fn dark_maps_hashed(
+    stack: &FrameStack,
+    opts: &DarkOptions,
+) -> Result<(DarkMaps, Vec<InputFile>)> {
+    with_inputs_hashed(stack, |tap| maps(stack, opts, Some(tap)))
+}
+
+/// Dark maps, handing the frames read to `tap`.
+fn maps(stack: &FrameStack, opts: &DarkOptions, tap: Option<&ByteTap>) -> Result<DarkMaps> {
     let cm = |_k: usize, f: &mut [f64]| {
         let m = median(f);
         f.iter_mut().for_each(|v| *v -= m);
         m
     };
     let hook: Option<FrameHook> = if opts.common_mode { Some(&cm) } else { None };
-    let stats = pixel_stats(stack, opts.clip, hook)?;
+    let stats = stats_tapped(stack, opts.clip, hook, None, tap)?;
     let common_mode_adu = stats.per_frame.clone();
     let cm_mean = if common_mode_adu.is_empty() {
         0.0

@@ -2,14 +2,15 @@
 //! adu) of a dark stack, with clipping, common-mode removal, split-half maps and pixel flags;
 //! the check that the stack saw no light; and the outputs of `detnoise darks`.
 //!
-//! Layout: `accumulate` (with its per-tile state in `tile`) computes the per-pixel statistics
-//! of any stack, `maps` turns those of a dark stack into its maps, `flags` flags pixels,
+//! Layout: `accumulate` computes the per-pixel statistics of any stack (its per-pixel sums in
+//! `tile`, its inner loop in `kernel`), `maps` turns those of a dark stack into its maps, `flags` flags pixels,
 //! `illumination` refuses flats given as darks, `outputs` writes the maps and summary, and
 //! `run` is the whole `darks` command as one call.
 
 mod accumulate;
 mod flags;
 mod illumination;
+mod kernel;
 mod maps;
 mod options;
 mod outputs;
@@ -21,7 +22,10 @@ pub use flags::{
     FlagCounts, FLAG_BITS, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS, FLAG_SATURATED,
 };
 pub use illumination::{require_dark, Illumination};
-pub use maps::{dark_maps, DarkMaps};
+pub use maps::{dark_maps, dark_maps_hashed, DarkMaps};
 pub use options::{Clip, DarkOptions};
 pub use outputs::{write_outputs, DarkSummary, OUTPUT_NAMES};
 pub use run::{run, DarksRun, DarksRunResult};
+
+#[cfg(test)]
+mod tests;

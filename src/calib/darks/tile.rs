@@ -1,7 +1,15 @@
-//! One tile of per-pixel accumulators: shifted block sums merged into Welford states (Chan's
-//! formula), per parity of the frame index, with the running extremes for extremes clipping.
-
-use std::ops::Range;
+//! One tile of per-pixel accumulators, and the moments they give.
+//!
+//! Per pixel and parity of the frame index: the sums of the samples less a per-pixel shift
+//! (the pixel's first sample) and of their squares, over the whole stack; per pixel the sum of
+//! squared successive differences, the previous sample and the largest. Sigma clipping's
+//! second pass adds an acceptance window and per-pixel counts; extremes clipping keeps the
+//! N highest and lowest samples and takes them out of the sums at the end.
+//!
+//! For integer samples every sum is an integer below 2^53 (16-bit samples: up to 2^21
+//! frames), so f64 holds it exactly, in any order of addition; [`mean_var`] then forms the
+//! mean and variance from exact integers with one rounding each. The results are the same
+//! whatever the format, the thread count or the vector width.
 
 /// One tile of per-pixel accumulators (structure of arrays, for vectorisation).
 pub(super) struct Tile {
@@ -10,11 +18,9 @@ pub(super) struct Tile {
     pub(super) shift: Vec<f64>,
     pub(super) s1: [Vec<f64>; 2],
     pub(super) s2: [Vec<f64>; 2],
-    /// Per-pixel block counts; only with a window (otherwise every pixel has the block count).
+    /// Samples per pixel and parity, when they differ between pixels (a window, or after
+    /// extremes are removed); otherwise every pixel has every frame of its parity.
     pub(super) cnt: Option<[Vec<f64>; 2]>,
-    pub(super) n: [Vec<f64>; 2],
-    pub(super) mean: [Vec<f64>; 2],
-    pub(super) m2: [Vec<f64>; 2],
     pub(super) prev: Vec<f64>,
     pub(super) vn: Vec<f64>,
     pub(super) max: Vec<f64>,
@@ -39,9 +45,6 @@ impl Tile {
             s1: pair(),
             s2: pair(),
             cnt: None,
-            n: pair(),
-            mean: pair(),
-            m2: pair(),
             prev: zeros(len),
             vn: zeros(len),
             max: vec![f64::NEG_INFINITY; len],
@@ -51,122 +54,100 @@ impl Tile {
         }
     }
 
-    /// Add the samples `x` of tile-local pixels `r` of one frame.
-    pub(super) fn add(
-        &mut self,
-        x: &[f64],
-        parity: usize,
-        first: bool,
-        extremes: usize,
-        r: Range<usize>,
-    ) {
-        if first {
-            self.shift[r.clone()].copy_from_slice(x);
-            self.prev[r.clone()].copy_from_slice(x);
-        }
+    /// A tile of the second pass of sigma clipping: samples outside [lo, hi] are left out;
+    /// `shift` is the first pass's.
+    pub(super) fn windowed(start: usize, shift: &[f64], lo: &[f64], hi: &[f64]) -> Tile {
+        let len = shift.len();
+        let mut t = Tile::new(start, len, 0);
+        t.shift.copy_from_slice(shift);
+        t.window = Some((lo.to_vec(), hi.to_vec()));
+        t.cnt = Some([zeros(len), zeros(len)]);
+        t
+    }
+
+    /// Take the first frame's samples `x` of tile-local pixels from `a` as shifts.
+    pub(super) fn seed(&mut self, a: usize, x: &[f64]) {
+        self.shift[a..a + x.len()].copy_from_slice(x);
+        self.prev[a..a + x.len()].copy_from_slice(x);
+    }
+
+    /// Add samples `x` of tile-local pixels from `a` of a frame of `parity`, inside the
+    /// window.
+    pub(super) fn add_windowed(&mut self, a: usize, x: &[f64], parity: usize) {
         let n = x.len();
-        let (s1, s2) = (
-            &mut self.s1[parity][r.clone()],
-            &mut self.s2[parity][r.clone()],
+        let (lo, hi) = self.window.as_ref().expect("a windowed tile");
+        let cnt = &mut self.cnt.as_mut().expect("counts exist with a window")[parity];
+        let (lo, hi, shift) = (&lo[a..a + n], &hi[a..a + n], &self.shift[a..a + n]);
+        let (s1, s2, cnt) = (
+            &mut self.s1[parity][a..a + n],
+            &mut self.s2[parity][a..a + n],
+            &mut cnt[a..a + n],
         );
-        let shift = &self.shift[r.clone()];
-        match &self.window {
+        for i in 0..n {
+            let keep = (x[i] >= lo[i] && x[i] <= hi[i]) as u8 as f64;
+            let d = (x[i] - shift[i]) * keep;
+            s1[i] += d;
+            s2[i] += d * d;
+            cnt[i] += keep;
+        }
+    }
+
+    /// Keep track of the extremes among samples `x` of tile-local pixels from `a`.
+    pub(super) fn add_extremes(&mut self, a: usize, x: &[f64], parity: usize, extremes: usize) {
+        for (j, &v) in x.iter().enumerate() {
+            let i = a + j;
+            let range = i * extremes..(i + 1) * extremes;
+            insert_extreme(&mut self.hi[range.clone()], v, parity as u8, |a, b| a > b);
+            insert_extreme(&mut self.lo[range], v, parity as u8, |a, b| a < b);
+        }
+    }
+
+    /// Samples of pixel `i` in `parity` when every pixel has `frames[parity]` of them.
+    pub(super) fn count(&self, i: usize, parity: usize, frames: [f64; 2]) -> f64 {
+        self.cnt.as_ref().map_or(frames[parity], |c| c[parity][i])
+    }
+
+    /// (count, shift, shifted sum, shifted sum of squares) of pixel `i` in `parity`, or in
+    /// both parities when None.
+    pub(super) fn sums(&self, i: usize, parity: Option<usize>, frames: [f64; 2]) -> Sums {
+        let one = |p: usize| Sums {
+            n: self.count(i, p, frames),
+            shift: self.shift[i],
+            s1: self.s1[p][i],
+            s2: self.s2[p][i],
+        };
+        match parity {
+            Some(p) => one(p),
             None => {
-                // Index loops over equal-length slices: the bounds checks hoist and the body
-                // vectorises.
-                let (prev, vn, max) = (
-                    &mut self.prev[r.clone()],
-                    &mut self.vn[r.clone()],
-                    &mut self.max[r.clone()],
-                );
-                let (s1, s2, shift, prev, vn, max) = (
-                    &mut s1[..n],
-                    &mut s2[..n],
-                    &shift[..n],
-                    &mut prev[..n],
-                    &mut vn[..n],
-                    &mut max[..n],
-                );
-                for i in 0..n {
-                    let d = x[i] - shift[i];
-                    s1[i] += d;
-                    s2[i] += d * d;
-                    let v = x[i] - prev[i];
-                    vn[i] += v * v;
-                    prev[i] = x[i];
-                    max[i] = max[i].max(x[i]);
+                let (e, o) = (one(0), one(1));
+                Sums {
+                    n: e.n + o.n,
+                    s1: e.s1 + o.s1,
+                    s2: e.s2 + o.s2,
+                    ..e
                 }
-            }
-            Some((lo, hi)) => {
-                let cnt =
-                    &mut self.cnt.as_mut().expect("counts exist with a window")[parity][r.clone()];
-                let (lo, hi) = (&lo[r.clone()], &hi[r.clone()]);
-                for i in 0..n {
-                    let keep = (x[i] >= lo[i] && x[i] <= hi[i]) as u8 as f64;
-                    let d = (x[i] - shift[i]) * keep;
-                    s1[i] += d;
-                    s2[i] += d * d;
-                    cnt[i] += keep;
-                }
-            }
-        }
-        if extremes > 0 {
-            for (j, &v) in x.iter().enumerate() {
-                let i = r.start + j;
-                insert_extreme(
-                    &mut self.hi[i * extremes..(i + 1) * extremes],
-                    v,
-                    parity as u8,
-                    |a, b| a > b,
-                );
-                insert_extreme(
-                    &mut self.lo[i * extremes..(i + 1) * extremes],
-                    v,
-                    parity as u8,
-                    |a, b| a < b,
-                );
             }
         }
     }
 
-    /// Chan merge of the shifted block sums of `parity` into its running Welford state.
-    pub(super) fn flush(&mut self, parity: usize, block: f64) {
-        for i in 0..self.len {
-            let nb = self.cnt.as_ref().map_or(block, |c| c[parity][i]);
-            if nb == 0.0 {
-                continue;
+    /// Take the tracked extremes (`extremes` > 0 per pixel and end) out of every pixel's
+    /// sums (extremes clipping); `frames` counts the frames of each parity in the pass.
+    pub(super) fn remove_extremes(&mut self, extremes: usize, frames: [f64; 2]) {
+        let cnt = self
+            .cnt
+            .get_or_insert_with(|| frames.map(|n| vec![n; self.len]));
+        let tracked = self
+            .hi
+            .chunks_exact(extremes)
+            .zip(self.lo.chunks_exact(extremes));
+        for (i, (hi, lo)) in tracked.enumerate() {
+            for (v, p) in hi.iter().chain(lo) {
+                let (p, d) = (*p as usize, v - self.shift[i]);
+                self.s1[p][i] -= d;
+                self.s2[p][i] -= d * d;
+                cnt[p][i] -= 1.0;
             }
-            let (s1, s2) = (self.s1[parity][i], self.s2[parity][i]);
-            let mean_b = self.shift[i] + s1 / nb;
-            let m2_b = (s2 - s1 * s1 / nb).max(0.0);
-            let na = self.n[parity][i];
-            let n = na + nb;
-            let delta = mean_b - self.mean[parity][i];
-            self.mean[parity][i] += delta * nb / n;
-            self.m2[parity][i] += m2_b + delta * delta * na * nb / n;
-            self.n[parity][i] = n;
         }
-        self.s1[parity].fill(0.0);
-        self.s2[parity].fill(0.0);
-        if let Some(c) = self.cnt.as_mut() {
-            c[parity].fill(0.0);
-        }
-    }
-
-    /// Undo the Welford update of sample `v` in `parity` (extremes clipping).
-    pub(super) fn remove(&mut self, i: usize, parity: usize, v: f64) {
-        let n = self.n[parity][i];
-        if n <= 1.0 {
-            self.n[parity][i] = 0.0;
-            self.mean[parity][i] = 0.0;
-            self.m2[parity][i] = 0.0;
-            return;
-        }
-        let mean = self.mean[parity][i];
-        let mean_new = (n * mean - v) / (n - 1.0);
-        self.m2[parity][i] = (self.m2[parity][i] - (v - mean_new) * (v - mean)).max(0.0);
-        self.mean[parity][i] = mean_new;
-        self.n[parity][i] = n - 1.0;
     }
 }
 
@@ -184,85 +165,150 @@ fn insert_extreme(list: &mut [(f64, u8)], v: f64, parity: u8, better: impl Fn(f6
     list[j] = (v, parity);
 }
 
-/// Chan merge of two (n, mean, M2) summaries.
-pub(super) fn merge(a: (f64, f64, f64), b: (f64, f64, f64)) -> (f64, f64, f64) {
-    let n = a.0 + b.0;
-    if n == 0.0 {
-        return (0.0, f64::NAN, f64::NAN);
-    }
-    let delta = b.1 - a.1;
-    let mean = if a.0 == 0.0 {
-        b.1
-    } else if b.0 == 0.0 {
-        a.1
-    } else {
-        a.1 + delta * b.0 / n
-    };
-    (n, mean, a.2 + b.2 + delta * delta * a.0 * b.0 / n)
+/// The sums of one pixel's samples: n samples x_k, sum (x_k - shift), sum (x_k - shift)^2.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Sums {
+    pub(super) n: f64,
+    pub(super) shift: f64,
+    pub(super) s1: f64,
+    pub(super) s2: f64,
 }
 
-pub(super) fn sample_std(n: f64, m2: f64) -> f64 {
-    if n >= 2.0 {
-        (m2 / (n - 1.0)).sqrt()
+/// Largest integer below which f64 holds every integer.
+const EXACT: f64 = 9_007_199_254_740_992.0;
+
+/// Mean and sample variance (NaN with fewer than 1 and 2 samples).
+///
+/// Integer sums (integer samples) are exact, and so are n * sum x = n shift + s1 and
+/// n s2 - s1^2 = n^2 M2 in 128-bit integers: the mean and the variance, M2 / (n - 1), are
+/// then each rounded once or twice from the exact value, and never lose digits to
+/// cancellation. Other sums take the usual shifted-data formulas.
+pub(super) fn mean_var(s: Sums) -> (f64, f64) {
+    let Sums { n, shift, s1, s2 } = s;
+    if n < 1.0 {
+        return (f64::NAN, f64::NAN);
+    }
+    // (A conversion to i64 and back keeps the check to two instructions.)
+    let integral = |v: f64| v.abs() < EXACT && (v as i64) as f64 == v;
+    if integral(shift) && integral(s1) && integral(s2) && integral(n) {
+        let [ni, si, s1i, s2i] = [n, shift, s1, s2].map(|v| v as i64);
+        // n sum x and n^2 M2 as exact integers: in i64 when they fit (16-bit samples: always
+        // below 46,000 frames), else in i128; rounded once to f64.
+        let in_i64 = || {
+            Some((
+                ni.checked_mul(si)?.checked_add(s1i)?,
+                ni.checked_mul(s2i)?.checked_sub(s1i.checked_mul(s1i)?)?,
+            ))
+        };
+        let (sum, m2n) = match in_i64() {
+            Some((a, b)) => (a as f64, b.max(0) as f64),
+            None => {
+                let [ni, si, s1i, s2i] = [ni, si, s1i, s2i].map(i128::from);
+                ((ni * si + s1i) as f64, (ni * s2i - s1i * s1i).max(0) as f64)
+            }
+        };
+        let var = if n >= 2.0 {
+            m2n / (n * (n - 1.0))
+        } else {
+            f64::NAN
+        };
+        return (sum / n, var);
+    }
+    let mean = shift + s1 / n;
+    let var = if n >= 2.0 {
+        (s2 - s1 * s1 / n).max(0.0) / (n - 1.0)
     } else {
         f64::NAN
-    }
+    };
+    (mean, var)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// (n, mean, M2) of both parities merged, for pixel 0.
-    fn total(t: &Tile) -> (f64, f64, f64) {
-        merge(
-            (t.n[0][0], t.mean[0][0], t.m2[0][0]),
-            (t.n[1][0], t.mean[1][0], t.m2[1][0]),
-        )
+    fn sums_of(x: &[f64], shift: f64) -> Sums {
+        Sums {
+            n: x.len() as f64,
+            shift,
+            s1: x.iter().map(|v| v - shift).sum(),
+            s2: x.iter().map(|v| (v - shift) * (v - shift)).sum(),
+        }
     }
 
     #[test]
-    fn block_sums_and_merges_give_the_exact_moments() {
-        // Samples 3, 5, 4, 10, 6, 2: even frames 3, 4, 6 (mean 13/3, M2 = 61 - 169/3 = 14/3),
-        // odd frames 5, 10, 2 (mean 17/3, M2 = 129 - 289/3 = 98/3); all six: mean 5, M2 40.
-        // Blocks of 2 then 1 frame per parity exercise the Chan merge.
-        let mut t = Tile::new(0, 1, 0);
-        for (k, x) in [3.0, 5.0, 4.0, 10.0, 6.0, 2.0].into_iter().enumerate() {
-            t.add(&[x], k % 2, k == 0, 0, 0..1);
-            if k == 3 {
-                t.flush(0, 2.0);
-                t.flush(1, 2.0);
-            }
-        }
-        t.flush(0, 1.0);
-        t.flush(1, 1.0);
-        let close = |a: f64, b: f64| (a - b).abs() < 1e-12;
-        assert!(close(t.mean[0][0], 13.0 / 3.0) && close(t.m2[0][0], 14.0 / 3.0));
-        assert!(close(t.mean[1][0], 17.0 / 3.0) && close(t.m2[1][0], 98.0 / 3.0));
-        let (n, m, m2) = total(&t);
-        assert!(n == 6.0 && close(m, 5.0) && close(m2, 40.0));
-        assert!(close(sample_std(n, m2), 8f64.sqrt()));
-        assert!(sample_std(1.0, 0.0).is_nan());
-        // Squared successive differences 4 + 1 + 36 + 16 + 16; largest sample 10.
-        assert_eq!((t.vn[0], t.max[0]), (73.0, 10.0));
+    fn integer_sums_give_the_exact_mean_and_variance() {
+        // 3, 5, 4, 10, 6, 2: mean 5, M2 40, variance 8; shifted by the first sample.
+        let (m, v) = mean_var(sums_of(&[3.0, 5.0, 4.0, 10.0, 6.0, 2.0], 3.0));
+        assert_eq!((m, v), (5.0, 8.0));
+        // Mean 1/3 and variance 1/3 are rounded once from the exact fractions.
+        let (m, v) = mean_var(sums_of(&[0.0, 0.0, 1.0], 0.0));
+        assert_eq!((m, v), (1.0 / 3.0, 1.0 / 3.0));
+        // A large level with a small spread, 40000001 + {0, 1, 3}, not shifted: the sums are
+        // exact (sum x^2 < 2^53) but (sum x)^2 is not, and the shifted-data formula gives a
+        // variance of 2.5 instead of 7/3; the exact one does not.
+        let base = 40_000_001.0;
+        let x = [base, base + 1.0, base + 3.0];
+        let s = sums_of(&x, 0.0);
+        assert_eq!((s.s2 - s.s1 * s.s1 / 3.0) / 2.0, 2.5);
+        assert_eq!(mean_var(s), (base + 4.0 / 3.0, 7.0 / 3.0));
+        // Products beyond i64 (n sum (x - shift)^2 = 2^64) take 128-bit integers.
+        let big = Sums {
+            n: 4096.0,
+            shift: 0.0,
+            s1: 0.0,
+            s2: 4_503_599_627_370_496.0,
+        };
+        assert_eq!(mean_var(big), (0.0, 4_503_599_627_370_496.0 / 4095.0));
+        // One sample: a mean, no variance; none: neither.
+        let (m, v) = mean_var(sums_of(&[7.0], 7.0));
+        assert!(m == 7.0 && v.is_nan());
+        let (m, v) = mean_var(sums_of(&[], 0.0));
+        assert!(m.is_nan() && v.is_nan());
+    }
+
+    #[test]
+    fn fractional_sums_take_the_shifted_formulas() {
+        // 0.5, 1.25, 3.0: mean 19/12, M2 = sum (x - mean)^2 = 3.791666...
+        let x = [0.5, 1.25, 3.0];
+        let (m, v) = mean_var(sums_of(&x, 0.5));
+        let mean = 19.0 / 12.0;
+        let m2: f64 = x.iter().map(|v| (v - mean) * (v - mean)).sum();
+        assert!((m - mean).abs() < 1e-15 && (v - m2 / 2.0).abs() < 1e-15);
     }
 
     #[test]
     fn extremes_are_tracked_and_removed_exactly() {
         // Samples 1, 2, 3, 100 with one extreme kept at each end: 100 (odd) and 1 (even) are
-        // removed, leaving 3 (even) and 2 (odd): mean 2.5, M2 0.5.
+        // removed, leaving 3 (even) and 2 (odd): mean 2.5, variance 0.5.
         let mut t = Tile::new(0, 1, 1);
-        for (k, x) in [1.0, 2.0, 3.0, 100.0].into_iter().enumerate() {
-            t.add(&[x], k % 2, k == 0, 1, 0..1);
+        t.seed(0, &[1.0]);
+        for (k, x) in [1.0f64, 2.0, 3.0, 100.0].into_iter().enumerate() {
+            let d = x - 1.0;
+            t.s1[k % 2][0] += d;
+            t.s2[k % 2][0] += d * d;
+            t.add_extremes(0, &[x], k % 2, 1);
         }
-        t.flush(0, 2.0);
-        t.flush(1, 2.0);
         assert_eq!((t.hi[0], t.lo[0]), ((100.0, 1), (1.0, 0)));
-        for (v, p) in [t.hi[0], t.lo[0]] {
-            t.remove(0, p as usize, v);
-        }
-        assert_eq!((t.n[0][0], t.mean[0][0], t.m2[0][0]), (1.0, 3.0, 0.0));
-        assert_eq!((t.n[1][0], t.mean[1][0], t.m2[1][0]), (1.0, 2.0, 0.0));
-        assert_eq!(total(&t), (2.0, 2.5, 0.5));
+        let frames = [2.0, 2.0];
+        t.remove_extremes(1, frames);
+        let (m, v) = mean_var(t.sums(0, Some(0), frames));
+        assert!(m == 3.0 && v.is_nan());
+        assert_eq!(t.sums(0, Some(1), frames).n, 1.0);
+        assert_eq!(mean_var(t.sums(0, None, frames)), (2.5, 0.5));
+    }
+
+    #[test]
+    fn a_window_leaves_out_samples_and_counts_the_rest() {
+        let mut t = Tile::windowed(0, &[10.0, 10.0], &[8.0, 8.0], &[12.0, 12.0]);
+        t.add_windowed(0, &[9.0, 20.0], 0);
+        t.add_windowed(0, &[11.0, 11.0], 1);
+        t.add_windowed(0, &[12.0, 7.0], 0);
+        let frames = [2.0, 1.0];
+        assert_eq!(t.sums(0, None, frames).n, 3.0);
+        assert_eq!(mean_var(t.sums(0, None, frames)), (32.0 / 3.0, 7.0 / 3.0));
+        // Pixel 1 kept only the 11.
+        let s = t.sums(1, None, frames);
+        assert_eq!((s.n, s.s1, s.s2), (1.0, 1.0, 1.0));
     }
 }

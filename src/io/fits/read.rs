@@ -340,7 +340,7 @@ impl FileFrames for FitsFrames {
             .filter(|_| raw.bscale.is_finite() && raw.bzero.is_finite())
     }
 
-    fn read_raw(&mut self, k: usize, bytes: &mut Vec<u8>) -> Result<()> {
+    fn read_raw(&mut self, k: usize, bytes: &mut Vec<u8>) -> Result<u64> {
         let h = self
             .hdu_of(k)
             .cloned()
@@ -350,7 +350,8 @@ impl FileFrames for FitsFrames {
         };
         let offset = raw.datastart + ((k - h.first) * bytes.len()) as u64;
         file.read_exact_at(bytes, offset)
-            .map_err(|e| frame_error(&self.path, k, format!("cannot read data: {e}")))
+            .map_err(|e| frame_error(&self.path, k, format!("cannot read data: {e}")))?;
+        Ok(offset)
     }
 
     fn may_be_out_of_range(&self, k: usize) -> bool {

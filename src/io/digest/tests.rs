@@ -1,0 +1,190 @@
+//! The digests of the checksum thread are the files' SHA-256, whichever bytes came from the
+//! reader's batches and whichever the thread read itself.
+
+use std::path::PathBuf;
+
+use super::*;
+use crate::io::{read_batches, FrameOrigin};
+
+#[test]
+fn prefetched_updates_hash_like_one_update() {
+    // Lengths around the piece size and the SHA-256 block, odd offsets included.
+    let data: Vec<u8> = (0..10_000u32).map(|i| (i * 31 % 251) as u8).collect();
+    for cut in [0, 1, 63, 64, 1023, 1024, 2049, 9999, 10_000] {
+        let mut a = Sha256::new();
+        a.update(&data);
+        let mut b = Sha256::new();
+        update_prefetched(&mut b, &data[..cut]);
+        update_prefetched(&mut b, &data[cut..]);
+        assert_eq!(a.finalize(), b.finalize(), "cut at {cut}");
+    }
+}
+
+#[test]
+fn file_hashes_take_supplied_bytes_and_read_the_gaps() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("f.bin");
+    let data: Vec<u8> = (0..700_000u32).map(|i| (i * 7 % 253) as u8).collect();
+    std::fs::write(&p, &data).unwrap();
+    // The known digest of these bytes, computed independently of this module.
+    let whole = format!("{:x}", Sha256::digest(&data));
+    assert_eq!(sha256_file(&p).unwrap(), whole);
+    let no = AtomicBool::new(false);
+    let mut buf = vec![0u8; 1000];
+    let mut h = FileHash::new(&p);
+    // Pieces with gaps before, between and after them; a piece already hashed is skipped.
+    h.add(2880, &data[2880..300_000], &mut buf, &no).unwrap();
+    h.add(300_000, &data[300_000..400_000], &mut buf, &no)
+        .unwrap();
+    h.add(450_000, &data[450_000..600_000], &mut buf, &no)
+        .unwrap();
+    h.add(100, &data[100..200], &mut buf, &no).unwrap();
+    h.finish(&mut buf, &no).unwrap();
+    assert_eq!(h.hex(), whole);
+    // A file finished from disk ignores later pieces.
+    let mut h = FileHash::new(&p);
+    h.finish(&mut buf, &no).unwrap();
+    h.add(699_000, &data[699_000..], &mut buf, &no).unwrap();
+    assert_eq!(h.hex(), whole);
+}
+
+#[test]
+fn a_missing_file_is_an_error_naming_it() {
+    let p = Path::new("/nonexistent/detnoise-digest.fits");
+    let e = sha256_file(p).unwrap_err().to_string();
+    assert!(e.contains("detnoise-digest.fits"), "{e}");
+}
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures/interop")
+        .join(name)
+}
+
+/// One 80-character header card.
+fn card(text: &str) -> String {
+    format!("{text:<80}")
+}
+
+/// Header cards padded to whole 2880-byte blocks.
+fn header(cards: &[&str]) -> Vec<u8> {
+    let mut h: String = cards.iter().map(|c| card(c)).collect();
+    h.push_str(&card("END"));
+    let mut b = h.into_bytes();
+    b.resize(b.len().div_ceil(2880) * 2880, b' ');
+    b
+}
+
+/// A FITS file of three 2 x 3 int16 image extensions (frames), the second with a BLANK
+/// value, so that its frame is decoded by CFITSIO and the others are read raw.
+fn fits_with_blank(path: &Path) {
+    let mut b = header(&[
+        "SIMPLE  =                    T",
+        "BITPIX  =                   16",
+        "NAXIS   =                    0",
+        "EXTEND  =                    T",
+    ]);
+    for k in 0..3i16 {
+        let mut cards = vec![
+            "XTENSION= 'IMAGE   '",
+            "BITPIX  =                   16",
+            "NAXIS   =                    2",
+            "NAXIS1  =                    3",
+            "NAXIS2  =                    2",
+            "PCOUNT  =                    0",
+            "GCOUNT  =                    1",
+        ];
+        if k == 1 {
+            cards.push("BLANK   =               -32768");
+        }
+        b.extend(header(&cards));
+        let mut data: Vec<u8> = (0..6i16)
+            .flat_map(|i| (100 * k + i).to_be_bytes())
+            .collect();
+        data.resize(2880, 0);
+        b.extend(data);
+    }
+    std::fs::write(path, b).unwrap();
+}
+
+/// Read `paths` as a stack through the batch reader with a tap; returns the origins of the
+/// frames read and the digests.
+fn tapped(paths: &[PathBuf]) -> (Vec<FrameOrigin>, Vec<String>) {
+    let stack = FrameStack::open(paths).unwrap_or_else(|e| panic!("{paths:?}: {e}"));
+    let (origins, hashes) = hash_stack_while(&stack, |tap| {
+        let mut origins = Vec::new();
+        read_batches(&stack, Some(tap), |b| {
+            origins.extend_from_slice(b.origins());
+            Ok(())
+        })?;
+        Ok(origins)
+    })
+    .unwrap();
+    assert_eq!(origins.len(), stack.frames);
+    (origins, hashes)
+}
+
+/// The SHA-256 of a file's bytes, computed independently of this module.
+fn digest_of(p: &Path) -> String {
+    format!("{:x}", Sha256::digest(std::fs::read(p).unwrap()))
+}
+
+#[test]
+fn tapped_digests_are_the_files_sha256_in_every_format() {
+    let d = tempfile::tempdir().unwrap();
+    let blank = d.path().join("blank.fits");
+    fits_with_blank(&blank);
+    let cube = fixture("astropy-u16-bzero.fits");
+    let stacks: Vec<Vec<PathBuf>> = vec![
+        vec![cube.clone()],
+        vec![fixture("astropy-mef.fits")],
+        vec![fixture("astropy-rice.fits")],
+        vec![fixture("astropy-u16-bzero.fits.gz")],
+        vec![fixture("tifffile-multipage.tif")],
+        vec![fixture("openexr-f32-layers.exr")],
+        vec![blank.clone()],
+        // One file twice and another: each entry is hashed on its own.
+        vec![cube.clone(), fixture("astropy-mef.fits"), cube.clone()],
+    ];
+    for paths in &stacks {
+        let (_, hashes) = tapped(paths);
+        let want: Vec<String> = paths.iter().map(|p| digest_of(p)).collect();
+        assert_eq!(hashes, want, "{paths:?}");
+        let alone: Vec<String> = paths.iter().map(|p| sha256_file(p).unwrap()).collect();
+        assert_eq!(alone, want, "{paths:?}");
+    }
+    // The raw paths were taken: cube frames 2880 bytes in, one after another; extension
+    // frames after their headers; the BLANK frame decoded by CFITSIO.
+    let (o, _) = tapped(&[cube]);
+    let offsets: Vec<Option<u64>> = o.iter().map(|o| o.offset).collect();
+    assert_eq!(
+        offsets,
+        (0..4).map(|k| Some(2880 + 70 * k)).collect::<Vec<_>>()
+    );
+    let (o, _) = tapped(&[blank]);
+    let offsets: Vec<Option<u64>> = o.iter().map(|o| o.offset).collect();
+    assert_eq!(offsets, [Some(2 * 2880), None, Some(6 * 2880)]);
+    let (o, _) = tapped(&[fixture("astropy-rice.fits")]);
+    assert!(o.iter().all(|o| o.offset.is_none()));
+}
+
+#[test]
+fn the_works_error_comes_first_and_a_vanished_file_is_named() {
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("gone.fits");
+    std::fs::copy(fixture("astropy-u16-bzero.fits"), &p).unwrap();
+    let stack = FrameStack::open(std::slice::from_ref(&p)).unwrap();
+    let e = hash_stack_while(&stack, |_| -> Result<()> {
+        Err(Error::Numeric("work failed".into()))
+    })
+    .unwrap_err();
+    assert_eq!(
+        e.to_string(),
+        Error::Numeric("work failed".into()).to_string()
+    );
+    std::fs::remove_file(&p).unwrap();
+    let e = hash_stack_while(&stack, |_| Ok(()))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("gone.fits"), "{e}");
+}
