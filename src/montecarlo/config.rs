@@ -138,7 +138,8 @@ impl SimConfig {
     /// Smallest sub-aperture side (px): a centroid inside one pixel carries no information.
     pub const MIN_SUBAP_PX: usize = 2;
     /// Largest sub-aperture side (px): the pixel-integrated spot table grows as the square of
-    /// the side (0.14 GB at 128 px), and Shack-Hartmann sub-apertures are far smaller.
+    /// the side (about 21 MB kept at 128 px, at most 128 MiB while it is built), and
+    /// Shack-Hartmann sub-apertures are far smaller.
     pub const MAX_SUBAP_PX: usize = 128;
     /// Largest signal x QE (photo-electrons per sub-aperture). Photo-electron counts are 32-bit
     /// per pixel (at most 4.29e9) and the whole signal can fall into one pixel: the bound keeps a
