@@ -235,26 +235,18 @@ impl<'m> Experiment<'m> {
             let mut pos = stream(cfg.seed, it, POSITION);
             let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
             self.renderer.render(x0, y0, &mut expected);
-            let total: f64 = expected.iter().sum();
+            let rendered: f64 = expected.iter().sum();
             // A spot entirely outside the sub-aperture leaves nothing to measure.
-            let scale = if total > 0.0 {
-                cfg.signal_photons * cfg.qe / total
+            let (mean_photo_e, scale) = if rendered > 0.0 {
+                let mean = cfg.signal_photons * cfg.qe;
+                (mean, mean / rendered)
             } else {
-                0.0
+                (0.0, 0.0)
             };
             expected.iter_mut().for_each(|v| *v *= scale);
             let truth = cog(&expected, n).unwrap_or((0.0, 0.0));
-            let total = if total > 0.0 {
-                cfg.signal_photons * cfg.qe
-            } else {
-                0.0
-            };
-            shot.draw(
-                &expected,
-                total,
-                &mut stream(cfg.seed, it, PHOTONS),
-                &mut photons,
-            );
+            let mut ph = stream(cfg.seed, it, PHOTONS);
+            shot.draw(&expected, mean_photo_e, &mut ph, &mut photons);
             // Every model reads with the same normal deviates and starts from the same auxiliary
             // stream (common random numbers): drawn once, the stream's state copied.
             draw_normals(&mut stream(cfg.seed, it, NOISE), &mut normals);

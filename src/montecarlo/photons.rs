@@ -49,11 +49,13 @@ impl ShotNoise {
         table.sample(rng).unwrap_or_else(|| poisson(mean, rng))
     }
 
-    /// Independent Poisson counts with means `expected` (e-, >= 0, summing to `total`) into
-    /// `out`, from `rng`.
+    /// Independent Poisson counts with means `expected` (e-, >= 0) into `out`, from `rng`.
+    /// `total` is their sum as the run defines it (signal x QE, the same for every frame):
+    /// the summed means differ from it in the last bits from frame to frame, and it keys the
+    /// table of Poisson totals, which is then built once per run.
     pub fn draw(&mut self, expected: &[f64], total: f64, rng: &mut SimRng, out: &mut [u32]) {
         if total <= PLACE_UP_TO_PER_PIXEL * expected.len() as f64 {
-            self.place(expected, rng, out);
+            self.place(expected, total, rng, out);
         } else {
             for (k, &lambda) in out.iter_mut().zip(expected) {
                 *k = poisson(lambda, rng);
@@ -61,8 +63,8 @@ impl ShotNoise {
         }
     }
 
-    /// A Poisson total placed multinomially.
-    fn place(&mut self, expected: &[f64], rng: &mut SimRng, out: &mut [u32]) {
+    /// A Poisson(`total`) total placed multinomially.
+    fn place(&mut self, expected: &[f64], total: f64, rng: &mut SimRng, out: &mut [u32]) {
         out.fill(0);
         self.cumulative.clear();
         let mut acc = 0.0;
@@ -70,15 +72,14 @@ impl ShotNoise {
             acc += e;
             acc
         }));
-        // The total used is the sum as accumulated here, so placement and total agree exactly.
-        let total = acc;
         let photons = self.total(total, rng);
-        if photons == 0 {
+        if photons == 0 || acc <= 0.0 {
             return;
         }
-        // guide[g]: the first pixel whose cumulative sum exceeds g / G of the total.
+        // Placement uses the sum as accumulated here, so every deviate lands on a pixel.
+        // guide[g]: the first pixel whose cumulative sum exceeds g / G of it.
         let buckets = expected.len();
-        let scale = buckets as f64 / total;
+        let scale = buckets as f64 / acc;
         self.guide.clear();
         let mut p = 0;
         for g in 0..buckets {
@@ -89,7 +90,7 @@ impl ShotNoise {
             self.guide.push(p as u32);
         }
         for _ in 0..photons {
-            let u = rng.random::<f64>() * total;
+            let u = rng.random::<f64>() * acc;
             let mut p = self.guide[((u * scale) as usize).min(buckets - 1)] as usize;
             // Pixels with zero mean have the same cumulative sum as their predecessor, so
             // `<=` skips them: they never receive a photon.

@@ -12,7 +12,7 @@ use super::page::{index_html, ScmosPage};
 use super::point::{ChosenPoint, OperatingPoint};
 use super::result::{Headline, ReportInput, ReportResult, ReportSummary, Summary};
 use crate::calib::darks::write_outputs as write_dark_outputs;
-use crate::calib::darks::{dark_maps, require_dark, DarkMaps, DarkOptions};
+use crate::calib::darks::{dark_maps_hashed, require_dark, DarkMaps, DarkOptions};
 use crate::calib::ptc::chart as ptc_chart;
 use crate::calib::ptc::POINTS_NAMES;
 use crate::calib::ptc::{photon_transfer, write_points, DarkReference, PtcOptions, PtcResult};
@@ -55,7 +55,8 @@ pub(crate) fn run(
     observer: &dyn Observer,
 ) -> Result<ReportResult> {
     let dark_opts = DarkOptions::default();
-    let maps = dark_maps(stack, &dark_opts)?;
+    // The darks are hashed from the frames read for the statistics, not read a second time.
+    let (maps, darks_inputs) = dark_maps_hashed(stack, &dark_opts)?;
     if let Some(warning) = require_dark(stack, &maps, o.accept_illuminated)? {
         observer.warn(&warning);
     }
@@ -66,7 +67,7 @@ pub(crate) fn run(
         &maps,
         &dark_opts,
         Some(gain.e_per_adu),
-        inputs(stack)?,
+        darks_inputs,
         "darks_summary.json",
     )?;
     let mut files = dark_summary.outputs.clone();
