@@ -4,7 +4,7 @@
 //!
 //! `cargo bench --bench engine` (all models, 100,000 frames at 16x16 and 400,000 at 4x4);
 //! `cargo bench --bench engine -- quick` runs a tenth of the frames; `point` or `integrated`
-//! runs that sampling only; any other argument keeps only the models whose name contains it.
+//! runs that sampling only, `4x4` or `16x16` that size only; any other argument keeps only the models whose name contains it.
 //! Target: at most 20 ns per pixel-frame for every model, size and sampling; integrated at
 //! most 10 % above point.
 //!
@@ -81,7 +81,14 @@ fn main() {
         .collect();
     let filters: Vec<&String> = args
         .iter()
-        .filter(|a| !["quick", "point", "integrated"].contains(&a.as_str()))
+        .filter(|a| !["quick", "point", "integrated", "4x4", "16x16"].contains(&a.as_str()))
+        .collect();
+    let sizes: Vec<usize> = [4usize, 16]
+        .into_iter()
+        .filter(|n| {
+            let other = if *n == 4 { "16x16" } else { "4x4" };
+            !args.iter().any(|a| a == other)
+        })
         .collect();
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(1)
@@ -97,7 +104,7 @@ fn main() {
         "model", "subap", "frames", "point", "integrated", "ratio"
     );
     let mut worst: f64 = 0.0;
-    for n in [4usize, 16] {
+    for &n in &sizes {
         for name in model_names() {
             if !filters.is_empty() && !filters.iter().any(|f| name.contains(f.as_str())) {
                 continue;
