@@ -150,7 +150,12 @@ impl PpThresholds {
     /// Bin index (photon count) of an output `x_over_g` (output electrons / g): the number of
     /// boundaries below it, at most `t_over_g.len()`.
     pub fn count(&self, x_over_g: f64) -> usize {
-        self.t_over_g.partition_point(|&t| t < x_over_g)
+        // Most pixels of a photon-counting frame read 0, below the first boundary: answered
+        // without the search (and its mispredicted branches).
+        match self.t_over_g.first() {
+            Some(&t0) if x_over_g <= t0 => 0,
+            _ => self.t_over_g.partition_point(|&t| t < x_over_g),
+        }
     }
 
     /// P(X > `t_over_g[k]` g | lambda) for Poisson light level `lambda` photo-electrons.
