@@ -124,6 +124,8 @@ How a report uses the simulation options:
   --rts-table, --row-noise-e, --column-noise-e, --dark-frames, --dark-frames-max-mib
       The scmos-rts, scmos-correlated and scmos-frames models (see `detnoise simulate
       --help`); a file given is read and checked.
+  --gain-e-per-adu
+      The conversion gain of --darks (needed when no --flats are given) and of --dark-frames.
   --sigma, --gaussian-switch, --pattern-seed, --pp-rule, --pp-lambda
       Not used: they set models a report does not run (scmos-constant, emccd-distribution,
       scmos-fixed, emccd-pp; see `detnoise simulate --help`).

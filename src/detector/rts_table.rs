@@ -229,7 +229,7 @@ mod tests;
 
 /// `rts.csv` text as `darks` writes it, for the tests of the table and of `scmos-rts`.
 #[cfg(test)]
-pub(super) mod fixture {
+pub(crate) mod fixture {
     /// The header row of the shared format (without a line end).
     pub fn header() -> String {
         let mut cols = vec!["x_px,y_px,n_levels,status".to_string()];

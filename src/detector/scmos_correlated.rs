@@ -29,11 +29,9 @@ pub const ENTRY: ModelEntry = ModelEntry {
             v.ok_or_else(|| {
                 Error::invalid(
                     field,
-                    format!(
-                        "scmos-correlated needs the row and the column noise amplitudes (e- rms; \
-                         darks measures them: temporal_noise in its summary.json): give \
-                         `row_noise_e` and `column_noise_e` (0 for none)"
-                    ),
+                    "scmos-correlated needs the row and the column noise amplitudes (e- rms; \
+                     darks measures them: temporal_noise in its summary.json): give \
+                     `row_noise_e` and `column_noise_e` (0 for none)",
                 )
             })
         };

@@ -13,7 +13,8 @@ pub const ENTRY: ModelEntry = ModelEntry {
     name: "scmos-frames",
     arg: None,
     help: "sCMOS read through the camera's own dark frames: every frame adds a random window of a \
-           random bias-subtracted dark frame (in e-), with all its noise (RTS, rows, columns, tails)",
+           random bias-subtracted dark frame, converted to e- with `gain_e_per_adu`, so all the \
+           camera's noise: RTS pixels, rows, columns, tails",
     sensor: Sensor::Scmos,
     params: &["dark_frames"],
     parse: ModelSpec::registered,

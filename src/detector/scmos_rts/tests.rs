@@ -89,10 +89,10 @@ fn telegraph_pixels_follow_the_window() {
     let n = 60_000;
     let px = dark_samples(&m, 2, n, 9);
     let mut at = [0usize; 4];
-    for f in 0..n {
-        let hits: Vec<usize> = (0..4).filter(|&j| px[j][f].abs() == 2.5).collect();
-        assert!(hits.len() <= 1, "frame {f}: {hits:?}");
-        if let Some(&j) = hits.first() {
+    let hits = |f: usize| -> Vec<usize> { (0..4).filter(|&j| px[j][f].abs() == 2.5).collect() };
+    for (f, hit) in (0..n).map(hits).enumerate() {
+        assert!(hit.len() <= 1, "frame {f}: {hit:?}");
+        if let Some(&j) = hit.first() {
             at[j] += 1;
         }
     }
