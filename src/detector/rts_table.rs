@@ -48,6 +48,8 @@ pub struct RtsTable {
 
 /// Columns of `rts.csv` that the model reads.
 struct Columns {
+    /// Number of columns of the header.
+    count: usize,
     x: usize,
     y: usize,
     n_levels: usize,
@@ -94,7 +96,14 @@ impl RtsTable {
         };
         for (line, text) in lines.filter(|(_, l)| !l.trim().is_empty()) {
             let cells: Vec<&str> = text.split(',').map(str::trim).collect();
-            let cell = |c: usize| cells.get(c).copied().unwrap_or("");
+            if cells.len() != cols.count {
+                let n = cols.count;
+                return Err(bad(
+                    line,
+                    format!("{} cells, but the header has {n} columns", cells.len()),
+                ));
+            }
+            let cell = |c: usize| cells[c];
             if cell(cols.status) != "ok" {
                 table.skipped += 1;
                 continue;
@@ -145,6 +154,7 @@ impl Columns {
             ];
         }
         let cols = Columns {
+            count: names.len(),
             x: need("x_px")?,
             y: need("y_px")?,
             n_levels: need("n_levels")?,

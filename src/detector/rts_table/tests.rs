@@ -136,6 +136,14 @@ fn bad_rows_and_files_are_errors_naming_file_line_and_column() {
             "line 1: no column 'x_px': not an rts.csv table written by darks",
         ),
         (String::new(), "empty file"),
+        (
+            table(&[row(0, 0, "ok", &two, true) + ",1"]),
+            "line 2: 32 cells, but the header has 31 columns",
+        ),
+        (
+            table(&["1,2,3".to_string()]),
+            "line 2: 3 cells, but the header has 31 columns",
+        ),
     ];
     for (text, expect) in cases {
         let msg = parse(&text);
