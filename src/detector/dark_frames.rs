@@ -35,8 +35,8 @@ pub struct DarkFrames {
     pub total: usize,
     /// Conversion gain the frames were converted with (e- per adu).
     pub gain_e_per_adu: f64,
-    /// Memory bound of the kept frames (bytes).
-    pub max_bytes: u64,
+    /// Memory bound of the kept frames (MiB), as given.
+    pub max_mib: f64,
     /// The stack's first file, for messages.
     pub source: PathBuf,
     /// Kept frames, each rows x cols row-major, as (value - pixel offset) x gain (e-); f32
@@ -176,7 +176,7 @@ impl DarkFrames {
             cols,
             total: read,
             gain_e_per_adu,
-            max_bytes,
+            max_mib,
             source: stack.sources[0].path.clone(),
             rms_e: (power / data.len() as f64).sqrt(),
             data,
@@ -208,7 +208,7 @@ impl DarkFrames {
     pub fn summary(&self) -> String {
         format!(
             "{} of {} dark frames of {}x{} px kept from {} ({:.1} MiB in memory as f32 e-, \
-             bound {:.0} MiB{}), bias-subtracted by each pixel's mean over the {} frames and \
+             bound {} MiB{}), bias-subtracted by each pixel's mean over the {} frames and \
              converted at {} e-/adu",
             self.kept(),
             self.total,
@@ -216,7 +216,7 @@ impl DarkFrames {
             self.cols,
             self.source.display(),
             self.bytes() as f64 / MIB,
-            self.max_bytes as f64 / MIB,
+            self.max_mib,
             if self.kept() < self.total {
                 ", a uniform sample"
             } else {
