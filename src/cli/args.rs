@@ -1,9 +1,11 @@
 //! Argument groups shared by the Monte-Carlo commands, list parsing, and the value parsers
 //! that check every numeric option's range while the command line is parsed.
 
+use super::progress::Terminal;
 use crate::calib::{Map, Unit};
+use crate::detector::dark_frames::DEFAULT_MAX_MIB;
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
-use crate::detector::{EmRegister, ModelParams, ModelSpec, MODEL_NAMES};
+use crate::detector::{DarkFrames, EmRegister, ModelParams, ModelSpec, RtsTable, MODEL_NAMES};
 use crate::montecarlo::{BgGrid, Grid, SimConfig};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
@@ -215,6 +217,30 @@ pub struct DetectorArgs {
     /// `scmos-map` model; non-finite pixels are excluded.
     #[arg(long)]
     pub map: Option<std::path::PathBuf>,
+    /// Telegraph (RTS) pixels for `scmos-rts`: the rts.csv written by `darks` (with
+    /// --gain-e-per-adu, so that it has the levels in e-), of the camera of --map.
+    #[arg(long, value_name = "FILE")]
+    pub rts_table: Option<std::path::PathBuf>,
+    /// Row-noise amplitude of `scmos-correlated`, e- rms: one draw per row of the window per
+    /// frame (darks: temporal_noise.row_rms_e in summary.json).
+    #[arg(long, value_parser = real(Included(0.0), Unbounded, "e-"))]
+    pub row_noise_e: Option<f64>,
+    /// Column-noise amplitude of `scmos-correlated`, e- rms: one draw per column of the window
+    /// per frame (darks: temporal_noise.column_rms_e in summary.json).
+    #[arg(long, value_parser = real(Included(0.0), Unbounded, "e-"))]
+    pub column_noise_e: Option<f64>,
+    /// Dark frames for `scmos-frames` (files, a directory or a glob; FITS, TIFF, OpenEXR): each
+    /// pixel's mean over the stack is subtracted and the values converted with
+    /// --gain-e-per-adu.
+    #[arg(long, num_args = 1.., value_name = "FILE")]
+    pub dark_frames: Vec<std::path::PathBuf>,
+    /// Memory bound of the dark frames kept for `scmos-frames`, MiB: a larger stack is sampled
+    /// uniformly (a fixed-seed reservoir, reproducible) down to what fits, as f32 e-.
+    #[arg(long, default_value_t = DEFAULT_MAX_MIB, value_parser = real(Excluded(0.0), Unbounded, "MiB"))]
+    pub dark_frames_max_mib: f64,
+    /// Conversion gain of --dark-frames, e- per adu.
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
+    pub gain_e_per_adu: Option<f64>,
 }
 
 impl DetectorArgs {
@@ -234,7 +260,47 @@ impl DetectorArgs {
                 "the scmos-map model needs a measured noise map: give --map FILE",
             ));
         }
+        for spec in specs {
+            for field in spec.entry().params {
+                if let Some((flag, what)) = self.missing(field) {
+                    return Err(Error::invalid(
+                        flag,
+                        format!("the {} model needs {what}: give {flag}", spec.name()),
+                    ));
+                }
+            }
+        }
+        if !self.dark_frames.is_empty() && self.gain_e_per_adu.is_none() {
+            return Err(Error::invalid(
+                "--gain-e-per-adu",
+                "--dark-frames needs their conversion gain to convert them to e-: give \
+                 --gain-e-per-adu",
+            ));
+        }
         Ok(())
+    }
+
+    /// The flag of model parameter `field` and what it is, when the parameter is not given.
+    fn missing(&self, field: &str) -> Option<(&'static str, &'static str)> {
+        match field {
+            "map" if self.map.is_none() => Some(("--map", "a measured noise map (FILE, e-)")),
+            "rts_table" if self.rts_table.is_none() => {
+                Some(("--rts-table", "the telegraph pixels (rts.csv from darks)"))
+            }
+            "row_noise_e" if self.row_noise_e.is_none() => Some((
+                "--row-noise-e",
+                "the row-noise amplitude (e- rms; 0 for none)",
+            )),
+            "column_noise_e" if self.column_noise_e.is_none() => Some((
+                "--column-noise-e",
+                "the column-noise amplitude (e- rms; 0 for none)",
+            )),
+            "dark_frames" if self.dark_frames.is_empty() => Some((
+                "--dark-frames",
+                "the camera's dark frames (and --gain-e-per-adu)",
+            )),
+            _ => None,
+        }
     }
 
     /// Model parameters, with the paper's rms pdf unless another is given.
@@ -256,6 +322,10 @@ impl DetectorArgs {
                 crate::detector::pp::PpRule::PoissonPrior
             },
             pp_lambda: self.pp_lambda,
+            rts_table: self.rts_table()?,
+            row_noise_e: self.row_noise_e,
+            column_noise_e: self.column_noise_e,
+            dark_frames: self.dark_frames()?,
         })
     }
 }
@@ -270,10 +340,33 @@ impl DetectorArgs {
         }
     }
 
-    /// The files these options read (`--map`, a `--pdf` file), for the output-path checks.
+    /// The files these options read (`--map`, a `--pdf` file, `--rts-table`, `--dark-frames`),
+    /// for the output-path checks.
     pub fn input_files(&self) -> Vec<std::path::PathBuf> {
         let pdf = (self.pdf != "paper").then(|| std::path::PathBuf::from(&self.pdf));
-        self.map.iter().cloned().chain(pdf).collect()
+        let files = self.map.iter().cloned().chain(pdf);
+        let files = files.chain(self.rts_table.iter().cloned());
+        files.chain(self.dark_frames.iter().cloned()).collect()
+    }
+
+    /// The telegraph pixels named by `--rts-table`, if any; skipped rows are warned about.
+    fn rts_table(&self) -> Result<Option<Arc<RtsTable>>> {
+        self.rts_table
+            .as_ref()
+            .map(|path| Ok(Arc::new(RtsTable::read(path, &Terminal::default())?)))
+            .transpose()
+    }
+
+    /// The dark frames named by `--dark-frames`, if any; says how many were kept.
+    fn dark_frames(&self) -> Result<Option<Arc<DarkFrames>>> {
+        if self.dark_frames.is_empty() {
+            return Ok(None);
+        }
+        // `validate` has refused dark frames without a gain.
+        let gain = self.gain_e_per_adu.unwrap_or(f64::NAN);
+        let frames = DarkFrames::read(&self.dark_frames, gain, self.dark_frames_max_mib)?;
+        eprintln!("scmos-frames: {}", frames.summary());
+        Ok(Some(Arc::new(frames)))
     }
 
     /// The measured noise map named by `--map`, if any.

@@ -59,6 +59,13 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("pattern_seed", "--pattern-seed"),
     ("pp_rule", "--pp-rule"),
     ("pp_lambda", "--pp-lambda"),
+    // Readout models of the camera's real noise (issue 13: scmos-rts, scmos-correlated,
+    // scmos-frames); their conversion gain is `gain_e_per_adu` above.
+    ("rts_table", "--rts-table"),
+    ("row_noise_e", "--row-noise-e"),
+    ("column_noise_e", "--column-noise-e"),
+    ("dark_frames", "--dark-frames"),
+    ("dark_frames_max_mib", "--dark-frames-max-mib"),
     // Effective read noise (crate::effective::Precision): precision target and iteration cap.
     ("target_se_e", "--target-se-e"),
     ("target_rel", "--target-rel"),

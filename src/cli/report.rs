@@ -9,7 +9,7 @@ use crate::report::{OperatingPoint, ReportOptions};
 use crate::spot::Sampling;
 use crate::spot::Spot;
 use crate::Result;
-use std::ops::Bound::{Excluded, Included, Unbounded};
+use std::ops::Bound::{Excluded, Included};
 use std::path::PathBuf;
 
 use crate::report::DetectorKind;
@@ -17,6 +17,10 @@ use crate::report::DetectorKind;
 /// Options of `detnoise report`.
 #[derive(clap::Args, Debug)]
 #[command(after_long_help = SIMULATION_OPTIONS_HELP)]
+#[command(mut_arg("gain_e_per_adu", |a| a.help(
+    "Conversion gain, e- per adu, of --darks (needed when no flats are given) and of \
+     --dark-frames"
+)))]
 pub struct ReportArgs {
     /// The camera type: scmos (effective read noise from the per-pixel noise) or emccd (EM gain
     /// fit with the exact register, then the comparison with the fitted gain and read noise).
@@ -28,9 +32,6 @@ pub struct ReportArgs {
     /// Flat stacks at several light levels, one option per level (photon transfer gives the gain).
     #[arg(long, num_args = 1..)]
     pub flats: Vec<PathBuf>,
-    /// Conversion gain, e- per adu (needed when no flats are given).
-    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
-    pub gain_e_per_adu: Option<f64>,
     /// Sub-aperture sizes of the effective-noise table, px per side (2 to 128), comma-separated.
     #[arg(long, default_value = DEFAULT_SUBAP, allow_hyphen_values = true)]
     pub subap: String,
@@ -120,6 +121,11 @@ How a report uses the simulation options:
   --map
       Not used (a file given is still read): an sCMOS report simulates its own measured map,
       an EMCCD report no map.
+  --rts-table, --row-noise-e, --column-noise-e, --dark-frames, --dark-frames-max-mib
+      The scmos-rts, scmos-correlated and scmos-frames models (see `detnoise simulate
+      --help`); a file given is read and checked.
+  --gain-e-per-adu
+      The conversion gain of --darks (needed when no --flats are given) and of --dark-frames.
   --sigma, --gaussian-switch, --pattern-seed, --pp-rule, --pp-lambda
       Not used: they set models a report does not run (scmos-constant, emccd-distribution,
       scmos-fixed, emccd-pp; see `detnoise simulate --help`).
@@ -143,7 +149,7 @@ impl ReportArgs {
             detector: self.kind,
             darks_paths: self.darks.clone(),
             flats_paths: self.flats.clone(),
-            gain_e_per_adu: self.gain_e_per_adu,
+            gain_e_per_adu: self.detector.gain_e_per_adu,
             subaps_px: unless_default(&self.subap, DEFAULT_SUBAP)
                 .map(|s| parse_list(s, "--subap"))
                 .transpose()?,

@@ -15,15 +15,20 @@
 //!
 //! The other files: `readout` (the trait), `spec` (specs and entries), `params`,
 //! `register` (the exact EM register), `pp` (Poisson-probability thresholds of `emccd-pp`),
-//! `registry` (names, help and parsing over the table).
+//! `registry` (names, help and parsing over the table), `rts_table` (the telegraph pixels
+//! `darks` measured, for `scmos-rts`) and `dark_frames` (the reservoir of dark frames of
+//! `scmos-frames`).
 
+pub mod dark_frames;
 mod params;
 pub mod pp;
 mod readout;
 pub mod register;
 mod registry;
+pub mod rts_table;
 mod spec;
 
+pub use dark_frames::DarkFrames;
 pub use emccd_distribution::EmccdDistribution;
 pub use emccd_pp::EmccdPp;
 pub use emccd_simple::EmccdSimple;
@@ -31,10 +36,14 @@ pub use emccd_stochastic::EmccdStochastic;
 pub use params::ModelParams;
 pub use readout::{draw_normals, FrameInput, Readout};
 pub use register::EmRegister;
+pub use rts_table::{RtsPixel, RtsTable};
 pub use scmos_constant::ScmosConstant;
+pub use scmos_correlated::ScmosCorrelated;
 pub use scmos_fixed::PerPixelSigma;
+pub use scmos_frames::ScmosFrames;
 pub use scmos_map::ScmosMap;
 pub use scmos_random::ScmosRandom;
+pub use scmos_rts::ScmosRts;
 pub use spec::{ModelEntry, ModelSpec, RegisteredModel, Sensor};
 
 use crate::Result;
@@ -57,6 +66,10 @@ readout_models! {
     scmos_fixed: [ENTRY],
     scmos_random: [ENTRY],
     scmos_map: [ENTRY],
+    // Issue 13: the camera's real noise (telegraph pixels, row and column noise, its frames).
+    scmos_rts: [ENTRY],
+    scmos_correlated: [ENTRY],
+    scmos_frames: [ENTRY],
 }
 
 /// [`MODEL_NAMES`] as bytes, joined at compile time.

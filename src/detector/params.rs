@@ -4,7 +4,9 @@
 use crate::calib::Map;
 use std::sync::Arc;
 
+use super::dark_frames::DarkFrames;
 use super::pp::PpRule;
+use super::rts_table::RtsTable;
 use crate::pdf::RmsPdf;
 
 /// Parameters shared by the models of a run.
@@ -32,6 +34,14 @@ pub struct ModelParams {
     pub pp_rule: PpRule,
     /// Fixed reference light level of `emccd-pp` (photo-electrons per pixel); None = sub-aperture mean.
     pub pp_lambda: Option<f64>,
+    /// Telegraph (RTS) pixels of `scmos-rts`, from the `rts.csv` of `darks` (levels in e-).
+    pub rts_table: Option<Arc<RtsTable>>,
+    /// Row-noise amplitude of `scmos-correlated` (e- rms, shared by a row of the window).
+    pub row_noise_e: Option<f64>,
+    /// Column-noise amplitude of `scmos-correlated` (e- rms, shared by a column of the window).
+    pub column_noise_e: Option<f64>,
+    /// The bias-subtracted dark frames (e-) of `scmos-frames`.
+    pub dark_frames: Option<Arc<DarkFrames>>,
 }
 
 impl Default for ModelParams {
@@ -48,6 +58,10 @@ impl Default for ModelParams {
             map: None,
             pp_rule: PpRule::PoissonPrior,
             pp_lambda: None,
+            rts_table: None,
+            row_noise_e: None,
+            column_noise_e: None,
+            dark_frames: None,
         }
     }
 }

@@ -65,6 +65,33 @@ pub(super) mod sampling {
             .collect()
     }
 
+    /// `frames` dark frames of `subap_px` x `subap_px` pixels read by `model`, each frame with
+    /// streams of its own (`stream(seed, frame, 0)` for the normals, `(seed, frame, 1)` for
+    /// `aux`) as the engine gives them: two models that draw the same numbers first read the
+    /// same frames even when one draws more. Row-major frames, one after the other.
+    pub fn frames_own_streams(
+        model: &dyn Readout,
+        subap_px: usize,
+        frames: usize,
+        seed: u64,
+    ) -> Vec<f64> {
+        let npx = subap_px * subap_px;
+        let (zeros, expected) = (vec![0u32; npx], vec![0.0; npx]);
+        let mut z = vec![0.0; npx];
+        let mut out = vec![0.0; npx * frames];
+        for (f, image) in out.chunks_exact_mut(npx).enumerate() {
+            draw_normals(&mut stream(seed, f as u64, 0), &mut z);
+            let input = FrameInput {
+                subap_px,
+                expected_e: &expected,
+                photo_e: &zeros,
+                normals: &z,
+            };
+            model.read(&input, &mut stream(seed, f as u64, 1), image);
+        }
+        out
+    }
+
     /// `frames` dark frames of `subap_px` x `subap_px` pixels read by `model`, as one
     /// vector of samples per pixel.
     pub fn dark_samples(

@@ -71,12 +71,16 @@ impl ScmosMap {
     }
 }
 
-impl Readout for ScmosMap {
-    fn name(&self) -> String {
-        "scmos-map".into()
-    }
-
-    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+impl ScmosMap {
+    /// Read `input` through a window of the map at a random place (two draws from `aux`):
+    /// photo-electrons plus sigma x normal per pixel, into `out` (e-). Returns the window's
+    /// top-left (row, column) in the map, for the models that add to the map's noise.
+    pub(super) fn read_window(
+        &self,
+        input: &FrameInput,
+        aux: &mut SimRng,
+        out: &mut [f64],
+    ) -> (usize, usize) {
         use rand::RngExt;
         let n = self.n;
         let r0 = aux.random_range(0..=self.map.rows - n);
@@ -93,6 +97,17 @@ impl Readout for ScmosMap {
                 *o = k as f64 + s * z;
             }
         }
+        (r0, c0)
+    }
+}
+
+impl Readout for ScmosMap {
+    fn name(&self) -> String {
+        "scmos-map".into()
+    }
+
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+        self.read_window(input, aux, out);
     }
 
     fn noise_scale_e(&self) -> f64 {

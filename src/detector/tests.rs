@@ -16,11 +16,32 @@ fn examples(entry: &ModelEntry) -> Vec<String> {
     names
 }
 
+/// Two 8x8 dark frames, read from a FITS cube.
+fn two_dark_frames() -> DarkFrames {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("darks.fits");
+    let mut k = 0.0;
+    let mut next = || {
+        k += 1.0;
+        vec![100.0 + k; 64]
+    };
+    crate::io::fits::write_cube(&path, (8, 8), 2, true, &mut next, &[]).unwrap();
+    DarkFrames::read(&[path], 1.0, 1.0).unwrap()
+}
+
 #[test]
 fn every_entry_parses_builds_and_names_itself() {
     let map = Map::new(8, 8, vec![1.5; 64], Unit::Electrons).with_source("map.fits");
     let params = ModelParams {
         map: Some(std::sync::Arc::new(map)),
+        rts_table: Some(std::sync::Arc::new(RtsTable {
+            source: "rts.csv".into(),
+            pixels: vec![],
+            skipped: 0,
+        })),
+        row_noise_e: Some(0.2),
+        column_noise_e: Some(0.1),
+        dark_frames: Some(std::sync::Arc::new(two_dark_frames())),
         ..ModelParams::default()
     };
     let fields = format!("{params:?}");
@@ -71,7 +92,8 @@ fn names_and_help_list_every_entry() {
     assert_eq!(
         MODEL_NAMES,
         "emccd-simple, emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
-scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map"
+scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map, \
+scmos-rts, scmos-correlated, scmos-frames"
     );
 }
 

@@ -67,3 +67,179 @@ fn each_list_option_names_itself() {
     assert!(e.contains("--signal") && !e.contains("--subap"), "{e}");
     sweep("2,8", "20,1e9").validate().unwrap();
 }
+
+/// The detector options as parsed from `args`.
+fn detector(args: &[&str]) -> DetectorArgs {
+    use clap::Parser;
+    #[derive(clap::Parser)]
+    struct Cli {
+        #[command(flatten)]
+        d: DetectorArgs,
+    }
+    Cli::try_parse_from([&["x"], args].concat()).unwrap().d
+}
+
+#[test]
+fn each_real_noise_model_names_the_options_it_needs() {
+    let models = |m: &str| parse_models(m).unwrap();
+    for (model, given, flag) in [
+        ("scmos-rts", &["--rts-table", "rts.csv"][..], "--map"),
+        ("scmos-rts", &["--map", "m.fits"][..], "--rts-table"),
+        (
+            "scmos-correlated",
+            &["--map", "m.fits", "--column-noise-e", "0.2"][..],
+            "--row-noise-e",
+        ),
+        (
+            "scmos-correlated",
+            &["--map", "m.fits", "--row-noise-e", "0.2"][..],
+            "--column-noise-e",
+        ),
+        ("scmos-frames", &[][..], "--dark-frames"),
+        (
+            "scmos-frames",
+            &["--dark-frames", "d.fits"][..],
+            "--gain-e-per-adu",
+        ),
+    ] {
+        let e = detector(given).validate(&models(model)).unwrap_err();
+        let shown = to_cli(e).to_string();
+        assert!(
+            shown.starts_with(&format!("invalid option {flag}: ")),
+            "{model}: {shown}"
+        );
+        assert!(shown.contains(flag), "{shown}");
+    }
+    let full = detector(&[
+        "--map",
+        "m.fits",
+        "--rts-table",
+        "rts.csv",
+        "--row-noise-e",
+        "0.3",
+        "--column-noise-e",
+        "0",
+        "--dark-frames",
+        "a.fits",
+        "b.fits",
+        "--gain-e-per-adu",
+        "0.25",
+    ]);
+    full.validate(&models("scmos-rts,scmos-correlated,scmos-frames,scmos-map"))
+        .unwrap();
+    assert_eq!(full.dark_frames.len(), 2);
+    assert_eq!(full.dark_frames_max_mib, 512.0);
+    let inputs = full.input_files();
+    for f in ["m.fits", "rts.csv", "a.fits", "b.fits"] {
+        assert!(
+            inputs.contains(&std::path::PathBuf::from(f)),
+            "{f}: {inputs:?}"
+        );
+    }
+}
+
+#[test]
+fn the_models_parameters_are_read_from_their_files() {
+    // A 2x3 map, an rts.csv with one ok and one imprecise row, and 4 dark frames.
+    let dir = tempfile::tempdir().unwrap();
+    let path = |n: &str| dir.path().join(n).display().to_string();
+    Map::new(2, 3, vec![1.0; 6], Unit::Electrons)
+        .write_fits(dir.path().join("m.fits").as_path(), &[])
+        .unwrap();
+    use crate::detector::rts_table::fixture::{row, table};
+    let levels = [(-1.0, 0.5, 0.1), (1.0, 0.5, 0.1)];
+    let rts = table(&[
+        row(2, 1, "ok", &levels, true),
+        row(0, 0, "imprecise", &levels, true),
+    ]);
+    std::fs::write(dir.path().join("rts.csv"), rts).unwrap();
+    let mut k = 0.0;
+    let mut next = || {
+        k += 1.0;
+        vec![50.0 + k; 6]
+    };
+    crate::io::fits::write_cube(&dir.path().join("d.fits"), (2, 3), 4, true, &mut next, &[])
+        .unwrap();
+    let (m, r, d) = (path("m.fits"), path("rts.csv"), path("d.fits"));
+    let args = detector(&[
+        "--map",
+        &m,
+        "--rts-table",
+        &r,
+        "--row-noise-e",
+        "0.3",
+        "--column-noise-e",
+        "0.1",
+        "--dark-frames",
+        &d,
+        "--gain-e-per-adu",
+        "0.5",
+    ]);
+    let p = args.params().unwrap();
+    let t = p.rts_table.as_ref().unwrap();
+    assert_eq!((t.pixels.len(), t.skipped), (1, 1));
+    assert_eq!((p.row_noise_e, p.column_noise_e), (Some(0.3), Some(0.1)));
+    let frames = p.dark_frames.as_ref().unwrap();
+    assert_eq!(
+        (frames.kept(), frames.total, frames.gain_e_per_adu),
+        (4, 4, 0.5)
+    );
+    for model in ["scmos-rts", "scmos-correlated", "scmos-frames"] {
+        let built = ModelSpec::parse(model).unwrap().build(&p, 2).unwrap();
+        assert_eq!(built.name(), model);
+    }
+    // A table without levels in e- is refused; the command line names the option to use.
+    let adu = table(&[row(2, 1, "ok", &levels, false)]);
+    std::fs::write(dir.path().join("adu.csv"), adu).unwrap();
+    let a = path("adu.csv");
+    let e = to_cli(detector(&["--rts-table", &a]).params().unwrap_err()).to_string();
+    assert!(
+        e.contains("adu.csv: line 2") && e.contains("--gain-e-per-adu"),
+        "{e}"
+    );
+    // A table pixel outside the map names the table and its line.
+    let far = table(&[row(3, 0, "ok", &levels, true)]);
+    std::fs::write(dir.path().join("far.csv"), far).unwrap();
+    let f = path("far.csv");
+    let p = detector(&["--map", &m, "--rts-table", &f])
+        .params()
+        .unwrap();
+    let Err(e) = ModelSpec::parse("scmos-rts").unwrap().build(&p, 2) else {
+        panic!("built with a pixel outside the map")
+    };
+    assert!(
+        e.to_string()
+            .contains("far.csv: line 2: pixel (x_px 3, y_px 0) is outside"),
+        "{e}"
+    );
+}
+
+#[test]
+fn the_model_list_in_the_help_names_the_new_models_options() {
+    let mut cmd = super::super::command();
+    let sub = cmd.find_subcommand_mut("simulate").expect("simulate");
+    let help = sub.render_long_help().to_string();
+    for (model, flags) in [
+        ("scmos-rts", &["--map", "--rts-table"][..]),
+        (
+            "scmos-correlated",
+            &["--map", "--row-noise-e", "--column-noise-e"][..],
+        ),
+        ("scmos-frames", &["--dark-frames"][..]),
+    ] {
+        // The list's line of the model (wrapped by clap): from its name to the end of its
+        // `(uses ...)`.
+        let flat = help.split_whitespace().collect::<Vec<_>>().join(" ");
+        let list = &flat[flat.find("Models (NAME[:ARG]):").expect("model list")..];
+        let start = list.find(&format!(" {model} ")).expect("model in the list");
+        let uses = start + list[start..].find("(uses ").expect("(uses ...)");
+        let line = &list[start..uses + list[uses..].find(')').expect("(uses ...)")];
+        for flag in flags {
+            assert!(line.contains(flag), "{line}");
+        }
+        assert!(!line.contains('`'), "{line}");
+    }
+    for flag in ["--dark-frames-max-mib", "--gain-e-per-adu", "--rts-table"] {
+        assert!(help.contains(flag), "{flag}");
+    }
+}

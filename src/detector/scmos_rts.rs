@@ -1,0 +1,161 @@
+//! `scmos-rts`: the measured noise map plus the measured telegraph (RTS) pixels.
+
+use std::sync::Arc;
+
+use super::readout::{FrameInput, Readout};
+use super::rts_table::{RtsTable, MAX_LEVELS};
+use super::scmos_map::ScmosMap;
+use super::spec::{ModelEntry, ModelSpec, Sensor};
+use crate::calib::Map;
+use crate::rng::SimRng;
+use crate::{Error, Result};
+
+/// The registry entry of `scmos-rts`.
+pub const ENTRY: ModelEntry = ModelEntry {
+    name: "scmos-rts",
+    arg: None,
+    help: "scmos-map plus the measured telegraph pixels: each frame an RTS pixel takes a level by \
+           its occupancy, plus that level's Gaussian width, instead of the map's sigma",
+    sensor: Sensor::Scmos,
+    params: &["map", "rts_table"],
+    parse: ModelSpec::registered,
+    build: |_, p, subap_px| {
+        let map = p.map.clone().ok_or_else(|| {
+            Error::invalid(
+                "map",
+                "scmos-rts needs the measured noise map the RTS pixels belong to: give `map` FILE",
+            )
+        })?;
+        let table = p.rts_table.as_deref().ok_or_else(|| {
+            Error::invalid(
+                "rts_table",
+                "scmos-rts needs the telegraph pixels: give `rts_table` FILE (rts.csv from darks)",
+            )
+        })?;
+        Ok(Box::new(ScmosRts::new(map, table, subap_px)?))
+    },
+};
+
+/// One telegraph pixel as the readout draws it: cumulative occupancies, levels and widths.
+#[derive(Debug, Clone, Copy)]
+struct Telegraph {
+    /// Cumulative occupancy up to each level; the last used one is exactly 1.
+    cumulative: [f64; MAX_LEVELS],
+    /// Level relative to the pixel's offset (e-).
+    level_e: [f64; MAX_LEVELS],
+    /// Gaussian width around the level (e-).
+    width_e: [f64; MAX_LEVELS],
+}
+
+impl Telegraph {
+    /// The level a uniform deviate `u` in [0, 1) falls in.
+    fn level(&self, u: f64) -> usize {
+        self.cumulative.iter().position(|&c| u < c).unwrap_or(0)
+    }
+}
+
+/// `scmos-rts`: each frame reads through a random window of the measured map (as `scmos-map`),
+/// except at the telegraph pixels of `darks`' table: there the pixel takes level k with
+/// probability occupancy_k, independently each frame (the Monte-Carlo's frames are
+/// independent, so the dwell times do not enter), and adds the level plus its Gaussian width
+/// times the frame's normal deviate. It replaces the map's sigma there rather than adding to
+/// it: the map's rms at an RTS pixel already contains the telegraph variance
+/// (sum_k occupancy_k (level_k^2 + width_k^2) about the pixel's offset).
+#[derive(Debug, Clone)]
+pub struct ScmosRts {
+    map: ScmosMap,
+    n: usize,
+    /// Telegraph pixels sorted by (row, column): those of map row r are
+    /// `pixels[row_start[r]..row_start[r + 1]]`, each with its column.
+    row_start: Vec<usize>,
+    pixels: Vec<(usize, Telegraph)>,
+}
+
+impl ScmosRts {
+    /// Windows of `n` x `n` pixels of `map` (in e-) with the `ok` telegraph pixels of `table`;
+    /// a pixel of the table outside the map is an error naming the table and its line.
+    pub fn new(map: Arc<Map>, table: &RtsTable, n: usize) -> Result<Self> {
+        let (rows, cols) = (map.rows, map.cols);
+        let map_source = map.source.clone();
+        let map = ScmosMap::new(map, n)?;
+        let mut sorted: Vec<(usize, usize, Telegraph)> = Vec::with_capacity(table.pixels.len());
+        for p in &table.pixels {
+            if p.x_px >= cols || p.y_px >= rows {
+                return Err(Error::input(
+                    &table.source,
+                    format!(
+                        "line {}: pixel (x_px {}, y_px {}) is outside the {rows}x{cols} px noise \
+                         map {map_source}: the table and the map must come from the same camera \
+                         (x_px is the column, y_px the row, 0-based, of the full frame)",
+                        p.line, p.x_px, p.y_px
+                    ),
+                ));
+            }
+            let mut t = Telegraph {
+                cumulative: [1.0; MAX_LEVELS],
+                level_e: [0.0; MAX_LEVELS],
+                width_e: [0.0; MAX_LEVELS],
+            };
+            let mut sum = 0.0;
+            for k in 0..p.levels_e.len() {
+                sum += p.occupancy[k];
+                t.cumulative[k] = sum;
+                t.level_e[k] = p.levels_e[k];
+                t.width_e[k] = p.widths_e[k];
+            }
+            // The last level takes whatever round-off left: every u in [0, 1) finds a level.
+            t.cumulative[p.levels_e.len() - 1] = 1.0;
+            sorted.push((p.y_px, p.x_px, t));
+        }
+        sorted.sort_by_key(|&(r, c, _)| (r, c));
+        let mut row_start = vec![0; rows + 1];
+        for &(r, _, _) in &sorted {
+            row_start[r + 1] += 1;
+        }
+        for r in 0..rows {
+            row_start[r + 1] += row_start[r];
+        }
+        let pixels = sorted.into_iter().map(|(_, c, t)| (c, t)).collect();
+        Ok(ScmosRts {
+            map,
+            n,
+            row_start,
+            pixels,
+        })
+    }
+
+    /// Number of telegraph pixels simulated.
+    pub fn rts_pixels(&self) -> usize {
+        self.pixels.len()
+    }
+}
+
+impl Readout for ScmosRts {
+    fn name(&self) -> String {
+        "scmos-rts".into()
+    }
+
+    fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+        use rand::RngExt;
+        let n = self.n;
+        let (r0, c0) = self.map.read_window(input, aux, out);
+        // Then one uniform draw per telegraph pixel of the window, in pixel order.
+        for i in 0..n {
+            let row = &self.pixels[self.row_start[r0 + i]..self.row_start[r0 + i + 1]];
+            let first = row.partition_point(|&(c, _)| c < c0);
+            for (c, t) in row[first..].iter().take_while(|&&(c, _)| c < c0 + n) {
+                let j = i * n + (c - c0);
+                let k = t.level(aux.random::<f64>());
+                out[j] = input.photo_e[j] as f64 + t.level_e[k] + t.width_e[k] * input.normals[j];
+            }
+        }
+    }
+
+    fn noise_scale_e(&self) -> f64 {
+        // The map's rms, telegraph variance included.
+        self.map.noise_scale_e()
+    }
+}
+
+#[cfg(test)]
+mod tests;
