@@ -1,10 +1,10 @@
 //! Benchmark of `detnoise darks`: a 512 x 512 x 2000 uint16 FITS cube (1 GiB) in the page
-//! cache, calibrated as the command does (statistics, maps, outputs), with and without the
-//! SHA-256 checksums of the inputs. Prints GB/s of file read (1 GB = 1e9 bytes), CPU seconds
-//! and the peak resident memory (VmHWM) of each run, and the floors of this machine: one
-//! thread reading the file (`cat`), one thread reading and hashing it, and SHA-256 of data
-//! already in cache on one core (SHA-256 of one file cannot be split across cores, so that
-//! bounds `darks` with checksums). Every measurement runs in a fresh process of this
+//! cache, calibrated as the command does (statistics, maps, outputs), with the default BLAKE3
+//! checksums of the inputs, with SHA-256 ones, and without. Prints GB/s of file read (1 GB =
+//! 1e9 bytes), CPU seconds and the peak resident memory (VmHWM) of each run, and the floors of
+//! this machine: one thread reading the file (`cat`), one thread reading and hashing it, and
+//! each hash of data already in cache on one core (the hash of one file runs on one core, so
+//! that bounds `darks` with checksums). Every measurement runs in a fresh process of this
 //! program, as the command would, so that its peak memory is its own.
 //!
 //! cargo run --release --example bench_darks [-- FRAMES [ROWS COLS]]
@@ -18,7 +18,7 @@ use std::process::Command;
 use std::time::Instant;
 
 use detnoise::calib::darks::{run, DarkOptions, DarksRun};
-use detnoise::calib::summary::sha256_file;
+use detnoise::calib::summary::{checksum_file, Checksum};
 use detnoise::progress::Silent;
 use sha2::{Digest, Sha256};
 
@@ -55,14 +55,33 @@ struct Run {
     reading: Option<f64>,
 }
 
-/// SHA-256 of `bytes` bytes of data in L2 cache (a 1 MiB buffer, hashed repeatedly).
-fn sha256_in_cache(bytes: u64) {
+/// `algorithm` of `bytes` bytes of data in L2 cache (a 1 MiB buffer, hashed repeatedly).
+fn hash_in_cache(bytes: u64, algorithm: Checksum) {
     let buf = vec![0x5au8; 1 << 20];
-    let mut h = Sha256::new();
-    for _ in 0..bytes.div_ceil(buf.len() as u64) {
-        h.update(black_box(&buf));
+    let pieces = bytes.div_ceil(buf.len() as u64);
+    match algorithm {
+        Checksum::Sha256 => {
+            let mut h = Sha256::new();
+            (0..pieces).for_each(|_| h.update(black_box(&buf)));
+            black_box(h.finalize());
+        }
+        Checksum::Blake3 => {
+            let mut h = blake3::Hasher::new();
+            (0..pieces).for_each(|_| {
+                h.update(black_box(&buf));
+            });
+            black_box(h.finalize());
+        }
     }
-    black_box(h.finalize());
+}
+
+/// The algorithm a measurement's name ends with (`-sha256`; else BLAKE3).
+fn algorithm_of(what: &str) -> Checksum {
+    if what.ends_with("-sha256") {
+        Checksum::Sha256
+    } else {
+        Checksum::Blake3
+    }
 }
 
 /// Run measurement `what` on `cube` in this process and print it as one line (child side).
@@ -76,22 +95,22 @@ fn measure(what: &str, cube: &Path, out: &Path) {
             while f.read(&mut buf).expect("read cube") > 0 {}
             None
         }
-        "hash" => {
-            sha256_file(cube).expect("hash");
+        "hash" | "hash-sha256" => {
+            checksum_file(cube, algorithm_of(what)).expect("hash");
             None
         }
-        "sha" => {
-            sha256_in_cache(bytes);
+        "cached" | "cached-sha256" => {
+            hash_in_cache(bytes, algorithm_of(what));
             None
         }
-        "darks" | "darks-no-checksums" => {
+        "darks" | "darks-sha256" | "darks-no-checksums" => {
             let job = DarksRun {
                 stack: vec![cube.to_path_buf()],
                 out: out.to_path_buf(),
                 force: false,
                 options: DarkOptions::default(),
                 gain_e_per_adu: Some(0.25),
-                checksums: what == "darks",
+                checksum: (what != "darks-no-checksums").then(|| algorithm_of(what)),
                 accept_illuminated: false,
             };
             Some(run(&job, &Silent).expect("darks").read_seconds)
@@ -202,8 +221,9 @@ fn main() {
     // Warm the page cache.
     best(1, "cat", &cube, &dir.path().join("out"));
     let m = |what: &str| best(runs, what, &cube, &dir.path().join("out"));
-    let (cat, hash, sha) = (m("cat"), m("hash"), m("sha"));
-    let (with, without) = (m("darks"), m("darks-no-checksums"));
+    let (cat, hash, cached) = (m("cat"), m("hash"), m("cached"));
+    let (hash_sha, cached_sha) = (m("hash-sha256"), m("cached-sha256"));
+    let (with, with_sha, without) = (m("darks"), m("darks-sha256"), m("darks-no-checksums"));
 
     println!(
         "darks bench: {} ({:.3} GB), {frames} frames of {}x{} uint16, best of {runs} runs",
@@ -213,9 +233,12 @@ fn main() {
         shape.1
     );
     line("read alone (cat, one thread)", bytes, cat);
-    line("read and SHA-256 (one thread)", bytes, hash);
-    line("SHA-256 of data in cache (one core)", bytes, sha);
-    line("darks with checksums", bytes, with);
+    line("read and BLAKE3 (one thread)", bytes, hash);
+    line("BLAKE3 of data in cache (one core)", bytes, cached);
+    line("read and SHA-256 (one thread)", bytes, hash_sha);
+    line("SHA-256 of data in cache (one core)", bytes, cached_sha);
+    line("darks with checksums (BLAKE3, default)", bytes, with);
+    line("darks with SHA-256 checksums", bytes, with_sha);
     line("darks without checksums", bytes, without);
     let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(

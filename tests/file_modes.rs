@@ -94,7 +94,7 @@ fn every_file_of_darks_fit_pdf_and_emgain_is_0644() {
         force: false,
         options: DarkOptions::default(),
         gain_e_per_adu: Some(0.25),
-        checksums: true,
+        checksum: Some(detnoise::io::Checksum::Blake3),
         accept_illuminated: false,
     };
     let r = darks::run(&job, &Silent).unwrap();

@@ -10,7 +10,6 @@ use detnoise::report::{QUICK_SIGNALS_PHOTONS, QUICK_SUBAPS_PX};
 use detnoise::spot::Spot;
 use detnoise::Error;
 use serde_json::Value;
-use sha2::{Digest, Sha256};
 use std::path::Path;
 
 /// The manifest of bundled stack `name` (its truth).
@@ -147,10 +146,12 @@ fn a_bad_option_is_refused_naming_its_field_before_anything_is_written() {
     assert!(!out.exists());
 }
 
-/// SHA-256 of a file's bytes as lower-case hex, computed here independently of the library.
-fn sha256_hex(path: &Path) -> String {
-    let digest = Sha256::digest(std::fs::read(path).unwrap());
-    digest.iter().map(|b| format!("{b:02x}")).collect()
+/// BLAKE3 of a file's bytes as lower-case hex, computed here in one call, independently of
+/// the library's streaming.
+fn blake3_hex(path: &Path) -> String {
+    blake3::hash(&std::fs::read(path).unwrap())
+        .to_hex()
+        .to_string()
 }
 
 #[test]
@@ -180,7 +181,7 @@ fn summary_lists_every_input_and_a_given_operating_point_beside_the_grid() {
     let written: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
 
-    // Every input: the darks, then each flat, with its own SHA-256, frame count and format.
+    // Every input: the darks, then each flat, with its own BLAKE3, frame count and format.
     let inputs = written["inputs"].as_array().unwrap();
     let expected: Vec<(&str, std::path::PathBuf)> =
         std::iter::once(("darks", data("scmos-darks-64x64.fits")))
@@ -190,7 +191,8 @@ fn summary_lists_every_input_and_a_given_operating_point_beside_the_grid() {
     for (input, (role, path)) in inputs.iter().zip(&expected) {
         assert_eq!(input["role"], *role);
         assert_eq!(input["path"], path.display().to_string());
-        assert_eq!(input["sha256"], sha256_hex(path), "{}", path.display());
+        assert_eq!(input["blake3"], blake3_hex(path), "{}", path.display());
+        assert!(input["sha256"].is_null());
         assert_eq!(input["format"], "fits");
         let manifest = manifest(path.file_name().unwrap().to_str().unwrap());
         assert_eq!(input["frames"], manifest["spec"]["frames"]);

@@ -6,7 +6,7 @@ use rayon::slice::ParallelSliceMut;
 use serde::Serialize;
 
 use crate::error::Result;
-pub use crate::io::sha256_file;
+pub use crate::io::{checksum_file, Checksum};
 use crate::io::{hash_stack_while, ByteTap, FrameStack};
 use crate::stats::percentile_sorted as percentile;
 
@@ -68,7 +68,10 @@ impl Distribution {
 pub struct InputFile {
     /// Path as given.
     pub path: PathBuf,
-    /// SHA-256 of the file's bytes (hex); None when checksums were skipped.
+    /// BLAKE3 of the file's bytes (hex, as `b3sum` prints it); None unless BLAKE3 was chosen.
+    pub blake3: Option<String>,
+    /// SHA-256 of the file's bytes (hex, as `sha256sum` prints it); None unless SHA-256 was
+    /// chosen.
     pub sha256: Option<String>,
     /// Frames read from it.
     pub frames: usize,
@@ -78,15 +81,23 @@ pub struct InputFile {
     pub sample_type: crate::io::SampleType,
 }
 
-/// Input records of a stack's files, with the given checksums (one per file, in order).
-fn records(stack: &FrameStack, sha256: impl IntoIterator<Item = Option<String>>) -> Vec<InputFile> {
+/// Input records of a stack's files, with the given `algorithm` digests (one per file, in
+/// order).
+fn records(
+    stack: &FrameStack,
+    algorithm: Option<Checksum>,
+    digests: impl IntoIterator<Item = Option<String>>,
+) -> Vec<InputFile> {
     stack
         .sources
         .iter()
-        .zip(sha256)
-        .map(|(s, sha256)| InputFile {
+        .zip(digests)
+        .map(|(s, digest)| InputFile {
             path: s.path.clone(),
-            sha256,
+            blake3: digest
+                .clone()
+                .filter(|_| algorithm == Some(Checksum::Blake3)),
+            sha256: digest.filter(|_| algorithm == Some(Checksum::Sha256)),
             frames: s.frames,
             format: s.format,
             sample_type: s.sample_type,
@@ -94,24 +105,29 @@ fn records(stack: &FrameStack, sha256: impl IntoIterator<Item = Option<String>>)
         .collect()
 }
 
-/// Checksums of every file of a stack.
-pub fn inputs(stack: &FrameStack) -> Result<Vec<InputFile>> {
-    Ok(with_inputs_hashed(stack, |_| Ok(()))?.1)
+/// Input records of every file of a stack with their `algorithm` digests.
+pub fn inputs(stack: &FrameStack, algorithm: Checksum) -> Result<Vec<InputFile>> {
+    Ok(with_inputs_hashed(stack, algorithm, |_| Ok(()))?.1)
 }
 
 /// Input records without checksums.
 pub fn unhashed(stack: &FrameStack) -> Vec<InputFile> {
-    records(stack, std::iter::repeat(None))
+    records(stack, None, std::iter::repeat(None))
 }
 
-/// Run `work` while the stack's files are hashed on another thread; returns both results.
+/// Run `work` while the stack's files are hashed with `algorithm` on another thread; returns
+/// both results.
 /// `work` may hand the tap to the stack reader
 /// ([`read_batches`](crate::io::read_batches)) so that the frames it reads are hashed from
 /// memory rather than read twice.
 pub fn with_inputs_hashed<T>(
     stack: &FrameStack,
+    algorithm: Checksum,
     work: impl FnOnce(&ByteTap) -> Result<T>,
 ) -> Result<(T, Vec<InputFile>)> {
-    let (value, sha256) = hash_stack_while(stack, work)?;
-    Ok((value, records(stack, sha256.into_iter().map(Some))))
+    let (value, digests) = hash_stack_while(stack, algorithm, work)?;
+    Ok((
+        value,
+        records(stack, Some(algorithm), digests.into_iter().map(Some)),
+    ))
 }

@@ -1,11 +1,12 @@
-//! SHA-256 of a stack's files on a thread of their own. Bytes that the stack's reader has
-//! read already (raw frames, shared through a [`ByteTap`]) are hashed from memory; the rest
-//! (headers, padding, files whose frames a decoding library reads) the thread reads itself.
-//! Each file is still hashed as one sequence of its bytes, so the digests are those of the
-//! files (`sha256sum`).
+//! Checksums (BLAKE3 by default, or SHA-256) of a stack's files on a thread of their own.
+//! Bytes that the stack's reader has read already (raw frames, shared through a [`ByteTap`])
+//! are hashed from memory; the rest (headers, padding, files whose frames a decoding library
+//! reads) the thread reads itself. Each file is still hashed as one sequence of its bytes, so
+//! the digests are those of the files (`b3sum`, `sha256sum`).
 //!
-//! SHA-256 of one file cannot be split across cores: one core's SHA-256 throughput bounds
-//! any calibration that records checksums, so that core does nothing but hash.
+//! SHA-256 of one file cannot be split across cores: at ~2 GB/s on one core (SHA-NI) it bounds
+//! any calibration that records it. BLAKE3 hashes ~6 GB/s on one core (AVX-512) and keeps the
+//! calibration, not the checksum, the bound; hence the default.
 
 use std::fs::File;
 use std::os::unix::fs::FileExt;
@@ -13,12 +14,74 @@ use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 
+use serde::Serialize;
 use sha2::{Digest, Sha256};
 
 use super::frame::FrameData;
 use super::stack::FrameStack;
 use super::stream::SharedBatch;
 use crate::error::{Error, Result};
+
+/// A checksum algorithm of the inputs' records.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum Checksum {
+    /// BLAKE3 (256-bit, hex; `b3sum` prints the same).
+    Blake3,
+    /// SHA-256 (hex; `sha256sum` prints the same).
+    Sha256,
+}
+
+impl Checksum {
+    /// The algorithm's name, as the key of its digest in summary.json.
+    pub fn label(self) -> &'static str {
+        match self {
+            Checksum::Blake3 => "blake3",
+            Checksum::Sha256 => "sha256",
+        }
+    }
+}
+
+/// A running digest of one algorithm.
+enum Hasher {
+    Blake3(Box<blake3::Hasher>),
+    Sha256(Sha256),
+}
+
+impl Hasher {
+    fn new(algorithm: Checksum) -> Self {
+        match algorithm {
+            Checksum::Blake3 => Hasher::Blake3(Box::new(blake3::Hasher::new())),
+            Checksum::Sha256 => Hasher::Sha256(Sha256::new()),
+        }
+    }
+
+    fn update(&mut self, bytes: &[u8]) {
+        match self {
+            Hasher::Blake3(h) => {
+                h.update(bytes);
+            }
+            Hasher::Sha256(h) => h.update(bytes),
+        }
+    }
+
+    /// Feed bytes another core has just read (SHA-256 with prefetching, see
+    /// [`update_prefetched`]; BLAKE3 streams them fast enough as they are).
+    fn update_shared(&mut self, bytes: &[u8]) {
+        match self {
+            Hasher::Sha256(h) => update_prefetched(h, bytes),
+            other => other.update(bytes),
+        }
+    }
+
+    fn hex(self) -> String {
+        match self {
+            Hasher::Blake3(h) => h.finalize().to_hex().to_string(),
+            Hasher::Sha256(h) => h.finalize().iter().map(|b| format!("{b:02x}")).collect(),
+        }
+    }
+}
 
 /// Bytes read per call where the hashing thread reads a file itself: small enough to stay in
 /// the core's L2 cache between the read and the hash.
@@ -32,6 +95,7 @@ const QUEUED_BATCHES: usize = 1;
 #[derive(Debug)]
 pub struct ByteTap {
     tx: mpsc::SyncSender<Arc<SharedBatch>>,
+    algorithm: Checksum,
 }
 
 impl ByteTap {
@@ -39,6 +103,12 @@ impl ByteTap {
     /// that has stopped (on an error, reported by [`hash_stack_while`]) is ignored.
     pub(crate) fn send(&self, batch: Arc<SharedBatch>) {
         let _ = self.tx.send(batch);
+    }
+
+    /// Whether the hashing keeps a core busy for as long as the reading takes (SHA-256, ~2
+    /// GB/s), so that the work should leave it one; BLAKE3 (~6 GB/s) needs a fraction of one.
+    pub fn needs_a_core(&self) -> bool {
+        self.algorithm == Checksum::Sha256
     }
 }
 
@@ -65,20 +135,20 @@ fn update_prefetched(sha: &mut Sha256, bytes: &[u8]) {
     }
 }
 
-/// The SHA-256 of one file in progress: bytes before `pos` are hashed.
+/// The digest of one file in progress: bytes before `pos` are hashed.
 struct FileHash<'a> {
     path: &'a Path,
-    sha: Sha256,
+    sha: Hasher,
     pos: u64,
     file: Option<File>,
     done: bool,
 }
 
 impl<'a> FileHash<'a> {
-    fn new(path: &'a Path) -> Self {
+    fn new(path: &'a Path, algorithm: Checksum) -> Self {
         FileHash {
             path,
-            sha: Sha256::new(),
+            sha: Hasher::new(algorithm),
             pos: 0,
             file: None,
             done: false,
@@ -117,7 +187,7 @@ impl<'a> FileHash<'a> {
             return Ok(());
         }
         self.read_to(Some(offset), buf, abort)?;
-        update_prefetched(&mut self.sha, bytes);
+        self.sha.update_shared(bytes);
         self.pos = offset + bytes.len() as u64;
         Ok(())
     }
@@ -133,17 +203,13 @@ impl<'a> FileHash<'a> {
     }
 
     fn hex(self) -> String {
-        self.sha
-            .finalize()
-            .iter()
-            .map(|b| format!("{b:02x}"))
-            .collect()
+        self.sha.hex()
     }
 }
 
-/// SHA-256 of a file (hex).
-pub fn sha256_file(path: &Path) -> Result<String> {
-    let mut h = FileHash::new(path);
+/// The `algorithm` digest of a file (hex).
+pub fn checksum_file(path: &Path, algorithm: Checksum) -> Result<String> {
+    let mut h = FileHash::new(path, algorithm);
     h.finish(&mut vec![0u8; READ_CHUNK], &AtomicBool::new(false))?;
     Ok(h.hex())
 }
@@ -152,13 +218,14 @@ pub fn sha256_file(path: &Path) -> Result<String> {
 /// received; stops early (with an error nobody reports) when `abort` is raised.
 fn hash_stack(
     stack: &FrameStack,
+    algorithm: Checksum,
     rx: mpsc::Receiver<Arc<SharedBatch>>,
     abort: &AtomicBool,
 ) -> Result<Vec<String>> {
     let mut files: Vec<FileHash> = stack
         .sources
         .iter()
-        .map(|s| FileHash::new(&s.path))
+        .map(|s| FileHash::new(&s.path, algorithm))
         .collect();
     let mut buf = vec![0u8; READ_CHUNK];
     // Files before `next` are hashed completely.
@@ -200,24 +267,25 @@ impl Drop for AbortGuard<'_> {
     }
 }
 
-/// Run `work` while every file of `stack` is hashed on another thread; returns both results,
-/// the SHA-256 (hex) of each file in `stack.sources` order. `work` may pass the tap to
+/// Run `work` while every file of `stack` is hashed with `algorithm` on another thread; returns
+/// both results, the digest (hex) of each file in `stack.sources` order. `work` may pass the tap to
 /// the stack reader ([`read_batches`](super::read_batches)) so that the raw frames it reads
 /// are hashed from memory; everything else the thread reads itself. The work's error comes
 /// first; the hashing stops early when the work fails.
 pub fn hash_stack_while<T>(
     stack: &FrameStack,
+    algorithm: Checksum,
     work: impl FnOnce(&ByteTap) -> Result<T>,
 ) -> Result<(T, Vec<String>)> {
     let abort = AtomicBool::new(false);
     let (tx, rx) = mpsc::sync_channel(QUEUED_BATCHES);
     std::thread::scope(|s| {
         let hasher = std::thread::Builder::new()
-            .name("detnoise-sha256".into())
-            .spawn_scoped(s, || hash_stack(stack, rx, &abort))
+            .name(format!("detnoise-{}", algorithm.label()))
+            .spawn_scoped(s, || hash_stack(stack, algorithm, rx, &abort))
             .map_err(|e| Error::Numeric(format!("cannot start the hashing thread: {e}")))?;
         let mut guard = AbortGuard(&abort, true);
-        let tap = ByteTap { tx };
+        let tap = ByteTap { tx, algorithm };
         let result = work(&tap);
         // Closing the tap tells the thread that no more batches come.
         drop(tap);

@@ -26,7 +26,7 @@ mod stream;
 pub mod tiff;
 
 pub use checks::{name_file, MAX_EXPANSION, MAX_SAMPLE_ABS};
-pub use digest::{hash_stack_while, sha256_file, ByteTap};
+pub use digest::{checksum_file, hash_stack_while, ByteTap, Checksum};
 pub use file::{read_first_frame, SourceFile};
 pub use format::{SampleType, StackFormat};
 pub use frame::{FrameData, FrameOrigin, RawKind, RawLayout};

@@ -9,7 +9,7 @@ use super::options::{GainSource, ReportOptions};
 use super::page::emccd_html;
 use super::point::ChosenPoint;
 use super::result::{EmccdSummary, ReportInput, ReportResult, Summary};
-use crate::calib::summary::inputs;
+use crate::calib::summary::{inputs, Checksum};
 use crate::detector::EmRegister;
 use crate::fit::emgain::require_em_signature;
 use crate::fit::emgain::{accumulate as emgain_histogram, chart as emgain_chart};
@@ -64,7 +64,7 @@ pub(crate) fn run(
     let operating_point = ChosenPoint::new(&op, o.operating_point.is_some(), grid.contains(&op));
     let summary = EmccdSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
-        inputs: ReportInput::all("darks", inputs(stack)?).collect(),
+        inputs: ReportInput::all("darks", inputs(stack, Checksum::Blake3)?).collect(),
         frames: stack.frames,
         shape: [stack.shape.0, stack.shape.1],
         gain_e_per_adu: conv,

@@ -157,7 +157,7 @@ pub fn emccd_html(s: &EmccdSummary, comparison: &[Compared], error_bars: &str) -
     h.push_str("<h2>Charts</h2>");
     figure(&mut h, "emgain.png", "EM-gain fit: histogram of all pixel samples with the fitted model", "Histogram of all pixel-samples (log counts) with the fitted Poisson-register-Gaussian model and its zero- and one-or-more-electron parts.");
     figure(&mut h, "r_vs_signal.png", "R against signal: this EMCCD against sCMOS models", &format!("Mean radial centroid error R against signal, {}×{} px, {}: this EMCCD (fitted gain and read noise) against sCMOS models. Lower is better. {}", op.subap_px, op.subap_px, esc(&op.spot), esc(error_bars)));
-    h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, the operating point, inputs with SHA-256), r_vs_signal.csv/.svg, emgain.png.</p></body></html>\n");
+    h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, the operating point, inputs with BLAKE3 checksums), r_vs_signal.csv/.svg, emgain.png.</p></body></html>\n");
     h
 }
 
@@ -286,7 +286,7 @@ pub fn index_html(p: &ScmosPage) -> String {
     charts(&mut h, p);
     effective_table(&mut h, p.effective);
     fit_table(&mut h, p.fit);
-    let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with SHA-256), darks_summary.json.</p></body></html>",
+    let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with its BLAKE3 checksum), darks_summary.json.</p></body></html>",
         if p.has_ptc { ", ptc_points.csv/.json (the photon-transfer points: mean, variance and gain per light level)" } else { "" });
     h
 }

@@ -67,12 +67,12 @@ pub enum Summary {
     Emccd(Box<EmccdSummary>),
 }
 
-/// One input file of a report: its role (`darks` or `flats`), path, SHA-256, frames and format.
+/// One input file of a report: its role (`darks` or `flats`), path, BLAKE3 checksum, frames and format.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct ReportInput {
     /// `darks` or `flats`.
     pub role: String,
-    /// The file: path, SHA-256 (hex), frames read, format and stored sample type.
+    /// The file: path, BLAKE3 (hex), frames read, format and stored sample type.
     #[serde(flatten)]
     pub file: InputFile,
 }
@@ -92,7 +92,7 @@ impl ReportInput {
 pub struct ReportSummary {
     /// Tool and version.
     pub tool: String,
-    /// Every input file (darks, then flats), with SHA-256.
+    /// Every input file (darks, then flats), with BLAKE3.
     pub inputs: Vec<ReportInput>,
     /// Dark frames used.
     pub frames: usize,
@@ -158,7 +158,7 @@ pub struct Headline {
 pub struct EmccdSummary {
     /// Tool and version.
     pub tool: String,
-    /// Every input file (the frames), with SHA-256.
+    /// Every input file (the frames), with BLAKE3.
     pub inputs: Vec<ReportInput>,
     /// Frames used.
     pub frames: usize,

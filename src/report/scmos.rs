@@ -16,7 +16,7 @@ use crate::calib::darks::{dark_maps_hashed, require_dark, DarkMaps, DarkOptions}
 use crate::calib::ptc::chart as ptc_chart;
 use crate::calib::ptc::POINTS_NAMES;
 use crate::calib::ptc::{photon_transfer, write_points, DarkReference, PtcOptions, PtcResult};
-use crate::calib::summary::{inputs, InputFile};
+use crate::calib::summary::{inputs, Checksum, InputFile};
 use crate::detector::{ModelParams, ModelSpec};
 use crate::effective::{effective_table, Effective, EffectiveRecord, Precision};
 use crate::fit::pdf_fit::chart as pdf_fit_chart;
@@ -41,7 +41,7 @@ struct Gain {
     source: &'static str,
     se_e_per_adu: Option<f64>,
     ptc: Option<PtcResult>,
-    /// The flats' input records (with SHA-256), empty when the gain was given.
+    /// The flats' input records (with BLAKE3), empty when the gain was given.
     flat_inputs: Vec<InputFile>,
 }
 
@@ -56,7 +56,7 @@ pub(crate) fn run(
 ) -> Result<ReportResult> {
     let dark_opts = DarkOptions::default();
     // The darks are hashed from the frames read for the statistics, not read a second time.
-    let (maps, darks_inputs) = dark_maps_hashed(stack, &dark_opts)?;
+    let (maps, darks_inputs) = dark_maps_hashed(stack, &dark_opts, Checksum::Blake3)?;
     if let Some(warning) = require_dark(stack, &maps, o.accept_illuminated)? {
         observer.warn(&warning);
     }
@@ -205,7 +205,10 @@ fn conversion_gain(o: &ReportOptions, maps: &DarkMaps) -> Result<Gain> {
                 .collect::<Result<_>>()?;
             let dark = DarkReference::from_stats(&maps.stats);
             let p = photon_transfer(&flats, &dark, &PtcOptions::default())?;
-            let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
+            let flat_inputs = flats
+                .iter()
+                .map(|f| inputs(f, Checksum::Blake3))
+                .collect::<Result<Vec<_>>>()?;
             Ok(Gain {
                 e_per_adu: p.gain_e_per_adu,
                 source: "ptc",

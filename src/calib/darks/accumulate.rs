@@ -81,12 +81,12 @@ fn decode_into(frame: &FrameData, out: &mut Vec<f64>) {
     }
 }
 
-/// While a core hashes the stack (`tap`), the statistics run on one worker thread fewer than
-/// the global pool has, so that the checksum thread keeps its core (SHA-256 bounds the run);
-/// with two cores that is one thread, and no hand-over between threads per batch.
+/// While a core hashes the stack with SHA-256 (`tap`), the statistics run on one worker thread
+/// fewer than the global pool has, so that the checksum thread keeps its core (SHA-256 bounds
+/// the run); with two cores that is one thread, and no hand-over between threads per batch.
 fn hashing_pool(tap: Option<&ByteTap>) -> Option<rayon::ThreadPool> {
     let threads = rayon::current_num_threads();
-    if tap.is_none() || threads < 2 {
+    if !tap.is_some_and(ByteTap::needs_a_core) || threads < 2 {
         return None;
     }
     rayon::ThreadPoolBuilder::new()

@@ -4,7 +4,7 @@
 use super::accumulate::{stats_tapped, FrameHook, PixelStats};
 use super::flags::flag_pixels;
 use super::options::DarkOptions;
-use crate::calib::summary::{with_inputs_hashed, InputFile};
+use crate::calib::summary::{with_inputs_hashed, Checksum, InputFile};
 use crate::calib::{Map, Unit};
 use crate::error::Result;
 use crate::io::{ByteTap, FrameStack};
@@ -32,13 +32,14 @@ pub fn dark_maps(stack: &FrameStack, opts: &DarkOptions) -> Result<DarkMaps> {
     maps(stack, opts, None)
 }
 
-/// [`dark_maps`] with the SHA-256 of every input file, computed on another thread while the
-/// statistics run (the frames read for them are hashed from memory, not read again).
+/// [`dark_maps`] with the `algorithm` digest of every input file, computed on another thread
+/// while the statistics run (the frames read for them are hashed from memory, not read again).
 pub fn dark_maps_hashed(
     stack: &FrameStack,
     opts: &DarkOptions,
+    algorithm: Checksum,
 ) -> Result<(DarkMaps, Vec<InputFile>)> {
-    with_inputs_hashed(stack, |tap| maps(stack, opts, Some(tap)))
+    with_inputs_hashed(stack, algorithm, |tap| maps(stack, opts, Some(tap)))
 }
 
 /// Dark maps, handing the frames read to `tap`.

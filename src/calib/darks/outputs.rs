@@ -37,7 +37,7 @@ pub struct DarkSummary {
     pub options: DarkOptions,
     /// Conversion gain used (e per adu), if any.
     pub gain_e_per_adu: Option<f64>,
-    /// Input files with SHA-256.
+    /// Input files with their checksums.
     pub inputs: Vec<InputFile>,
     /// Frames read.
     pub frames: usize,

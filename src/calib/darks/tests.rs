@@ -1,13 +1,13 @@
 //! The statistics of integer stacks against brute force from the samples: exact sums give
 //! the correctly rounded mean, the variance rounded from its exact value, exact clipping;
-//! and the checksummed calibration gives the same maps with the files' SHA-256.
+//! and the checksummed calibration gives the same maps with the files' BLAKE3 / SHA-256.
 
 use std::path::{Path, PathBuf};
 
 use sha2::{Digest, Sha256};
 
 use super::*;
-use crate::io::FrameStack;
+use crate::io::{Checksum, FrameStack};
 
 const SHAPE: (usize, usize) = (5, 7);
 const FRAMES: usize = 41;
@@ -109,8 +109,13 @@ fn clipping_takes_exactly_the_rejected_samples_out() {
     assert!(sigma.count[3] < FRAMES as f64);
 }
 
-fn sha256_of(p: &PathBuf) -> String {
-    format!("{:x}", Sha256::digest(std::fs::read(p).unwrap()))
+/// The file's digest, computed in one call independently of the streaming hasher.
+fn digest_of(p: &PathBuf, algorithm: Checksum) -> String {
+    let bytes = std::fs::read(p).unwrap();
+    match algorithm {
+        Checksum::Sha256 => format!("{:x}", Sha256::digest(bytes)),
+        Checksum::Blake3 => blake3::hash(&bytes).to_hex().to_string(),
+    }
 }
 
 #[test]
@@ -121,11 +126,11 @@ fn checksummed_maps_are_the_maps_with_the_files_digests() {
     write(&b);
     let paths = vec![a, b];
     let stack = FrameStack::open(&paths).unwrap();
-    for (clip, common_mode) in [
-        (Clip::None, false),
-        (Clip::Extremes(3), false),
-        (Clip::Sigma(3.0), false),
-        (Clip::None, true),
+    for (clip, common_mode, algorithm) in [
+        (Clip::None, false, Checksum::Blake3),
+        (Clip::Extremes(3), false, Checksum::Sha256),
+        (Clip::Sigma(3.0), false, Checksum::Blake3),
+        (Clip::None, true, Checksum::Sha256),
     ] {
         let opts = DarkOptions {
             clip,
@@ -133,13 +138,22 @@ fn checksummed_maps_are_the_maps_with_the_files_digests() {
             ..DarkOptions::default()
         };
         let plain = dark_maps(&stack, &opts).unwrap();
-        let (maps, inputs) = dark_maps_hashed(&stack, &opts).unwrap();
+        let (maps, inputs) = dark_maps_hashed(&stack, &opts, algorithm).unwrap();
         assert_eq!(maps.offset_adu, plain.offset_adu, "{clip:?}");
         assert_eq!(maps.rms_adu, plain.rms_adu, "{clip:?}");
         assert_eq!(maps.flags, plain.flags, "{clip:?}");
         assert_eq!(maps.common_mode_adu, plain.common_mode_adu, "{clip:?}");
-        let digests: Vec<Option<String>> = inputs.into_iter().map(|i| i.sha256).collect();
-        let want: Vec<Option<String>> = paths.iter().map(|p| Some(sha256_of(p))).collect();
+        let digests: Vec<Option<String>> = inputs
+            .into_iter()
+            .map(|i| match algorithm {
+                Checksum::Blake3 => i.blake3.filter(|_| i.sha256.is_none()),
+                Checksum::Sha256 => i.sha256.filter(|_| i.blake3.is_none()),
+            })
+            .collect();
+        let want: Vec<Option<String>> = paths
+            .iter()
+            .map(|p| Some(digest_of(p, algorithm)))
+            .collect();
         assert_eq!(digests, want, "{clip:?}");
     }
 }

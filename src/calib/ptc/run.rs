@@ -9,7 +9,7 @@ use serde::Serialize;
 use super::points::{write_points, POINTS_NAMES};
 use super::transfer::{photon_transfer, DarkReference, Level, PtcOptions, PtcResult};
 use crate::calib::darks::{pixel_stats, Clip};
-use crate::calib::summary::{inputs, Distribution, InputFile};
+use crate::calib::summary::{inputs, Checksum, Distribution, InputFile};
 use crate::calib::{Map, Unit};
 use crate::error::{Error, Result};
 use crate::io::fits::{key, KeyValue};
@@ -82,9 +82,9 @@ pub struct PtcSummary {
     pub read_noise_e_map: Distribution,
     /// Light levels.
     pub levels: Vec<Level>,
-    /// Dark inputs with SHA-256.
+    /// Dark inputs with BLAKE3.
     pub dark_inputs: Vec<InputFile>,
-    /// Flat inputs with SHA-256, per level.
+    /// Flat inputs with BLAKE3, per level.
     pub flat_inputs: Vec<Vec<InputFile>>,
     /// Files written.
     pub outputs: Vec<String>,
@@ -104,7 +104,7 @@ pub struct PtcRunResult {
 /// The input record (with checksum) of a single map file.
 fn map_input(path: &Path) -> Result<InputFile> {
     let stack = FrameStack::open(&[path.to_path_buf()])?;
-    Ok(inputs(&stack)?.remove(0))
+    Ok(inputs(&stack, Checksum::Blake3)?.remove(0))
 }
 
 /// The dark reference and its input records.
@@ -113,7 +113,10 @@ fn dark_reference(darks: &DarkInput) -> Result<(DarkReference, Vec<InputFile>)> 
         DarkInput::Stack(d) => {
             let stack = FrameStack::open(std::slice::from_ref(d))?;
             let stats = pixel_stats(&stack, Clip::None, None)?;
-            Ok((DarkReference::from_stats(&stats), inputs(&stack)?))
+            Ok((
+                DarkReference::from_stats(&stats),
+                inputs(&stack, Checksum::Blake3)?,
+            ))
         }
         DarkInput::Maps { offset, rms } => {
             let (off, r) = (Map::read(offset, Unit::Adu)?, Map::read(rms, Unit::Adu)?);
@@ -158,7 +161,10 @@ pub fn run(job: &PtcRun) -> Result<PtcRunResult> {
         .map(|f| FrameStack::open(std::slice::from_ref(f)))
         .collect::<Result<_>>()?;
     let r = photon_transfer(&flats, &dark, opts)?;
-    let flat_inputs = flats.iter().map(inputs).collect::<Result<Vec<_>>>()?;
+    let flat_inputs = flats
+        .iter()
+        .map(|f| inputs(f, Checksum::Blake3))
+        .collect::<Result<Vec<_>>>()?;
     let summary = PtcSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         command: "ptc",

@@ -1,5 +1,5 @@
-//! The digests of the checksum thread are the files' SHA-256, whichever bytes came from the
-//! reader's batches and whichever the thread read itself.
+//! The digests of the checksum thread are the files' BLAKE3 / SHA-256, whichever bytes came
+//! from the reader's batches and whichever the thread read itself.
 
 use std::path::PathBuf;
 
@@ -28,10 +28,10 @@ fn file_hashes_take_supplied_bytes_and_read_the_gaps() {
     std::fs::write(&p, &data).unwrap();
     // The known digest of these bytes, computed independently of this module.
     let whole = format!("{:x}", Sha256::digest(&data));
-    assert_eq!(sha256_file(&p).unwrap(), whole);
+    assert_eq!(checksum_file(&p, Checksum::Sha256).unwrap(), whole);
     let no = AtomicBool::new(false);
     let mut buf = vec![0u8; 1000];
-    let mut h = FileHash::new(&p);
+    let mut h = FileHash::new(&p, Checksum::Sha256);
     // Pieces with gaps before, between and after them; a piece already hashed is skipped.
     h.add(2880, &data[2880..300_000], &mut buf, &no).unwrap();
     h.add(300_000, &data[300_000..400_000], &mut buf, &no)
@@ -42,7 +42,7 @@ fn file_hashes_take_supplied_bytes_and_read_the_gaps() {
     h.finish(&mut buf, &no).unwrap();
     assert_eq!(h.hex(), whole);
     // A file finished from disk ignores later pieces.
-    let mut h = FileHash::new(&p);
+    let mut h = FileHash::new(&p, Checksum::Sha256);
     h.finish(&mut buf, &no).unwrap();
     h.add(699_000, &data[699_000..], &mut buf, &no).unwrap();
     assert_eq!(h.hex(), whole);
@@ -51,7 +51,7 @@ fn file_hashes_take_supplied_bytes_and_read_the_gaps() {
 #[test]
 fn a_missing_file_is_an_error_naming_it() {
     let p = Path::new("/nonexistent/detnoise-digest.fits");
-    let e = sha256_file(p).unwrap_err().to_string();
+    let e = checksum_file(p, Checksum::Sha256).unwrap_err().to_string();
     assert!(e.contains("detnoise-digest.fits"), "{e}");
 }
 
@@ -109,9 +109,9 @@ fn fits_with_blank(path: &Path) {
 
 /// Read `paths` as a stack through the batch reader with a tap; returns the origins of the
 /// frames read and the digests.
-fn tapped(paths: &[PathBuf]) -> (Vec<FrameOrigin>, Vec<String>) {
+fn tapped(paths: &[PathBuf], algorithm: Checksum) -> (Vec<FrameOrigin>, Vec<String>) {
     let stack = FrameStack::open(paths).unwrap_or_else(|e| panic!("{paths:?}: {e}"));
-    let (origins, hashes) = hash_stack_while(&stack, |tap| {
+    let (origins, hashes) = hash_stack_while(&stack, algorithm, |tap| {
         let mut origins = Vec::new();
         read_batches(&stack, Some(tap), |b| {
             origins.extend_from_slice(b.origins());
@@ -124,13 +124,29 @@ fn tapped(paths: &[PathBuf]) -> (Vec<FrameOrigin>, Vec<String>) {
     (origins, hashes)
 }
 
-/// The SHA-256 of a file's bytes, computed independently of this module.
-fn digest_of(p: &Path) -> String {
-    format!("{:x}", Sha256::digest(std::fs::read(p).unwrap()))
+/// The digest of a file's bytes, computed in one call independently of this module.
+fn digest_of(p: &Path, algorithm: Checksum) -> String {
+    let bytes = std::fs::read(p).unwrap();
+    match algorithm {
+        Checksum::Sha256 => format!("{:x}", Sha256::digest(bytes)),
+        Checksum::Blake3 => blake3::hash(&bytes).to_hex().to_string(),
+    }
 }
 
 #[test]
-fn tapped_digests_are_the_files_sha256_in_every_format() {
+fn blake3_of_an_empty_file_is_the_reference_digest() {
+    // The BLAKE3 test vector for empty input (BLAKE3 specification, test_vectors.json).
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("empty");
+    std::fs::write(&p, b"").unwrap();
+    assert_eq!(
+        checksum_file(&p, Checksum::Blake3).unwrap(),
+        "af1349b9f5f9a1a6a0404dea36dcc9499bcb25c9adc112b7cc9a93cae41f3262"
+    );
+}
+
+#[test]
+fn tapped_digests_are_the_files_digests_in_every_format() {
     let d = tempfile::tempdir().unwrap();
     let blank = d.path().join("blank.fits");
     fits_with_blank(&blank);
@@ -146,25 +162,30 @@ fn tapped_digests_are_the_files_sha256_in_every_format() {
         // One file twice and another: each entry is hashed on its own.
         vec![cube.clone(), fixture("astropy-mef.fits"), cube.clone()],
     ];
-    for paths in &stacks {
-        let (_, hashes) = tapped(paths);
-        let want: Vec<String> = paths.iter().map(|p| digest_of(p)).collect();
-        assert_eq!(hashes, want, "{paths:?}");
-        let alone: Vec<String> = paths.iter().map(|p| sha256_file(p).unwrap()).collect();
-        assert_eq!(alone, want, "{paths:?}");
+    for algorithm in [Checksum::Blake3, Checksum::Sha256] {
+        for paths in &stacks {
+            let (_, hashes) = tapped(paths, algorithm);
+            let want: Vec<String> = paths.iter().map(|p| digest_of(p, algorithm)).collect();
+            assert_eq!(hashes, want, "{paths:?} {algorithm:?}");
+            let alone: Vec<String> = paths
+                .iter()
+                .map(|p| checksum_file(p, algorithm).unwrap())
+                .collect();
+            assert_eq!(alone, want, "{paths:?} {algorithm:?}");
+        }
     }
     // The raw paths were taken: cube frames 2880 bytes in, one after another; extension
     // frames after their headers; the BLANK frame decoded by CFITSIO.
-    let (o, _) = tapped(&[cube]);
+    let (o, _) = tapped(&[cube], Checksum::Blake3);
     let offsets: Vec<Option<u64>> = o.iter().map(|o| o.offset).collect();
     assert_eq!(
         offsets,
         (0..4).map(|k| Some(2880 + 70 * k)).collect::<Vec<_>>()
     );
-    let (o, _) = tapped(&[blank]);
+    let (o, _) = tapped(&[blank], Checksum::Blake3);
     let offsets: Vec<Option<u64>> = o.iter().map(|o| o.offset).collect();
     assert_eq!(offsets, [Some(2 * 2880), None, Some(6 * 2880)]);
-    let (o, _) = tapped(&[fixture("astropy-rice.fits")]);
+    let (o, _) = tapped(&[fixture("astropy-rice.fits")], Checksum::Blake3);
     assert!(o.iter().all(|o| o.offset.is_none()));
 }
 
@@ -174,7 +195,7 @@ fn the_works_error_comes_first_and_a_vanished_file_is_named() {
     let p = d.path().join("gone.fits");
     std::fs::copy(fixture("astropy-u16-bzero.fits"), &p).unwrap();
     let stack = FrameStack::open(std::slice::from_ref(&p)).unwrap();
-    let e = hash_stack_while(&stack, |_| -> Result<()> {
+    let e = hash_stack_while(&stack, Checksum::Blake3, |_| -> Result<()> {
         Err(Error::Numeric("work failed".into()))
     })
     .unwrap_err();
@@ -183,7 +204,7 @@ fn the_works_error_comes_first_and_a_vanished_file_is_named() {
         Error::Numeric("work failed".into()).to_string()
     );
     std::fs::remove_file(&p).unwrap();
-    let e = hash_stack_while(&stack, |_| Ok(()))
+    let e = hash_stack_while(&stack, Checksum::Blake3, |_| Ok(()))
         .unwrap_err()
         .to_string();
     assert!(e.contains("gone.fits"), "{e}");
