@@ -12,7 +12,7 @@
 //! on the machine inflates it less; a run includes everything `montecarlo::run` does.
 
 use detnoise::calib::{Map, Unit};
-use detnoise::detector::{ModelParams, ModelSpec, Readout, MODELS};
+use detnoise::detector::{DarkFrames, ModelParams, ModelSpec, Readout, RtsTable, MODELS};
 use detnoise::montecarlo::{run, SimConfig};
 use detnoise::progress::Silent;
 use detnoise::spot::Sampling;
@@ -47,6 +47,34 @@ fn bench_map(params: &ModelParams) -> Arc<Map> {
     let mut rng = detnoise::rng::stream(7, 0, 0);
     let data = (0..64 * 64).map(|_| params.pdf.sample(&mut rng)).collect();
     Arc::new(Map::new(64, 64, data, Unit::Electrons).with_source("bench map"))
+}
+
+/// Inputs of the models of the camera's real noise: 41 two-level telegraph pixels (1 % of the
+/// 64x64 map, levels -1.5 / +0.5 e-), row and column noise of 0.3 e-, and the bundled
+/// synthetic dark stack as dark frames.
+fn real_noise_inputs(params: &mut ModelParams) {
+    let mut text = String::from("x_px,y_px,n_levels,status");
+    for k in 1..=3 {
+        text.push_str(&format!(
+            ",level_{k}_adu,level_{k}_se_adu,level_{k}_e,occupancy_{k},occupancy_{k}_se,\
+             width_{k}_adu,width_{k}_e,dwell_{k}_frames,dwell_{k}_se_frames"
+        ));
+    }
+    for p in (0..64 * 64).step_by(100) {
+        text.push_str(&format!(
+            "\n{},{},2,ok,-6,0.1,-1.5,0.25,0.01,4,1,10,1,2,0.1,0.5,0.75,0.01,4,1,30,2,,,,,,,,,",
+            p % 64,
+            p / 64
+        ));
+    }
+    let table = RtsTable::parse(&text, std::path::Path::new("bench rts.csv")).expect("rts table");
+    params.rts_table = Some(Arc::new(table));
+    params.row_noise_e = Some(0.3);
+    params.column_noise_e = Some(0.3);
+    let darks = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("data-synthetic/scmos-darks-64x64.fits");
+    let frames = DarkFrames::read(&[darks], 0.25, 64.0).expect("bundled dark frames");
+    params.dark_frames = Some(Arc::new(frames));
 }
 
 /// Best-of-three CPU nanoseconds per pixel-frame of `model` under `cfg`.
@@ -96,6 +124,7 @@ fn main() {
         .expect("one-thread pool");
     let mut params = ModelParams::default();
     params.map = Some(bench_map(&params));
+    real_noise_inputs(&mut params);
     println!(
         "one core; S = 50 photons, Airy D = 2 px, automatic background grid; CPU ns per pixel-frame, best of 3"
     );

@@ -13,6 +13,7 @@ pub mod heatmaps;
 mod options;
 pub mod page;
 mod point;
+mod real_noise;
 mod result;
 mod scmos;
 

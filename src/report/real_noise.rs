@@ -1,0 +1,138 @@
+//! The camera's noise beyond Gaussian pixels at the operating point: the effective read noise
+//! of the measured map beside the models that add what `darks` measured (its telegraph pixels,
+//! its row and column noise) or read through the camera's own dark frames, and what each adds.
+
+use serde::Serialize;
+
+use crate::detector::{ModelParams, ModelSpec};
+use crate::effective::{effective_table, Effective, Precision, Status};
+use crate::montecarlo::SimConfig;
+use crate::progress::Observer;
+use crate::Result;
+
+/// The models compared with the measured map, with their labels on the page.
+const MODELS: [(&str, &str); 3] = [
+    ("scmos-rts", "scmos-rts (map + measured telegraph pixels)"),
+    (
+        "scmos-correlated",
+        "scmos-correlated (map + measured row and column noise)",
+    ),
+    ("scmos-frames", "scmos-frames (the camera's own dark frames)"),
+];
+
+/// One model's effective read noise at the operating point, and what it adds to the map's.
+#[derive(Debug, Clone, Serialize)]
+pub struct RealNoiseRow {
+    /// The model, as the page labels it.
+    pub model: String,
+    /// Effective read noise (e-); null when `status` gives no value.
+    pub sigma_eff_e: Option<f64>,
+    /// Its standard error (e-); null when `status` gives no value.
+    pub sigma_eff_se_e: Option<f64>,
+    /// How the value was settled (the effective-noise status words).
+    pub status: Status,
+    /// sigma_eff minus the measured map's (e-): what the model's extra noise adds; null when
+    /// either value is missing.
+    pub adds_e: Option<f64>,
+    /// Standard error of `adds_e` (e-): both standard errors in quadrature. The runs share
+    /// their random numbers (spots, photons, deviates, windows), which correlates them
+    /// positively, so this overstates the uncertainty of the difference.
+    pub adds_se_e: Option<f64>,
+    /// `ok` when both values are `ok` and the difference is resolved (|adds| >= 2 SE),
+    /// `not_resolved` when both are `ok` but the difference is below 2 SE, else the worse
+    /// status of the two.
+    pub adds_status: String,
+}
+
+/// The value and standard error (e-) of an effective-noise solution when it has both (an
+/// `imprecise` one is shown for information, its status beside it).
+fn value(e: &Effective) -> Option<(f64, f64)> {
+    let shown = matches!(e.status, Status::Ok | Status::Imprecise | Status::LowerBound);
+    (shown && e.sigma_eff_e.is_finite() && e.sigma_eff_se_e.is_finite())
+        .then_some((e.sigma_eff_e, e.sigma_eff_se_e))
+}
+
+/// The row of `model` (a page label) solved as `e`, against the map's solution `map`.
+fn row(model: &str, e: &Effective, map: &Effective) -> RealNoiseRow {
+    let (own, base) = (value(e), value(map));
+    let adds = own.zip(base).map(|((a, sa), (b, sb))| (a - b, sa.hypot(sb)));
+    let adds_status = match (e.status, map.status, adds) {
+        (Status::Ok, Status::Ok, Some((d, se))) if d.abs() >= 2.0 * se => "ok".to_string(),
+        (Status::Ok, Status::Ok, _) => "not_resolved".to_string(),
+        (Status::Ok, worse, _) | (worse, _, _) => worse.label().to_string(),
+    };
+    RealNoiseRow {
+        model: model.into(),
+        sigma_eff_e: own.map(|v| v.0),
+        sigma_eff_se_e: own.map(|v| v.1),
+        status: e.status,
+        adds_e: adds.map(|v| v.0),
+        adds_se_e: adds.map(|v| v.1),
+        adds_status,
+    }
+}
+
+/// Solve the richer models at the operating point `cfg` (the configuration the map's headline
+/// value `map` was solved on, same seed: common random numbers) with `params` (map, RTS table,
+/// row and column noise, dark frames set); one row per model whose inputs `params` holds.
+pub(crate) fn real_noise_rows(
+    cfg: &SimConfig,
+    params: &ModelParams,
+    map: &Effective,
+    precision: &Precision,
+    observer: &dyn Observer,
+) -> Result<Vec<RealNoiseRow>> {
+    let available = |name: &str| match name {
+        "scmos-rts" => params.rts_table.is_some(),
+        "scmos-correlated" => params.row_noise_e.is_some() && params.column_noise_e.is_some(),
+        "scmos-frames" => params.dark_frames.is_some(),
+        _ => false,
+    };
+    let chosen: Vec<(&str, &str)> = MODELS.into_iter().filter(|(n, _)| available(n)).collect();
+    let specs = chosen
+        .iter()
+        .map(|(name, _)| ModelSpec::parse(name))
+        .collect::<Result<Vec<_>>>()?;
+    let records = effective_table(std::slice::from_ref(cfg), &specs, params, precision, observer)?;
+    Ok(chosen
+        .iter()
+        .zip(&records)
+        .map(|((_, label), r)| row(label, &r.effective, map))
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn solved(sigma: f64, se: f64, status: Status) -> Effective {
+        Effective {
+            sigma_eff_e: sigma,
+            sigma_eff_se_e: se,
+            target_se_e: None,
+            iters: 1000,
+            r_px: 0.1,
+            r_se_px: 0.001,
+            b_opt_e: 1.0,
+            sigma_grid_e: vec![],
+            r_const_px: vec![],
+            status,
+        }
+    }
+
+    #[test]
+    fn differences_carry_both_errors_and_the_worse_status() {
+        let map = solved(1.0, 0.03, Status::Ok);
+        let r = row("m", &solved(1.5, 0.04, Status::Ok), &map);
+        assert!((r.adds_e.unwrap() - 0.5).abs() < 1e-12);
+        assert!((r.adds_se_e.unwrap() - 0.05).abs() < 1e-12);
+        assert_eq!(r.adds_status, "ok");
+        let r = row("m", &solved(1.05, 0.04, Status::Ok), &map);
+        assert_eq!(r.adds_status, "not_resolved");
+        let r = row("m", &solved(1.5, 0.3, Status::Imprecise), &map);
+        assert_eq!(r.adds_status, "imprecise");
+        let r = row("m", &solved(f64::NAN, f64::NAN, Status::Unreachable), &map);
+        assert_eq!((r.sigma_eff_e, r.adds_e), (None, None));
+        assert_eq!(r.adds_status, "unreachable");
+    }
+}
