@@ -8,9 +8,12 @@
 //! `run` is the whole `darks` command as one call.
 
 mod accumulate;
+mod decompose;
 mod flags;
 mod illumination;
 mod kernel;
+mod kurtosis;
+mod lines;
 mod maps;
 mod options;
 mod outputs;
@@ -18,10 +21,13 @@ mod run;
 mod tile;
 
 pub use accumulate::{pixel_stats, pixel_stats_of, FrameHook, PixelStats};
+pub use decompose::{rms_of, TemporalNoise, TemporalNoiseSummary};
 pub use flags::{
     FlagCounts, FLAG_BITS, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS, FLAG_SATURATED,
 };
 pub use illumination::{require_dark, Illumination};
+pub use kurtosis::{kurtosis_se, KurtosisSummary, KURTOSIS_SIGMAS};
+pub use lines::LineVariances;
 pub use maps::{dark_maps, dark_maps_hashed, DarkMaps};
 pub use options::{Clip, DarkOptions};
 pub use outputs::{write_outputs, DarkSummary, OUTPUT_NAMES};
