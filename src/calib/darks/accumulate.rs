@@ -289,26 +289,32 @@ pub(super) fn stats_tapped(
     let mut max = vec![f64::NAN; npix];
     let mut kurt = vec![f64::NAN; npix];
     let mut var_all = vec![f64::NAN; npix];
-    for t in &p.tiles {
-        for i in 0..t.len {
-            let sums = t.sums(i, None, nf);
-            let (_, var) = mean_var(sums);
-            vn_ratio[t.start + i] = if var > 0.0 {
-                t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
-            } else {
-                f64::NAN
-            };
-            max[t.start + i] = t.max[i];
-            var_all[t.start + i] = var;
-            kurt[t.start + i] = excess_kurtosis(PowerSums {
-                n: sums.n,
-                s1: sums.s1,
-                s2: sums.s2,
-                s3: t.s3[i],
-                s4: t.s4[i],
-            });
-        }
-    }
+    let per_tile = vn_ratio
+        .par_chunks_mut(TILE)
+        .zip(max.par_chunks_mut(TILE))
+        .zip(kurt.par_chunks_mut(TILE).zip(var_all.par_chunks_mut(TILE)));
+    per_tile
+        .zip(&p.tiles)
+        .for_each(|(((vn_ratio, max), (kurt, var_all)), t)| {
+            for i in 0..t.len {
+                let sums = t.sums(i, None, nf);
+                let (_, var) = mean_var(sums);
+                vn_ratio[i] = if var > 0.0 {
+                    t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
+                } else {
+                    f64::NAN
+                };
+                max[i] = t.max[i];
+                var_all[i] = var;
+                kurt[i] = excess_kurtosis(PowerSums {
+                    n: sums.n,
+                    s1: sums.s1,
+                    s2: sums.s2,
+                    s3: t.s3[i],
+                    s4: t.s4[i],
+                });
+            }
+        });
     let line_vars = p.lines.take().expect("the first pass adds lines").finish();
     let temporal = TemporalNoise::decompose(&line_vars, &var_all, stack.shape);
     if extremes > 0 {

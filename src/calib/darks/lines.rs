@@ -30,7 +30,7 @@ pub(super) struct TileLines {
     span: usize,
     /// Frames of the current batch.
     count: usize,
-    /// Row sums, `rows` per frame.
+    /// Row sums, `rows` per frame, each in eight lanes.
     row_part: Vec<f64>,
     /// Column sums, `span` per frame.
     col_part: Vec<f64>,
@@ -58,29 +58,33 @@ impl TileLines {
     pub(super) fn begin(&mut self, count: usize) {
         self.count = count;
         self.row_part.clear();
-        self.row_part.resize(count * self.rows, 0.0);
+        self.row_part.resize(count * self.rows * 8, 0.0);
         self.col_part.clear();
         self.col_part.resize(count * self.span, 0.0);
     }
 
-    /// Add the samples `x` of tile-local pixels from `a` of frame `j` of the batch.
+    /// Add the samples `x` of tile-local pixels from `a` of frame `j` of the batch (inlined
+    /// into the kernel, so that it is compiled with the kernel's vector instructions).
+    #[inline(always)]
     pub(super) fn add(&mut self, a: usize, x: &[f64], j: usize) {
         let (mut p, end) = (self.start + a, self.start + a + x.len());
-        let rows = &mut self.row_part[j * self.rows..(j + 1) * self.rows];
+        let rows = &mut self.row_part[j * self.rows * 8..(j + 1) * self.rows * 8];
         let cols = &mut self.col_part[j * self.span..(j + 1) * self.span];
         while p < end {
             let r = p / self.cols;
             let seg_end = end.min((r + 1) * self.cols);
             let seg = &x[p - self.start - a..seg_end - self.start - a];
-            rows[r - self.row0] += lanes_sum(seg);
             let c = if self.len <= self.cols {
                 p - self.start
             } else {
                 p % self.cols
             };
-            for (s, v) in cols[c..c + seg.len()].iter_mut().zip(seg) {
-                *s += v;
-            }
+            let lanes = &mut rows[(r - self.row0) * 8..(r - self.row0 + 1) * 8];
+            add_and_sum(
+                &mut cols[c..c + seg.len()],
+                seg,
+                lanes.try_into().expect("8 lanes"),
+            );
             p = seg_end;
         }
     }
@@ -88,43 +92,76 @@ impl TileLines {
     /// Add this tile's shares of frame `j` to the frame's row sums `rows` and column sums
     /// `cols` (whole frame).
     fn add_to(&self, j: usize, rows: &mut [f64], cols: &mut [f64]) {
-        let part = &self.row_part[j * self.rows..(j + 1) * self.rows];
-        for (s, v) in rows[self.row0..self.row0 + self.rows].iter_mut().zip(part) {
-            *s += v;
+        let part = &self.row_part[j * self.rows * 8..(j + 1) * self.rows * 8];
+        for (s, l) in rows[self.row0..self.row0 + self.rows]
+            .iter_mut()
+            .zip(part.chunks_exact(8))
+        {
+            *s += lanes_total(l);
         }
         let part = &self.col_part[j * self.span..(j + 1) * self.span];
         if self.len <= self.cols {
             // Tile pixel i is in column (start + i) % cols: at most two runs of columns.
             let c0 = self.start % self.cols;
             let first = (self.cols - c0).min(self.span);
-            let add = |dst: &mut [f64], src: &[f64]| {
-                dst.iter_mut().zip(src).for_each(|(s, v)| *s += v);
-            };
-            add(&mut cols[c0..c0 + first], &part[..first]);
-            add(&mut cols[..self.span - first], &part[first..]);
+            add_into(&mut cols[c0..c0 + first], &part[..first]);
+            add_into(&mut cols[..self.span - first], &part[first..]);
         } else {
-            cols.iter_mut().zip(part).for_each(|(s, v)| *s += v);
+            add_into(cols, part);
         }
     }
 }
 
-/// Sum of `x` in eight interleaved partial sums (so the compiler can vectorise it; the order
-/// is fixed, so the result is too).
+/// Add `x` to `dst` element by element and its sum to the eight lanes `lanes` (lane i gets
+/// the samples i mod 8, in two interleaved vectors; the order is fixed, so the result is
+/// too, and the lanes are added up once per frame, not per block). Written with whole
+/// eight-lane arrays so that the compiler keeps each in one vector register.
 #[inline(always)]
-fn lanes_sum(x: &[f64]) -> f64 {
-    let mut acc = [0.0f64; 8];
-    let chunks = x.chunks_exact(8);
-    let tail = chunks.remainder();
-    for c in chunks {
-        for (a, v) in acc.iter_mut().zip(c) {
-            *a += v;
+fn add_and_sum(dst: &mut [f64], x: &[f64], lanes: &mut [f64; 8]) {
+    #[inline(always)]
+    fn add8(a: [f64; 8], b: &[f64; 8]) -> [f64; 8] {
+        let mut r = [0.0; 8];
+        for i in 0..8 {
+            r[i] = a[i] + b[i];
         }
+        r
     }
-    let mut s = ((acc[0] + acc[4]) + (acc[1] + acc[5])) + ((acc[2] + acc[6]) + (acc[3] + acc[7]));
-    for v in tail {
-        s += v;
+    let n = x.len();
+    let dst = &mut dst[..n];
+    let (mut a0, mut a1) = ([0.0f64; 8], [0.0f64; 8]);
+    let whole = n / 16 * 16;
+    let mut k = 0;
+    while k < whole {
+        let x0: &[f64; 8] = x[k..k + 8].try_into().expect("8 samples");
+        let x1: &[f64; 8] = x[k + 8..k + 16].try_into().expect("8 samples");
+        a0 = add8(a0, x0);
+        a1 = add8(a1, x1);
+        let d0: &mut [f64; 8] = (&mut dst[k..k + 8]).try_into().expect("8 sums");
+        *d0 = add8(*d0, x0);
+        let d1: &mut [f64; 8] = (&mut dst[k + 8..k + 16]).try_into().expect("8 sums");
+        *d1 = add8(*d1, x1);
+        k += 16;
     }
-    s
+    *lanes = add8(*lanes, &add8(a0, &a1));
+    for j in whole..n {
+        dst[j] += x[j];
+        lanes[j % 8] += x[j];
+    }
+}
+
+/// Sum of eight lanes, in a fixed order.
+fn lanes_total(l: &[f64]) -> f64 {
+    ((l[0] + l[1]) + (l[2] + l[3])) + ((l[4] + l[5]) + (l[6] + l[7]))
+}
+
+/// `dst[i] += src[i]` (same lengths).
+#[inline(always)]
+fn add_into(dst: &mut [f64], src: &[f64]) {
+    let n = dst.len().min(src.len());
+    let (dst, src) = (&mut dst[..n], &src[..n]);
+    for i in 0..n {
+        dst[i] += src[i];
+    }
 }
 
 /// Sums over frames of a set of lines' sums (rows, columns or the whole frame), each shifted
@@ -349,9 +386,14 @@ mod tests {
     }
 
     #[test]
-    fn the_lane_sum_is_the_sum() {
-        let x: Vec<f64> = (0..37).map(|i| (i * i % 11) as f64).collect();
-        assert_eq!(lanes_sum(&x), x.iter().sum::<f64>());
-        assert_eq!(lanes_sum(&[]), 0.0);
+    fn add_and_sum_adds_and_sums() {
+        for n in [0, 5, 32, 77] {
+            let x: Vec<f64> = (0..n).map(|i| (i * i % 11) as f64).collect();
+            let mut dst: Vec<f64> = (0..n).map(|i| i as f64).collect();
+            let mut lanes = [1.0; 8];
+            add_and_sum(&mut dst, &x, &mut lanes);
+            assert_eq!(lanes_total(&lanes), 8.0 + x.iter().sum::<f64>());
+            assert!(dst.iter().enumerate().all(|(i, d)| *d == i as f64 + x[i]));
+        }
     }
 }
