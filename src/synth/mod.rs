@@ -10,10 +10,12 @@
 //! Layout: `spec` says what to simulate, `truth` draws the pixels and frames, `write` writes
 //! the stack, its truth maps and its manifest.
 
+mod rts;
 mod spec;
 mod truth;
 mod write;
 
+pub use rts::RtsChain;
 pub use spec::{
     parse_shape, rms_pdf, Camera, EmccdParams, ScmosParams, SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
     MAX_PIXELS,

@@ -18,6 +18,7 @@ mod maps;
 mod options;
 mod outputs;
 mod run;
+mod telegraph;
 mod tile;
 
 pub use accumulate::{pixel_stats, pixel_stats_of, FrameHook, PixelStats};
@@ -32,6 +33,7 @@ pub use maps::{dark_maps, dark_maps_hashed, DarkMaps};
 pub use options::{Clip, DarkOptions};
 pub use outputs::{write_outputs, DarkSummary, OUTPUT_NAMES};
 pub use run::{run, DarksRun, DarksRunResult};
+pub use telegraph::{fit_telegraph, FitStatus, Level, TelegraphFit, MIN_RUNS};
 
 #[cfg(test)]
 mod tests;

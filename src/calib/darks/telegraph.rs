@@ -12,15 +12,13 @@
 //! 1/D) / runs). BIC = -2 ln L + p ln T with p = 2 (one Gaussian), 2K + K (K - 1) (K levels:
 //! means, widths, transition probabilities).
 
-use crate::calib::summary::Distribution;
-
 /// Fewest expected transitions out of every level for a fit to be `ok` (a dwell time from
 /// fewer runs is a guess).
 pub const MIN_RUNS: f64 = 3.0;
 /// Most Baum-Welch iterations per fit.
-const MAX_ITERS: usize = 200;
+const MAX_ITERS: usize = 100;
 /// Convergence: change of ln L per sample between iterations.
-const TOL_PER_SAMPLE: f64 = 1e-7;
+const TOL_PER_SAMPLE: f64 = 1e-6;
 
 /// One level of a telegraph fit.
 #[derive(Clone, Debug, PartialEq)]
@@ -168,7 +166,7 @@ fn baum_welch(y: &[f64], k: usize, var: f64) -> Chain {
     let mut scale = vec![0.0; t];
     let mut prev = f64::NEG_INFINITY;
     let mut chain = None;
-    for iter in 0..MAX_ITERS {
+    for _ in 0..MAX_ITERS {
         // E step: emission densities (each frame scaled by its largest), forward, backward.
         let mut log_l = 0.0;
         for s in 0..t {
@@ -230,24 +228,9 @@ fn baum_welch(y: &[f64], k: usize, var: f64) -> Chain {
             }
         }
         let exits: Vec<f64> = (0..k).map(|i| from[i] - trans[i * k + i]).collect();
-        let converged = (log_l - prev).abs() < TOL_PER_SAMPLE * t as f64;
-        chain = Some(Chain {
-            mean: mean.clone(),
-            var: v.clone(),
-            a: a.clone(),
-            time: time.clone(),
-            exits,
-            log_l,
-            converged,
-        });
-        if converged || iter + 1 == MAX_ITERS {
-            break;
-        }
-        prev = log_l;
-        // M step.
+        // M step: the levels, widths and transitions these expectations imply.
         for i in 0..k {
-            let n = time[i].max(f64::MIN_POSITIVE);
-            mean[i] = s1[i] / n;
+            mean[i] = s1[i] / time[i].max(f64::MIN_POSITIVE);
         }
         for (s, ys) in y.iter().enumerate() {
             for i in 0..k {
@@ -263,6 +246,20 @@ fn baum_welch(y: &[f64], k: usize, var: f64) -> Chain {
             }
             start[i] = time[i] / t as f64;
         }
+        let converged = (log_l - prev).abs() < TOL_PER_SAMPLE * t as f64;
+        chain = Some(Chain {
+            mean: mean.clone(),
+            var: v.clone(),
+            a: a.clone(),
+            time,
+            exits,
+            log_l,
+            converged,
+        });
+        if converged {
+            break;
+        }
+        prev = log_l;
     }
     chain.expect("at least one iteration")
 }
@@ -368,16 +365,6 @@ fn solve(m: &mut [f64], b: &mut [f64], k: usize) {
         let s: f64 = (c + 1..k).map(|j| m[c * k + j] * b[j]).sum();
         b[c] = (b[c] - s) / m[c * k + c];
     }
-}
-
-/// Distribution of a figure over the `ok` fits (for the summary).
-pub fn ok_distribution(fits: &[&TelegraphFit], figure: impl Fn(&TelegraphFit) -> f64) -> Distribution {
-    let v: Vec<f64> = fits
-        .iter()
-        .filter(|f| f.status == FitStatus::Ok)
-        .map(|f| figure(f))
-        .collect();
-    Distribution::of(&v)
 }
 
 #[cfg(test)]
