@@ -187,7 +187,10 @@ mod tests {
         let (occ, dwell) = simulate(&c, 400_000, 1);
         for i in 0..3 {
             assert!((occ[i] - c.occupancy()[i]).abs() < 0.008, "{occ:?}");
-            assert!((dwell[i] / c.dwell_frames()[i] - 1.0).abs() < 0.04, "{dwell:?}");
+            assert!(
+                (dwell[i] / c.dwell_frames()[i] - 1.0).abs() < 0.04,
+                "{dwell:?}"
+            );
         }
         // Two levels: occupancy from the dwell times.
         let c = RtsChain::new(&[30.0, 10.0], None).unwrap();

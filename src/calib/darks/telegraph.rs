@@ -121,7 +121,11 @@ pub fn fit_telegraph(y: &[f64]) -> Option<TelegraphFit> {
     Some(TelegraphFit {
         levels,
         bic,
-        status: if ok { FitStatus::Ok } else { FitStatus::Imprecise },
+        status: if ok {
+            FitStatus::Ok
+        } else {
+            FitStatus::Imprecise
+        },
     })
 }
 
@@ -142,7 +146,8 @@ fn levels_of(c: &Chain, t: usize) -> Vec<Level> {
                 occupancy_se: (occ_var.max(0.0) / t as f64).sqrt(),
                 width: sd,
                 dwell_frames: dwell,
-                dwell_se_frames: dwell * ((1.0 - 1.0 / dwell).max(0.0) / c.exits[i].max(1.0)).sqrt(),
+                dwell_se_frames: dwell
+                    * ((1.0 - 1.0 / dwell).max(0.0) / c.exits[i].max(1.0)).sqrt(),
             }
         })
         .collect();

@@ -40,11 +40,23 @@ fn a_two_level_chain_is_recovered_within_its_standard_errors() {
     let (lo, hi) = (&fit.levels[0], &fit.levels[1]);
     assert!(z(lo.mean, lo.mean_se, -mean).abs() < 4.0, "{fit:?}");
     assert!(z(hi.mean, hi.mean_se, 6.0 - mean).abs() < 4.0, "{fit:?}");
-    assert!(z(lo.occupancy, lo.occupancy_se, 2.0 / 3.0).abs() < 4.0, "{fit:?}");
-    assert!(z(lo.dwell_frames, lo.dwell_se_frames, 40.0).abs() < 4.0, "{fit:?}");
-    assert!(z(hi.dwell_frames, hi.dwell_se_frames, 20.0).abs() < 4.0, "{fit:?}");
+    assert!(
+        z(lo.occupancy, lo.occupancy_se, 2.0 / 3.0).abs() < 4.0,
+        "{fit:?}"
+    );
+    assert!(
+        z(lo.dwell_frames, lo.dwell_se_frames, 40.0).abs() < 4.0,
+        "{fit:?}"
+    );
+    assert!(
+        z(hi.dwell_frames, hi.dwell_se_frames, 20.0).abs() < 4.0,
+        "{fit:?}"
+    );
     // Widths: SE sigma / sqrt(2 n).
-    assert!((lo.width - 1.5).abs() < 4.0 * 1.5 / (2.0 * 2600.0f64).sqrt(), "{fit:?}");
+    assert!(
+        (lo.width - 1.5).abs() < 4.0 * 1.5 / (2.0 * 2600.0f64).sqrt(),
+        "{fit:?}"
+    );
     // Levels are relative to the series' mean: occupancy-weighted they sum to 0.
     let s: f64 = fit.levels.iter().map(|l| l.occupancy * l.mean).sum();
     assert!(s.abs() < 1e-9, "{s}");
@@ -58,18 +70,23 @@ fn a_three_level_chain_gets_three_levels() {
     assert_eq!(fit.levels.len(), 3, "{fit:?}");
     assert_eq!(fit.status, FitStatus::Ok);
     let mean = y.iter().sum::<f64>() / y.len() as f64;
-    for (l, (truth, dwell)) in fit.levels.iter().zip([(0.0, 30.0), (8.0, 15.0), (20.0, 15.0)]) {
+    for (l, (truth, dwell)) in fit
+        .levels
+        .iter()
+        .zip([(0.0, 30.0), (8.0, 15.0), (20.0, 15.0)])
+    {
         assert!(z(l.mean, l.mean_se, truth - mean).abs() < 4.0, "{fit:?}");
-        assert!(z(l.dwell_frames, l.dwell_se_frames, dwell).abs() < 4.0, "{fit:?}");
+        assert!(
+            z(l.dwell_frames, l.dwell_se_frames, dwell).abs() < 4.0,
+            "{fit:?}"
+        );
     }
 }
 
 #[test]
 fn white_noise_is_not_a_telegraph() {
     let mut rng = stream(3, 0, 0x7e1e);
-    let y: Vec<f64> = (0..2000)
-        .map(|_| StandardNormal.sample(&mut rng))
-        .collect();
+    let y: Vec<f64> = (0..2000).map(|_| StandardNormal.sample(&mut rng)).collect();
     let fit = fit_telegraph(&y).unwrap();
     assert_eq!(fit.status, FitStatus::Imprecise, "{fit:?}");
     assert!(fit.bic[0] < fit.bic[1] && fit.bic[0] < fit.bic[2]);
@@ -112,7 +129,10 @@ fn chain_formulas_match_closed_forms() {
     let z = fundamental(&a, &pi, 2);
     let var = pi[0] * (1.0 - pi[0]) + 2.0 * pi[0] * (z[0] - 1.0);
     let l = 0.6;
-    assert!((var - 0.75 * 0.25 * (1.0 + l) / (1.0 - l)).abs() < 1e-12, "{var}");
+    assert!(
+        (var - 0.75 * 0.25 * (1.0 + l) / (1.0 - l)).abs() < 1e-12,
+        "{var}"
+    );
     // A 3 x 3 system solved exactly.
     let mut m = vec![2.0, 1.0, 0.0, 1.0, 3.0, 1.0, 0.0, 1.0, 4.0];
     let mut b = vec![3.0, 5.0, 5.0];
