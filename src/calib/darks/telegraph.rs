@@ -17,8 +17,9 @@
 pub const MIN_RUNS: f64 = 3.0;
 /// Most Baum-Welch iterations per fit.
 const MAX_ITERS: usize = 100;
-/// Convergence: change of ln L per sample between iterations.
-const TOL_PER_SAMPLE: f64 = 1e-6;
+/// Convergence: change of ln L per sample between iterations (BIC weighs ln L in units of
+/// ln T / 2 per parameter, far above this times T).
+const TOL_PER_SAMPLE: f64 = 1e-5;
 
 /// One level of a telegraph fit.
 #[derive(Clone, Debug, PartialEq)]
@@ -101,8 +102,8 @@ pub fn fit_telegraph(y: &[f64]) -> Option<TelegraphFit> {
     }
     let ln_t = (t as f64).ln();
     let one = -0.5 * t as f64 * ((2.0 * std::f64::consts::PI * var).ln() + 1.0);
-    let two = baum_welch(&y, 2, var);
-    let three = baum_welch(&y, 3, var);
+    let two = baum_welch::<2>(&y, var);
+    let three = baum_welch::<3>(&y, var);
     let bic = [
         -2.0 * one + 2.0 * ln_t,
         -2.0 * two.log_l + 6.0 * ln_t,
@@ -155,8 +156,10 @@ fn levels_of(c: &Chain, t: usize) -> Vec<Level> {
     levels
 }
 
-/// Baum-Welch fit of `k` levels to `y` (mean 0, variance `var`), from k-means levels.
-fn baum_welch(y: &[f64], k: usize, var: f64) -> Chain {
+/// Baum-Welch fit of `K` levels to `y` (mean 0, variance `var`), from k-means levels (`K`
+/// a constant, so that the loops over levels unroll).
+fn baum_welch<const K: usize>(y: &[f64], var: f64) -> Chain {
+    let k = K;
     let t = y.len();
     let floor = (1e-6 * var).max(1e-12);
     let (mut mean, mut v) = kmeans(y, k, floor);
@@ -174,17 +177,25 @@ fn baum_welch(y: &[f64], k: usize, var: f64) -> Chain {
     for _ in 0..MAX_ITERS {
         // E step: emission densities (each frame scaled by its largest), forward, backward.
         let mut log_l = 0.0;
+        let norm: Vec<f64> = v
+            .iter()
+            .map(|v| -0.5 * (2.0 * std::f64::consts::PI * v).ln())
+            .collect();
+        let half_inv: Vec<f64> = v.iter().map(|v| -0.5 / v).collect();
         for s in 0..t {
             let row = &mut b[s * k..(s + 1) * k];
             let mut top = f64::NEG_INFINITY;
             for i in 0..k {
                 let d = y[s] - mean[i];
-                row[i] = -0.5 * (d * d / v[i] + (2.0 * std::f64::consts::PI * v[i]).ln());
+                row[i] = d * d * half_inv[i] + norm[i];
                 top = top.max(row[i]);
             }
             row.iter_mut().for_each(|x| *x = (*x - top).exp());
             log_l += top;
         }
+        // ln L adds ln of the scales; their product is taken 16 at a time (each scale is in
+        // (0, k], the largest emission being 1) to save logarithms.
+        let mut product = 1.0;
         for s in 0..t {
             let mut c = 0.0;
             for j in 0..k {
@@ -198,9 +209,15 @@ fn baum_welch(y: &[f64], k: usize, var: f64) -> Chain {
             }
             let c = c.max(f64::MIN_POSITIVE);
             scale[s] = c;
-            log_l += c.ln();
-            alpha[s * k..(s + 1) * k].iter_mut().for_each(|x| *x /= c);
+            product *= c;
+            if s % 16 == 15 || product < 1e-250 {
+                log_l += product.ln();
+                product = 1.0;
+            }
+            let inv = 1.0 / c;
+            alpha[s * k..(s + 1) * k].iter_mut().for_each(|x| *x *= inv);
         }
+        log_l += product.ln();
         beta[(t - 1) * k..].fill(1.0);
         for s in (0..t - 1).rev() {
             for i in 0..k {
