@@ -213,3 +213,26 @@ fn rts_outputs_follow_the_shared_table_format() {
         assert!(out.join(f).metadata().unwrap().len() > 2880);
     }
 }
+
+#[test]
+fn the_bundled_rts_stack_shows_its_row_and_column_noise_and_rts_pixels() {
+    // data-synthetic/scmos-rts-64x64.fits: 200 frames, row 0.5 e-, column 0.3 e-, 126 RTS
+    // pixels (its manifest), of which the von Neumann test at 200 frames finds most.
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("data-synthetic");
+    let stack = FrameStack::open(&[dir.join("scmos-rts-64x64.fits")]).unwrap();
+    let maps = dark_maps(&stack, &DarkOptions::default()).unwrap();
+    let t = maps.stats.temporal.summary(Some(0.25));
+    let z = |v: Option<f64>, se: Option<f64>, truth: f64| (v.unwrap() - truth) / se.unwrap();
+    assert!(z(t.row_rms_e, t.row_rms_se_e, ROW_E).abs() < 4.0, "{t:?}");
+    assert!(z(t.column_rms_e, t.column_rms_se_e, COLUMN_E).abs() < 4.0, "{t:?}");
+    let truth = std::fs::read_to_string(dir.join("scmos-rts-64x64.truth-rts.csv")).unwrap();
+    let injected = truth.lines().count() - 1;
+    let ok = maps
+        .rts
+        .fitted
+        .iter()
+        .filter(|p| p.fit.status == FitStatus::Ok)
+        .count();
+    assert_eq!(injected, 126);
+    assert!(ok as f64 >= 0.8 * injected as f64 && ok <= injected + 2, "{ok} of {injected}");
+}
