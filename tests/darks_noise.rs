@@ -73,7 +73,10 @@ fn darks_recovers_the_injected_rts_row_column_and_hot_pixels() {
     let (row, row_se) = (t.row_rms_e.unwrap(), t.row_rms_se_e.unwrap());
     let (col, col_se) = (t.column_rms_e.unwrap(), t.column_rms_se_e.unwrap());
     assert!((row - ROW_E).abs() < 4.0 * row_se + 0.0025 * ROW_E, "{t:?}");
-    assert!((col - COLUMN_E).abs() < 4.0 * col_se + 0.0025 * COLUMN_E, "{t:?}");
+    assert!(
+        (col - COLUMN_E).abs() < 4.0 * col_se + 0.0025 * COLUMN_E,
+        "{t:?}"
+    );
     assert!(row_se < 0.02 && col_se < 0.02, "{t:?}");
 
     // RTS pixels: at least 95 % of those injected are fitted `ok` with two levels, and no
@@ -198,11 +201,12 @@ fn rts_outputs_follow_the_shared_table_format() {
     let header: Vec<&str> = series.lines().next().unwrap().split(',').collect();
     assert_eq!(header[0], "frame");
     assert!(header.len() > 1 && header.len() <= 5, "{header:?}");
-    assert!(header[1..].iter().all(|h| h.starts_with('x') && h.ends_with("_adu")));
+    assert!(header[1..]
+        .iter()
+        .all(|h| h.starts_with('x') && h.ends_with("_adu")));
     assert_eq!(series.lines().count(), 1 + 300);
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     let t = &json["temporal_noise"];
     assert!(t["row_rms_adu"].as_f64().unwrap() > 0.0);
     assert!(t["row_rms_e"].is_null(), "no gain: e- figures are null");
@@ -224,7 +228,10 @@ fn the_bundled_rts_stack_shows_its_row_and_column_noise_and_rts_pixels() {
     let t = maps.stats.temporal.summary(Some(0.25));
     let z = |v: Option<f64>, se: Option<f64>, truth: f64| (v.unwrap() - truth) / se.unwrap();
     assert!(z(t.row_rms_e, t.row_rms_se_e, ROW_E).abs() < 4.0, "{t:?}");
-    assert!(z(t.column_rms_e, t.column_rms_se_e, COLUMN_E).abs() < 4.0, "{t:?}");
+    assert!(
+        z(t.column_rms_e, t.column_rms_se_e, COLUMN_E).abs() < 4.0,
+        "{t:?}"
+    );
     let truth = std::fs::read_to_string(dir.join("scmos-rts-64x64.truth-rts.csv")).unwrap();
     let injected = truth.lines().count() - 1;
     let ok = maps
@@ -234,5 +241,8 @@ fn the_bundled_rts_stack_shows_its_row_and_column_noise_and_rts_pixels() {
         .filter(|p| p.fit.status == FitStatus::Ok)
         .count();
     assert_eq!(injected, 126);
-    assert!(ok as f64 >= 0.8 * injected as f64 && ok <= injected + 2, "{ok} of {injected}");
+    assert!(
+        ok as f64 >= 0.8 * injected as f64 && ok <= injected + 2,
+        "{ok} of {injected}"
+    );
 }

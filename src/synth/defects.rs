@@ -156,7 +156,9 @@ impl DefectTruth {
                 }
             }
             if u_hot < d.hot_fraction {
-                hot[i] = d.hot_dark_e;
+                if let Some(h) = hot.get_mut(i) {
+                    *h = d.hot_dark_e;
+                }
             }
         }
         DefectTruth {
