@@ -93,7 +93,7 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 0.005, value_parser = real(Included(0.0), Included(MAX_LIGHT_E), "e-"))]
     pub cic_e: f64,
     /// sCMOS fraction of random-telegraph (RTS) pixels, [0, 1] (unitless); their truth goes
-    /// to <stem>.truth-rts.csv (the columns of `darks`' rts.csv). Default: 0.
+    /// to <stem>.truth-rts.csv (the columns of `darks`' rts.csv).
     #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub rts_fraction: f64,
     /// sCMOS RTS level heights above the lowest level (e-), ascending, comma-separated: one
@@ -108,19 +108,18 @@ pub struct SynthArgs {
     /// values, the number of levels.
     #[arg(long, value_delimiter = ',', default_value = "30,10")]
     pub rts_dwell_frames: Vec<f64>,
-    /// sCMOS occupancy of each RTS level (fractions summing to 1), comma-separated. Default:
-    /// proportional to --rts-dwell-frames (with two levels it must be).
+    /// sCMOS occupancy of each RTS level (unitless fractions summing to 1), comma-separated.
+    /// Without it: proportional to --rts-dwell-frames (with two levels it must be).
     #[arg(long, value_delimiter = ',')]
     pub rts_occupancy: Option<Vec<f64>>,
-    /// sCMOS row noise (e-): one normal draw per row and frame, shared by the row. Default: 0.
+    /// sCMOS row noise (e-): one normal draw per row and frame, shared by the row.
     #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
     pub row_noise_e: f64,
     /// sCMOS column noise (e-): one normal draw per column and frame, shared by the column.
-    /// Default: 0.
     #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
     pub column_noise_e: f64,
     /// sCMOS fraction of hot pixels, [0, 1] (unitless); their dark signal goes to
-    /// <stem>.truth-hot_dark_e.fits. Default: 0.
+    /// <stem>.truth-hot_dark_e.fits.
     #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub hot_fraction: f64,
     /// sCMOS dark signal of a hot pixel (e- per frame, Poisson), 0 to 1e6.

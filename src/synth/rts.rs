@@ -50,7 +50,10 @@ impl RtsChain {
             None => dwell_frames.iter().map(|d| d / total).collect(),
             Some(o) => {
                 let sum: f64 = o.iter().sum();
-                if o.len() != k || o.iter().any(|p| p.is_nan() || *p <= 0.0) || (sum - 1.0).abs() > 1e-9 {
+                if o.len() != k
+                    || o.iter().any(|p| p.is_nan() || *p <= 0.0)
+                    || (sum - 1.0).abs() > 1e-9
+                {
                     return Err(Error::invalid(
                         "rts_occupancy",
                         format!(
