@@ -24,3 +24,11 @@ done
 # 10 e/adu, non-square 32x48.
 "$DN" synth --force --detector emccd --shape 32x48 --frames 200 --format fits --seed 2015 --out "$OUT/emccd-darks-32x48.fits"
 "$DN" synth --force --detector emccd --shape 32x48 --frames 200 --format fits --seed 2015 --light-e 0.2 --out "$OUT/emccd-lowlight-32x48.fits"
+
+# sCMOS darks of the same camera (same seed = same pixels) with non-Gaussian noise: 3 % RTS
+# pixels (two levels 8 e- apart +- 25 %, dwell 12 and 6 frames), row noise 0.5 e-, column
+# noise 0.3 e-, 0.2 % hot pixels (50 e- a frame); 200 frames. The RTS truth goes to
+# scmos-rts-64x64.truth-rts.csv (the columns of `darks`' rts.csv).
+"$DN" synth --force --detector scmos --shape 64x64 --frames 200 --format fits --seed 2015 \
+  --rts-fraction 0.03 --rts-steps-e 8 --rts-dwell-frames 12,6 --row-noise-e 0.5 --column-noise-e 0.3 \
+  --hot-fraction 0.002 --hot-dark-e 50 --out "$OUT/scmos-rts-64x64.fits"

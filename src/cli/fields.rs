@@ -51,6 +51,17 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("frames", "--frames"),
     ("rms_pdf", "--rms-pdf"),
     ("em_gain", "--em-gain"),
+    // synth: non-Gaussian sCMOS noise (crate::synth::Defects). `row_noise_e` and
+    // `column_noise_e` also name the scmos-correlated model's amplitudes (one entry each).
+    ("rts_fraction", "--rts-fraction"),
+    ("rts_steps_e", "--rts-steps-e"),
+    ("rts_step_spread", "--rts-step-spread"),
+    ("rts_dwell_frames", "--rts-dwell-frames"),
+    ("rts_occupancy", "--rts-occupancy"),
+    ("row_noise_e", "--row-noise-e"),
+    ("column_noise_e", "--column-noise-e"),
+    ("hot_fraction", "--hot-fraction"),
+    ("hot_dark_e", "--hot-dark-e"),
     // Readout models (detector): `ModelParams` fields, the model list, and the map.
     ("emccd_read_noise_e", "--emccd-read-noise"),
     ("gaussian_switch_e", "--gaussian-switch"),
@@ -61,9 +72,8 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("pp_lambda", "--pp-lambda"),
     // Readout models of the camera's real noise (issue 13: scmos-rts, scmos-correlated,
     // scmos-frames); their conversion gain is `gain_e_per_adu` above.
+    // (`row_noise_e` and `column_noise_e`: listed once, under synth.)
     ("rts_table", "--rts-table"),
-    ("row_noise_e", "--row-noise-e"),
-    ("column_noise_e", "--column-noise-e"),
     ("dark_frames", "--dark-frames"),
     ("dark_frames_max_mib", "--dark-frames-max-mib"),
     // Effective read noise (crate::effective::Precision): precision target and iteration cap.

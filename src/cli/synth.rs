@@ -10,8 +10,8 @@ use crate::error::Result;
 use crate::io::StackFormat;
 use crate::output::{FileOut, StagedFiles};
 use crate::synth::{
-    output_files, parse_shape, rms_pdf, write_synthetic_in, Camera, EmccdParams, ScmosParams,
-    SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
+    output_files_for, parse_shape, rms_pdf, write_synthetic_in, Camera, Defects, EmccdParams,
+    RtsParams, ScmosParams, SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
 };
 
 /// sCMOS conversion gain without `--gain-e-per-adu`, e- per adu (stated in its help).
@@ -92,6 +92,39 @@ pub struct SynthArgs {
     /// EMCCD clock-induced charge (e- per pixel per frame), 0 to 1e6.
     #[arg(long, default_value_t = 0.005, value_parser = real(Included(0.0), Included(MAX_LIGHT_E), "e-"))]
     pub cic_e: f64,
+    /// sCMOS fraction of random-telegraph (RTS) pixels, [0, 1] (unitless); their truth goes
+    /// to <stem>.truth-rts.csv (the columns of `darks`' rts.csv).
+    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(1.0), ""))]
+    pub rts_fraction: f64,
+    /// sCMOS RTS level heights above the lowest level (e-), ascending, comma-separated: one
+    /// for two levels, two for three (as many as --rts-dwell-frames has values, less one).
+    #[arg(long, value_delimiter = ',', default_value = "8")]
+    pub rts_steps_e: Vec<f64>,
+    /// sCMOS relative pixel-to-pixel spread of the RTS heights (standard deviation / mean,
+    /// unitless), [0, 1).
+    #[arg(long, default_value_t = 0.25, value_parser = real(Included(0.0), Excluded(1.0), ""))]
+    pub rts_step_spread: f64,
+    /// sCMOS mean dwell time of each RTS level (frames, >= 1), comma-separated: two or three
+    /// values, the number of levels.
+    #[arg(long, value_delimiter = ',', default_value = "30,10")]
+    pub rts_dwell_frames: Vec<f64>,
+    /// sCMOS occupancy of each RTS level (unitless fractions summing to 1), comma-separated.
+    /// Without it: proportional to --rts-dwell-frames (with two levels it must be).
+    #[arg(long, value_delimiter = ',')]
+    pub rts_occupancy: Option<Vec<f64>>,
+    /// sCMOS row noise (e-): one normal draw per row and frame, shared by the row.
+    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
+    pub row_noise_e: f64,
+    /// sCMOS column noise (e-): one normal draw per column and frame, shared by the column.
+    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
+    pub column_noise_e: f64,
+    /// sCMOS fraction of hot pixels, [0, 1] (unitless); their dark signal goes to
+    /// <stem>.truth-hot_dark_e.fits.
+    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(1.0), ""))]
+    pub hot_fraction: f64,
+    /// sCMOS dark signal of a hot pixel (e- per frame, Poisson), 0 to 1e6.
+    #[arg(long, default_value_t = 50.0, value_parser = real(Included(0.0), Included(MAX_LIGHT_E), "e- per frame"))]
+    pub hot_dark_e: f64,
 }
 
 impl SynthArgs {
@@ -100,6 +133,8 @@ impl SynthArgs {
     pub fn validate(&self) -> Result<()> {
         if self.detector == DetectorKind::Emccd {
             EmRegister::check(self.em_gain, self.stages, "--em-gain")?;
+        } else {
+            defects(self).check()?;
         }
         Ok(())
     }
@@ -113,6 +148,7 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
             offset_spread_adu: args.offset_spread_adu,
             gain_e_per_adu: args.gain_e_per_adu.unwrap_or(SCMOS_GAIN_E_PER_ADU),
             gain_spread: args.gain_spread,
+            defects: defects(args),
         }),
         DetectorKind::Emccd => Camera::Emccd(EmccdParams {
             em_gain: args.em_gain,
@@ -133,16 +169,42 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
     })
 }
 
+/// The sCMOS defects the options ask for (none by default).
+fn defects(args: &SynthArgs) -> Defects {
+    Defects {
+        rts: (args.rts_fraction > 0.0).then(|| RtsParams {
+            fraction: args.rts_fraction,
+            steps_e: args.rts_steps_e.clone(),
+            step_spread: args.rts_step_spread,
+            dwell_frames: args.rts_dwell_frames.clone(),
+            occupancy: args.rts_occupancy.clone(),
+        }),
+        row_noise_e: args.row_noise_e,
+        column_noise_e: args.column_noise_e,
+        hot_fraction: args.hot_fraction,
+        hot_dark_e: if args.hot_fraction > 0.0 {
+            args.hot_dark_e
+        } else {
+            0.0
+        },
+    }
+}
+
 /// Run `detnoise synth`.
 pub fn run(args: &SynthArgs) -> Result<()> {
     args.validate()?;
-    let staged = prepare_outputs(args)?;
     let spec = spec(args)?;
+    let staged = prepare_outputs(args, &spec)?;
     let pdf = rms_pdf(&args.rms_pdf)?;
     let m = write_synthetic_in(&spec, pdf.as_ref(), args.format, &args.out, staged.dir())?;
     staged.commit()?;
+    let defects = m
+        .defects
+        .as_ref()
+        .map(|d| format!(", {} RTS and {} hot pixels", d.rts_pixels, d.hot_pixels))
+        .unwrap_or_default();
     eprintln!(
-        "wrote {} ({} frames of {}x{}), median read noise {:.3} e-, truth maps and manifest beside it",
+        "wrote {} ({} frames of {}x{}), median read noise {:.3} e-{defects}, truth maps and manifest beside it",
         args.out.display(),
         spec.frames,
         spec.shape.0,
@@ -153,14 +215,14 @@ pub fn run(args: &SynthArgs) -> Result<()> {
 }
 
 /// Check the stack path and the files beside it before any work, and stage them.
-fn prepare_outputs(args: &SynthArgs) -> Result<StagedFiles> {
+fn prepare_outputs(args: &SynthArgs, spec: &SynthSpec) -> Result<StagedFiles> {
     let what = match args.format {
         StackFormat::Fits => "a FITS stack (--format fits)",
         StackFormat::Tiff => "a TIFF stack (--format tiff)",
         StackFormat::Exr => "an OpenEXR stack (--format exr)",
     };
     let exts = args.format.extensions();
-    let files = output_files(&args.out);
+    let files = output_files_for(&args.out, spec);
     let outs: Vec<FileOut> = files
         .iter()
         .enumerate()

@@ -7,16 +7,24 @@
 //! the light level, so each level has independent noise. Results do not depend on the
 //! thread count.
 //!
-//! Layout: `spec` says what to simulate, `truth` draws the pixels and frames, `write` writes
-//! the stack, its truth maps and its manifest.
+//! Layout: `spec` says what to simulate, `truth` draws the pixels and frames, `defects` adds
+//! RTS pixels (`rts`: their Markov chain), row and column noise and hot pixels, `write`
+//! writes the stack, its truth maps and table, and its manifest.
 
+mod defects;
+mod rts;
 mod spec;
 mod truth;
 mod write;
 
+pub use defects::{add_defects, ChainStates, DefectTruth, Defects, RtsParams, RtsPixelTruth};
+pub use rts::RtsChain;
 pub use spec::{
     parse_shape, rms_pdf, Camera, EmccdParams, ScmosParams, SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
     MAX_PIXELS,
 };
-pub use truth::{draw_truth, frame, Truth};
-pub use write::{output_files, stack_stem, write_synthetic, write_synthetic_in, Manifest};
+pub use truth::{draw_truth, frame, frame_with, Truth};
+pub use write::{
+    defect_files, output_files, output_files_for, stack_stem, write_synthetic, write_synthetic_in,
+    DefectsManifest, Manifest,
+};

@@ -3,6 +3,7 @@
 
 use serde::Serialize;
 
+use super::defects::Defects;
 use crate::calib::{Map, Unit};
 use crate::error::{Error, Result};
 use crate::pdf::RmsPdf;
@@ -25,6 +26,10 @@ pub struct ScmosParams {
     pub gain_e_per_adu: f64,
     /// Relative pixel-to-pixel spread of the gain (standard deviation / mean).
     pub gain_spread: f64,
+    /// RTS pixels, row and column noise, hot pixels (none by default; left out of the
+    /// manifest when none).
+    #[serde(skip_serializing_if = "Defects::is_none")]
+    pub defects: Defects,
 }
 
 impl Default for ScmosParams {
@@ -34,6 +39,7 @@ impl Default for ScmosParams {
             offset_spread_adu: 2.0,
             gain_e_per_adu: 0.25,
             gain_spread: 0.02,
+            defects: Defects::default(),
         }
     }
 }

@@ -3,6 +3,7 @@
 
 use rand_distr::{Distribution, StandardNormal};
 
+use super::defects::{add_defects, DefectTruth};
 use super::spec::{Camera, SynthSpec};
 use crate::calib::{Map, Unit};
 use crate::detector::register::EmRegister;
@@ -22,6 +23,8 @@ pub struct Truth {
     pub rms_e: Map,
     /// Conversion gain (e per adu).
     pub gain_e_per_adu: Map,
+    /// RTS and hot pixels (sCMOS with defects; empty otherwise).
+    pub defects: DefectTruth,
 }
 
 impl Truth {
@@ -43,7 +46,8 @@ fn normal(rng: &mut SimRng) -> f64 {
 }
 
 /// Draw the per-pixel truth. sCMOS read noise comes from `pdf`; EMCCD pixels share one
-/// read noise, bias and conversion factor.
+/// read noise, bias and conversion factor. Defects must have been checked
+/// ([`Defects::check`](super::Defects::check)); unchecked ones are left out.
 pub fn draw_truth(spec: &SynthSpec, pdf: &dyn RmsPdf) -> Truth {
     let (rows, cols) = spec.shape;
     let n = rows * cols;
@@ -65,21 +69,46 @@ pub fn draw_truth(spec: &SynthSpec, pdf: &dyn RmsPdf) -> Truth {
             }
         }
     }
+    let defects = match &spec.camera {
+        Camera::Scmos(p) if !p.defects.is_none() => {
+            let chain = p.defects.check().ok().flatten();
+            DefectTruth::draw(&p.defects, chain, n, spec.seed)
+        }
+        _ => DefectTruth::default(),
+    };
     Truth {
         offset_adu: Map::new(rows, cols, offset, Unit::Adu),
         rms_e: Map::new(rows, cols, rms, Unit::Electrons),
         gain_e_per_adu: Map::new(rows, cols, gain, Unit::EPerAdu),
+        defects,
     }
 }
 
-/// Frame `k` of the stack in adu (before rounding to the stored type).
+/// Frame `k` of the stack in adu (before rounding to the stored type). With RTS pixels their
+/// chains are replayed from frame 0 (writers step them with [`frame_with`] instead).
 pub fn frame(spec: &SynthSpec, truth: &Truth, register: Option<&EmRegister>, k: usize) -> Vec<f64> {
+    let levels = if truth.defects.rts.is_empty() {
+        Vec::new()
+    } else {
+        truth.defects.levels_at(spec.seed, k)
+    };
+    frame_with(spec, truth, register, k, &levels)
+}
+
+/// Frame `k` of the stack in adu with the RTS pixels in `levels` (one per RTS pixel).
+pub fn frame_with(
+    spec: &SynthSpec,
+    truth: &Truth,
+    register: Option<&EmRegister>,
+    k: usize,
+    levels: &[u8],
+) -> Vec<f64> {
     let purpose = PURPOSE_FRAMES ^ spec.light_e.to_bits().rotate_left(17);
     let mut rng = stream(spec.seed, k as u64, purpose);
     let n = spec.shape.0 * spec.shape.1;
     let mut out = vec![0.0; n];
     for (i, o) in out.iter_mut().enumerate() {
-        let electrons = match &spec.camera {
+        *o = match &spec.camera {
             Camera::Scmos(_) => {
                 poisson(spec.light_e, &mut rng) as f64 + truth.rms_e.data[i] * normal(&mut rng)
             }
@@ -89,7 +118,15 @@ pub fn frame(spec: &SynthSpec, truth: &Truth, register: Option<&EmRegister>, k: 
                 reg.sample(k_in, &mut rng) + p.read_noise_e * normal(&mut rng)
             }
         };
-        *o = truth.offset_adu.data[i] + electrons / truth.gain_e_per_adu.data[i];
+    }
+    if let Camera::Scmos(p) = &spec.camera {
+        if !p.defects.is_none() {
+            let id = (spec.seed, k, purpose);
+            add_defects(&p.defects, &truth.defects, levels, spec.shape, id, &mut out);
+        }
+    }
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = truth.offset_adu.data[i] + *o / truth.gain_e_per_adu.data[i];
     }
     out
 }

@@ -6,8 +6,11 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::Serialize;
 
+use super::defects::ChainStates;
 use super::spec::{Camera, SynthSpec};
-use super::truth::{draw_truth, frame};
+use super::truth::{draw_truth, frame_with, Truth};
+use crate::calib::darks::{write_rts_csv, RtsLevelRow, RtsRow};
+use crate::calib::{Map, Unit};
 use crate::detector::register::EmRegister;
 use crate::error::{Error, Result};
 use crate::io::fits::{key, KeyValue};
@@ -39,6 +42,24 @@ pub struct Manifest {
     pub excess_noise_factor_sq: Option<f64>,
     /// Note on how integer storage changes the measured noise.
     pub note: String,
+    /// What the injected defects came to (sCMOS with defects only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub defects: Option<DefectsManifest>,
+}
+
+/// The injected defects of a synthetic stack, as drawn.
+#[derive(Debug, Serialize)]
+pub struct DefectsManifest {
+    /// RTS pixels injected.
+    pub rts_pixels: usize,
+    /// Their table (columns of `darks`' rts.csv; levels relative to the pixel's mean), if any.
+    pub rts_truth: Option<PathBuf>,
+    /// Stationary occupancy of each RTS level.
+    pub rts_occupancy: Option<Vec<f64>>,
+    /// Hot pixels injected.
+    pub hot_pixels: usize,
+    /// What the truth maps and table mean for the defects.
+    pub note: String,
 }
 
 /// Simulate `spec` and write the stack to `out` in `format`, its truth maps beside it
@@ -56,8 +77,8 @@ pub fn write_synthetic(
 /// Quantities of the truth maps written beside a synthetic stack.
 const TRUTH_MAPS: [&str; 4] = ["offset_adu", "rms_e", "rms_adu", "gain_e_per_adu"];
 
-/// Every file [`write_synthetic`] writes for the stack `out`: the stack, its truth maps and
-/// its manifest.
+/// Every file [`write_synthetic`] writes for the stack `out` of a Gaussian camera: the stack,
+/// its truth maps and its manifest.
 pub fn output_files(out: &Path) -> Vec<PathBuf> {
     let stem = stack_stem(out);
     let beside = |suffix: &str| stem.with_file_name(format!("{}.{suffix}", file_name(&stem)));
@@ -68,6 +89,78 @@ pub fn output_files(out: &Path) -> Vec<PathBuf> {
                 .map(|q| beside(&format!("truth-{q}.fits"))),
         )
         .chain([beside("manifest.json")])
+        .collect()
+}
+
+/// The truth files of `spec`'s defects beside the stack `out`: the RTS table and the hot
+/// pixels' dark-signal map, when there are such pixels.
+pub fn defect_files(out: &Path, spec: &SynthSpec) -> (Option<PathBuf>, Option<PathBuf>) {
+    let stem = stack_stem(out);
+    let beside = |suffix: &str| stem.with_file_name(format!("{}.{suffix}", file_name(&stem)));
+    match &spec.camera {
+        Camera::Scmos(p) => (
+            p.defects
+                .rts
+                .as_ref()
+                .filter(|r| r.fraction > 0.0)
+                .map(|_| beside("truth-rts.csv")),
+            (p.defects.hot_fraction > 0.0).then(|| beside("truth-hot_dark_e.fits")),
+        ),
+        Camera::Emccd(_) => (None, None),
+    }
+}
+
+/// [`output_files`] and the defects' truth files of `spec`.
+pub fn output_files_for(out: &Path, spec: &SynthSpec) -> Vec<PathBuf> {
+    let (rts, hot) = defect_files(out, spec);
+    output_files(out)
+        .into_iter()
+        .chain(rts)
+        .chain(hot)
+        .collect()
+}
+
+/// The RTS truth table: per RTS pixel its levels relative to its mean (the stationary
+/// occupancies' weighted mean of its levels), in adu and e- with its own gain.
+fn rts_truth_rows(spec: &SynthSpec, truth: &Truth) -> Vec<RtsRow> {
+    let Some(chain) = &truth.defects.chain else {
+        return Vec::new();
+    };
+    let cols = spec.shape.1;
+    truth
+        .defects
+        .rts
+        .iter()
+        .map(|p| {
+            let g = truth.gain_e_per_adu.data[p.index];
+            let mean: f64 = p
+                .heights_e
+                .iter()
+                .zip(chain.occupancy())
+                .map(|(h, o)| h * o)
+                .sum();
+            let levels = p
+                .heights_e
+                .iter()
+                .zip(chain.occupancy().iter().zip(chain.dwell_frames()))
+                .map(|(h, (o, d))| RtsLevelRow {
+                    level_adu: (h - mean) / g,
+                    level_se_adu: None,
+                    occupancy: *o,
+                    occupancy_se: None,
+                    width_adu: truth.rms_e.data[p.index] / g,
+                    dwell_frames: *d,
+                    dwell_se_frames: None,
+                })
+                .collect();
+            RtsRow {
+                x_px: p.index % cols,
+                y_px: p.index / cols,
+                status: "ok",
+                levels,
+                gain_e_per_adu: Some(g),
+            }
+        })
         .collect()
 }
 
@@ -88,7 +181,11 @@ pub fn write_synthetic_in(
             "need at least one row and column, and `frames` at least 1",
         ));
     }
+    if let Camera::Scmos(p) = &spec.camera {
+        p.defects.check()?;
+    }
     let truth = draw_truth(spec, pdf);
+    let mut chains = ChainStates::new(&truth.defects, spec.seed);
     let register = match &spec.camera {
         Camera::Emccd(p) => {
             EmRegister::check(p.em_gain, p.stages, "em_gain")?;
@@ -103,9 +200,18 @@ pub fn write_synthetic_in(
     let mut next = || {
         if queue.is_empty() {
             let end = (next_k + batch).min(spec.frames);
+            // RTS chains step in frame order; the frames then draw in parallel.
+            let levels: Vec<Vec<u8>> = (next_k..end)
+                .map(|_| {
+                    let l = chains.levels.clone();
+                    chains.advance(&truth.defects);
+                    l
+                })
+                .collect();
             let frames: Vec<Vec<f64>> = (next_k..end)
                 .into_par_iter()
-                .map(|k| frame(spec, &truth, register.as_ref(), k))
+                .zip(&levels)
+                .map(|(k, l)| frame_with(spec, &truth, register.as_ref(), k, l))
                 .collect();
             queue.extend(frames);
             next_k = end;
@@ -171,6 +277,31 @@ pub fn write_synthetic_in(
         map.write_fits(&staged(p), &keys)?;
         truth_maps.insert(name.to_string(), p.clone());
     }
+    let (rts_file, hot_file) = defect_files(out, spec);
+    if let Some(p) = &rts_file {
+        write_rts_csv(&staged(p), &rts_truth_rows(spec, &truth))?;
+    }
+    if let Some(p) = &hot_file {
+        let (rows, cols) = spec.shape;
+        let m = Map::new(
+            rows,
+            cols,
+            truth.defects.hot_dark_e.clone(),
+            Unit::Electrons,
+        );
+        m.write_fits(&staged(p), &keys)?;
+        truth_maps.insert("hot_dark_e".into(), p.clone());
+    }
+    let defects = match &spec.camera {
+        Camera::Scmos(p) if !p.defects.is_none() => Some(DefectsManifest {
+            rts_pixels: truth.defects.rts.len(),
+            rts_truth: rts_file,
+            rts_occupancy: truth.defects.chain.as_ref().map(|c| c.occupancy().to_vec()),
+            hot_pixels: truth.defects.hot_dark_e.iter().filter(|d| **d > 0.0).count(),
+            note: "offset_adu is the offset without defects: an RTS pixel's mean is above it by its levels' occupancy-weighted mean height (the RTS table's levels are relative to that mean), a hot pixel's by hot_dark_e / gain; rms_e is the pixel's own Gaussian noise, to which row and column noise, RTS levels and hot pixels' shot noise add".into(),
+        }),
+        _ => None,
+    };
     let manifest = Manifest {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         stack: out.to_path_buf(),
@@ -182,6 +313,7 @@ pub fn write_synthetic_in(
         rms_e_mean: truth.rms_e.data.iter().sum::<f64>() / truth.rms_e.data.len() as f64,
         excess_noise_factor_sq: register.as_ref().map(|r| r.excess_noise_factor_sq()),
         note: "Integer storage rounds each sample: the measured variance in adu is about rms_adu^2 + 1/12 (quantisation) for rms_adu above ~0.5 adu.".into(),
+        defects,
     };
     write_json(&staged(&files[5]), &manifest)?;
     Ok(manifest)

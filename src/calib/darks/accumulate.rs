@@ -4,13 +4,17 @@
 //! The frames are read in batches on a thread of their own ([`read_batches`]), which can
 //! share them with the checksum thread. Each batch is swept tile by tile across pixels
 //! (rayon; `kernel`), adding every sample to per-pixel sums over the whole stack (`tile`):
-//! exact for integer samples, and the same for any thread count. Memory is the sums (eight
-//! f64 per pixel, ten with clipping, plus the tracked extremes) and a few batches of frames
-//! (`io::stream`), O(frame).
+//! exact for integer samples, and the same for any thread count. The first pass also adds up
+//! every frame's rows and columns (`lines`) for the temporal noise decomposition. Memory is
+//! the sums (ten f64 per pixel, twelve with clipping, plus the tracked extremes), the
+//! line sums of a batch and a few batches of frames (`io::stream`), O(frame).
 
 use rayon::prelude::*;
 
+use super::decompose::TemporalNoise;
 use super::kernel::{sweep, FrameView};
+use super::kurtosis::{excess_kurtosis, PowerSums};
+use super::lines::{LineAcc, TileLines};
 use super::options::Clip;
 use super::tile::{mean_var, Tile};
 use crate::calib::{Map, Unit};
@@ -43,6 +47,10 @@ pub struct PixelStats {
     pub von_neumann: Vec<f64>,
     /// Largest sample per pixel (adu).
     pub max: Vec<f64>,
+    /// Excess kurtosis per pixel (G2, dimensionless; every sample, before clipping).
+    pub excess_kurtosis: Vec<f64>,
+    /// The temporal variance split into pixel, row and column components (every sample).
+    pub temporal: TemporalNoise,
     /// Value returned by the frame hook for each frame.
     pub per_frame: Vec<f64>,
 }
@@ -50,6 +58,8 @@ pub struct PixelStats {
 /// The sums of one pass over a stack.
 struct Pass {
     tiles: Vec<Tile>,
+    /// Row and column sums over frames (the first pass).
+    lines: Option<LineAcc>,
     /// Values returned by the hook, one per frame used.
     per_frame: Vec<f64>,
     /// Frames used.
@@ -112,13 +122,18 @@ fn pass(
         .map(|t| {
             let r = t * TILE..npix.min((t + 1) * TILE);
             match window {
-                None => Tile::new(r.start, r.len(), extremes),
+                None => {
+                    let mut tile = Tile::new(r.start, r.len(), extremes);
+                    tile.lines = Some(TileLines::new(r.start, r.len(), stack.shape.1));
+                    tile
+                }
                 Some((shift, lo, hi)) => {
                     Tile::windowed(r.start, &shift[r.clone()], &lo[r.clone()], &hi[r])
                 }
             }
         })
         .collect();
+    let mut lines = window.is_none().then(|| LineAcc::new(stack.shape));
     let mut per_frame = Vec::new();
     let mut used = 0usize;
     let mut read = 0usize;
@@ -175,6 +190,11 @@ fn pass(
             tiles
                 .par_iter_mut()
                 .for_each(|t| sweep(t, &views, used, window.is_none(), extremes));
+            if let Some(acc) = lines.as_mut() {
+                let shares: Vec<&TileLines> =
+                    tiles.iter().filter_map(|t| t.lines.as_ref()).collect();
+                acc.add_batch(views.len(), &shares);
+            }
             used += views.len();
             Ok(())
         })
@@ -199,6 +219,7 @@ fn pass(
     }
     Ok(Pass {
         tiles,
+        lines,
         per_frame,
         frames: used,
     })
@@ -262,20 +283,40 @@ pub(super) fn stats_tapped(
     let npix = stack.pixels();
     let frames = p.frames;
     let nf = p.parity_frames();
-    // The von Neumann ratio and the maximum see every sample (before clipping).
+    // The von Neumann ratio, the maximum, the kurtosis and the temporal noise decomposition
+    // see every sample (before clipping).
     let mut vn_ratio = vec![f64::NAN; npix];
     let mut max = vec![f64::NAN; npix];
-    for t in &p.tiles {
-        for i in 0..t.len {
-            let (_, var) = mean_var(t.sums(i, None, nf));
-            vn_ratio[t.start + i] = if var > 0.0 {
-                t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
-            } else {
-                f64::NAN
-            };
-            max[t.start + i] = t.max[i];
-        }
-    }
+    let mut kurt = vec![f64::NAN; npix];
+    let mut var_all = vec![f64::NAN; npix];
+    let per_tile = vn_ratio
+        .par_chunks_mut(TILE)
+        .zip(max.par_chunks_mut(TILE))
+        .zip(kurt.par_chunks_mut(TILE).zip(var_all.par_chunks_mut(TILE)));
+    per_tile
+        .zip(&p.tiles)
+        .for_each(|(((vn_ratio, max), (kurt, var_all)), t)| {
+            for i in 0..t.len {
+                let sums = t.sums(i, None, nf);
+                let (_, var) = mean_var(sums);
+                vn_ratio[i] = if var > 0.0 {
+                    t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
+                } else {
+                    f64::NAN
+                };
+                max[i] = t.max[i];
+                var_all[i] = var;
+                kurt[i] = excess_kurtosis(PowerSums {
+                    n: sums.n,
+                    s1: sums.s1,
+                    s2: sums.s2,
+                    s3: t.s3[i],
+                    s4: t.s4[i],
+                });
+            }
+        });
+    let line_vars = p.lines.take().expect("the first pass adds lines").finish();
+    let temporal = TemporalNoise::decompose(&line_vars, &var_all, stack.shape);
     if extremes > 0 {
         p.tiles
             .par_iter_mut()
@@ -322,6 +363,8 @@ pub(super) fn stats_tapped(
         count,
         von_neumann: vn_ratio,
         max,
+        excess_kurtosis: kurt,
+        temporal,
         per_frame: p.per_frame,
     })
 }

@@ -128,6 +128,14 @@ mod tests {
             count,
             von_neumann: vn,
             max,
+            excess_kurtosis: vec![0.0; n],
+            temporal: crate::calib::darks::TemporalNoise {
+                frames,
+                total: (0.0, 0.0),
+                pixel: (0.0, 0.0),
+                row: None,
+                column: None,
+            },
             per_frame: vec![],
         }
     }

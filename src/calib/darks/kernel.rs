@@ -84,6 +84,9 @@ fn sweep_w<const W: usize>(
 ) {
     let count = frames.len();
     let mut rows = vec![0.0; count * SUB];
+    if let Some(lines) = tile.lines.as_mut() {
+        lines.begin(count);
+    }
     for a in (0..tile.len).step_by(SUB) {
         let n = SUB.min(tile.len - a);
         let (lo, hi) = (tile.start + a, tile.start + a + n);
@@ -98,6 +101,11 @@ fn sweep_w<const W: usize>(
             }
         }
         let row = |j: usize| &rows[j * SUB..j * SUB + n];
+        if let Some(lines) = tile.lines.as_mut() {
+            for j in 0..count {
+                lines.add(a, row(j), j);
+            }
+        }
         if seed && first == 0 {
             tile.seed(a, row(0));
         }
@@ -121,6 +129,8 @@ struct Acc<'a> {
     shift: &'a [f64],
     s1: [&'a mut [f64]; 2],
     s2: [&'a mut [f64]; 2],
+    s3: &'a mut [f64],
+    s4: &'a mut [f64],
     vn: &'a mut [f64],
     prev: &'a mut [f64],
     max: &'a mut [f64],
@@ -144,6 +154,8 @@ fn plain<const W: usize>(
         shift: &tile.shift[r.clone()],
         s1: [&mut s1e[r.clone()], &mut s1o[r.clone()]],
         s2: [&mut s2e[r.clone()], &mut s2o[r.clone()]],
+        s3: &mut tile.s3[r.clone()],
+        s4: &mut tile.s4[r.clone()],
         vn: &mut tile.vn[r.clone()],
         prev: &mut tile.prev[r.clone()],
         max: &mut tile.max[r],
@@ -159,26 +171,31 @@ fn plain<const W: usize>(
     }
 }
 
+/// The running sums of `W` pixels that do not depend on the parity of the frame.
+struct Shared<const W: usize> {
+    shift: [f64; W],
+    s3: [f64; W],
+    s4: [f64; W],
+    vn: [f64; W],
+    prev: [f64; W],
+    max: [f64; W],
+}
+
 /// One sample of `W` pixels into sums of one parity.
 #[inline(always)]
-fn step<const W: usize>(
-    x: &[f64; W],
-    shift: &[f64; W],
-    s1: &mut [f64; W],
-    s2: &mut [f64; W],
-    vn: &mut [f64; W],
-    prev: &mut [f64; W],
-    max: &mut [f64; W],
-) {
+fn step<const W: usize>(x: &[f64; W], s1: &mut [f64; W], s2: &mut [f64; W], p: &mut Shared<W>) {
     for i in 0..W {
-        let d = x[i] - shift[i];
+        let d = x[i] - p.shift[i];
+        let d2 = d * d;
         s1[i] += d;
-        s2[i] += d * d;
-        let e = x[i] - prev[i];
-        vn[i] += e * e;
-        prev[i] = x[i];
+        s2[i] += d2;
+        p.s3[i] += d2 * d;
+        p.s4[i] += d2 * d2;
+        let e = x[i] - p.prev[i];
+        p.vn[i] += e * e;
+        p.prev[i] = x[i];
         // Samples are never NaN (the readers refuse them), so a plain comparison will do.
-        max[i] = if x[i] > max[i] { x[i] } else { max[i] };
+        p.max[i] = if x[i] > p.max[i] { x[i] } else { p.max[i] };
     }
 }
 
@@ -187,10 +204,16 @@ fn step<const W: usize>(
 #[inline(always)]
 fn chunk<const W: usize>(acc: &mut Acc, c: usize, rows: &[f64], count: usize, parity: usize) {
     let ld = |v: &[f64]| -> [f64; W] { v[c..c + W].try_into().expect("W pixels") };
-    let shift = ld(acc.shift);
     let (mut s1e, mut s1o) = (ld(acc.s1[0]), ld(acc.s1[1]));
     let (mut s2e, mut s2o) = (ld(acc.s2[0]), ld(acc.s2[1]));
-    let (mut vn, mut prev, mut max) = (ld(acc.vn), ld(acc.prev), ld(acc.max));
+    let mut p = Shared {
+        shift: ld(acc.shift),
+        s3: ld(acc.s3),
+        s4: ld(acc.s4),
+        vn: ld(acc.vn),
+        prev: ld(acc.prev),
+        max: ld(acc.max),
+    };
     let row = |j: usize| -> &[f64; W] {
         rows[j * SUB + c..j * SUB + c + W]
             .try_into()
@@ -198,57 +221,27 @@ fn chunk<const W: usize>(acc: &mut Acc, c: usize, rows: &[f64], count: usize, pa
     };
     let mut j = 0;
     if parity == 1 && count > 0 {
-        step(
-            row(0),
-            &shift,
-            &mut s1o,
-            &mut s2o,
-            &mut vn,
-            &mut prev,
-            &mut max,
-        );
+        step(row(0), &mut s1o, &mut s2o, &mut p);
         j = 1;
     }
     while j + 1 < count {
-        step(
-            row(j),
-            &shift,
-            &mut s1e,
-            &mut s2e,
-            &mut vn,
-            &mut prev,
-            &mut max,
-        );
-        step(
-            row(j + 1),
-            &shift,
-            &mut s1o,
-            &mut s2o,
-            &mut vn,
-            &mut prev,
-            &mut max,
-        );
+        step(row(j), &mut s1e, &mut s2e, &mut p);
+        step(row(j + 1), &mut s1o, &mut s2o, &mut p);
         j += 2;
     }
     if j < count {
-        step(
-            row(j),
-            &shift,
-            &mut s1e,
-            &mut s2e,
-            &mut vn,
-            &mut prev,
-            &mut max,
-        );
+        step(row(j), &mut s1e, &mut s2e, &mut p);
     }
     let st = |v: &mut [f64], x: [f64; W]| v[c..c + W].copy_from_slice(&x);
     st(acc.s1[0], s1e);
     st(acc.s1[1], s1o);
     st(acc.s2[0], s2e);
     st(acc.s2[1], s2o);
-    st(acc.vn, vn);
-    st(acc.prev, prev);
-    st(acc.max, max);
+    st(acc.s3, p.s3);
+    st(acc.s4, p.s4);
+    st(acc.vn, p.vn);
+    st(acc.prev, p.prev);
+    st(acc.max, p.max);
 }
 
 #[cfg(test)]
@@ -278,6 +271,8 @@ mod tests {
                 let d = x - t.shift[i];
                 t.s1[k % 2][i] += d;
                 t.s2[k % 2][i] += d * d;
+                t.s3[i] += d * d * d;
+                t.s4[i] += d * d * d * d;
                 if k > 0 {
                     let e = x - sample(k - 1, i);
                     t.vn[i] += e * e;
@@ -293,6 +288,8 @@ mod tests {
         assert_eq!(a.shift, b.shift);
         assert_eq!(a.s1, b.s1);
         assert_eq!(a.s2, b.s2);
+        assert_eq!(a.s3, b.s3);
+        assert_eq!(a.s4, b.s4);
         assert_eq!(a.vn, b.vn);
         assert_eq!(a.prev, b.prev);
         assert_eq!(a.max, b.max);

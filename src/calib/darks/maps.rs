@@ -1,9 +1,10 @@
-//! The maps of a dark stack: offset and read noise (adu), pixel flags, split-half correlation
-//! and the common-mode offsets removed.
+//! The maps of a dark stack: offset and read noise (adu), pixel flags, split-half correlation,
+//! the common-mode offsets removed, and the telegraph fits of the RTS pixels.
 
 use super::accumulate::{stats_tapped, FrameHook, PixelStats};
 use super::flags::flag_pixels;
 use super::options::DarkOptions;
+use super::rts::{fit_rts, RtsFits};
 use crate::calib::summary::{with_inputs_hashed, Checksum, InputFile};
 use crate::calib::{Map, Unit};
 use crate::error::Result;
@@ -25,6 +26,8 @@ pub struct DarkMaps {
     pub split_half_correlation: f64,
     /// Per-frame common-mode offsets removed (adu; empty when not requested).
     pub common_mode_adu: Vec<f64>,
+    /// Telegraph fits of the RTS-flagged pixels (a second pass over the stack when any).
+    pub rts: RtsFits,
 }
 
 /// Compute dark maps of `stack` with `opts`.
@@ -69,6 +72,7 @@ fn maps(stack: &FrameStack, opts: &DarkOptions, tap: Option<&ByteTap>) -> Result
         opts,
     );
     let split_half_correlation = correlation(&stats.rms_even.data, &stats.rms_odd.data);
+    let rts = fit_rts(stack, &stats, &flags)?;
     Ok(DarkMaps {
         stats,
         offset_adu,
@@ -76,5 +80,6 @@ fn maps(stack: &FrameStack, opts: &DarkOptions, tap: Option<&ByteTap>) -> Result
         flags,
         split_half_correlation,
         common_mode_adu,
+        rts,
     })
 }

@@ -5,9 +5,13 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::flags::{FlagCounts, FLAG_BITS};
+use super::decompose::TemporalNoiseSummary;
+use super::flags::{FlagCounts, FLAG_BITS, FLAG_RTS};
+use super::kurtosis::KurtosisSummary;
 use super::maps::DarkMaps;
 use super::options::DarkOptions;
+use super::rts::RtsSummary;
+use super::rts_table::{write_rts_csv, write_rts_fits};
 use crate::calib::summary::{Distribution, InputFile};
 use crate::calib::Unit;
 use crate::error::{Error, Result};
@@ -17,13 +21,25 @@ use crate::plot::{Bins, HistNorm, Histogram};
 use crate::stats::mean_var;
 
 /// Files a dark calibration writes into its directory (rms_e.fits only with a gain).
-pub const OUTPUT_NAMES: [&str; 6] = [
+pub const OUTPUT_NAMES: [&str; 10] = [
     "offset_adu.fits",
     "rms_adu.fits",
     "rms_e.fits",
     "flags.fits",
     "rms_hist.png",
     "summary.json",
+    "excess_kurtosis.fits",
+    "rts.csv",
+    "rts.fits",
+    "rts-series.csv",
+];
+
+/// The files of the non-Gaussian noise, written after the maps (in this order).
+const NOISE_FILES: [&str; 4] = [
+    "excess_kurtosis.fits",
+    "rts.csv",
+    "rts.fits",
+    "rts-series.csv",
 ];
 
 /// Contents of summary.json.
@@ -57,6 +73,12 @@ pub struct DarkSummary {
     pub split_half_correlation: f64,
     /// Standard deviation of the removed per-frame common-mode offsets (adu), if removed.
     pub common_mode_std_adu: Option<f64>,
+    /// The temporal noise split into pixel, row and column components.
+    pub temporal_noise: TemporalNoiseSummary,
+    /// The per-pixel excess kurtosis map (excess_kurtosis.fits).
+    pub excess_kurtosis: KurtosisSummary,
+    /// The telegraph fits of the RTS pixels (rts.csv, rts.fits, rts-series.csv).
+    pub rts: RtsSummary,
     /// Files written.
     pub outputs: Vec<String>,
 }
@@ -137,6 +159,8 @@ pub fn write_outputs(
     if rms_e.is_some() {
         outputs.insert(2, "rms_e.fits");
     }
+    outputs.extend(NOISE_FILES);
+    let cols = stack.shape.1;
     let summary = DarkSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         command: "darks",
@@ -152,6 +176,11 @@ pub fn write_outputs(
         flags: FlagCounts::of(&maps.flags),
         split_half_correlation: maps.split_half_correlation,
         common_mode_std_adu,
+        temporal_noise: maps.stats.temporal.summary(gain),
+        excess_kurtosis: KurtosisSummary::of(&maps.stats.excess_kurtosis, maps.stats.frames, |i| {
+            maps.flags[i] & FLAG_RTS != 0
+        }),
+        rts: maps.rts.summary(cols, gain),
         outputs: outputs.iter().map(|s| s.to_string()).collect(),
     };
     // The chart goes first: if it fails, nothing has been written.
@@ -183,6 +212,27 @@ pub fn write_outputs(
         ImageData::I32(&maps.flags),
         Unit::Flags.bunit(),
         &fk,
+    )?;
+    let mut kk = keywords(maps, stack, opts);
+    kk.push(key("BUNIT", KeyValue::Str(String::new()), "dimensionless"));
+    kk.push(key(
+        "DNWHAT",
+        KeyValue::Str("excess kurtosis G2 per pixel".into()),
+        "0 for Gaussian noise, SE ~ sqrt(24/NFRAMES)",
+    ));
+    write_image(
+        &out.join("excess_kurtosis.fits"),
+        stack.shape,
+        ImageData::F64(&maps.stats.excess_kurtosis),
+        "",
+        &kk,
+    )?;
+    let rows = maps.rts.rows(cols, gain);
+    write_rts_csv(&out.join("rts.csv"), &rows)?;
+    write_rts_fits(&out.join("rts.fits"), &rows)?;
+    crate::output::write_atomic(
+        &out.join("rts-series.csv"),
+        maps.rts.series_csv(cols).as_bytes(),
     )?;
     crate::output::write_json(&out.join(summary_name), &summary)?;
     Ok(summary)

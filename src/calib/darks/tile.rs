@@ -1,8 +1,10 @@
 //! One tile of per-pixel accumulators, and the moments they give.
 //!
 //! Per pixel and parity of the frame index: the sums of the samples less a per-pixel shift
-//! (the pixel's first sample) and of their squares, over the whole stack; per pixel the sum of
-//! squared successive differences, the previous sample and the largest. Sigma clipping's
+//! (the pixel's first sample) and of their squares, over the whole stack; per pixel the sums
+//! of their cubes and fourth powers (kurtosis, every sample), the sum of squared successive
+//! differences, the previous sample and the largest; with `lines`, the tile's share of every
+//! frame's row and column sums (the temporal noise decomposition). Sigma clipping's
 //! second pass adds an acceptance window and per-pixel counts; extremes clipping keeps the
 //! N highest and lowest samples and takes them out of the sums at the end.
 //!
@@ -11,6 +13,8 @@
 //! mean and variance from exact integers with one rounding each. The results are the same
 //! whatever the format, the thread count or the vector width.
 
+use super::lines::TileLines;
+
 /// One tile of per-pixel accumulators (structure of arrays, for vectorisation).
 pub(super) struct Tile {
     pub(super) start: usize,
@@ -18,6 +22,11 @@ pub(super) struct Tile {
     pub(super) shift: Vec<f64>,
     pub(super) s1: [Vec<f64>; 2],
     pub(super) s2: [Vec<f64>; 2],
+    /// Sums of (x - shift)^3 and (x - shift)^4 over every sample of the first pass.
+    pub(super) s3: Vec<f64>,
+    pub(super) s4: Vec<f64>,
+    /// The tile's share of each frame's row and column sums (first pass only).
+    pub(super) lines: Option<TileLines>,
     /// Samples per pixel and parity, when they differ between pixels (a window, or after
     /// extremes are removed); otherwise every pixel has every frame of its parity.
     pub(super) cnt: Option<[Vec<f64>; 2]>,
@@ -44,6 +53,9 @@ impl Tile {
             shift: zeros(len),
             s1: pair(),
             s2: pair(),
+            s3: zeros(len),
+            s4: zeros(len),
+            lines: None,
             cnt: None,
             prev: zeros(len),
             vn: zeros(len),
