@@ -29,7 +29,8 @@ pub use grid::{
 pub use options::{DetectorKind, ReportOptions};
 pub use point::{ChosenPoint, OperatingPoint};
 pub use result::{
-    Compared, EmccdSummary, Headline, ReportInput, ReportResult, ReportSummary, Summary,
+    Compared, EmccdSummary, Headline, RealNoise, RealNoiseRow, ReportInput, ReportResult,
+    ReportSummary, Summary,
 };
 
 use crate::calib::ptc::POINTS_NAMES;
@@ -40,12 +41,19 @@ use crate::Result;
 use std::path::PathBuf;
 
 /// Files a report may write into its directory (glob patterns).
-const OUTPUT_NAMES: [&str; 21] = [
+const OUTPUT_NAMES: [&str; 28] = [
     "offset_adu.fits",
     "rms_adu.fits",
     "rms_e.fits",
     "flags.fits",
     "rms_hist.png",
+    "excess_kurtosis.fits",
+    "rts.csv",
+    "rts.fits",
+    "rts-series.csv",
+    "rts_series.png",
+    "real_noise.csv",
+    "real_noise.json",
     "darks_summary.json",
     "pdf_fit.json",
     "pdf_fit.png",

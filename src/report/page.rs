@@ -6,7 +6,7 @@
 
 use super::compare::verdicts;
 use super::heatmaps::NoiseScale;
-use super::result::{Compared, EmccdSummary, ReportSummary};
+use super::result::{Compared, EmccdSummary, RealNoise, ReportSummary};
 use crate::detector::ModelSpec;
 use crate::effective::{EffectiveRecord, Status};
 use crate::fit::pdf_fit::PdfFitReport;
@@ -284,11 +284,98 @@ pub fn index_html(p: &ScmosPage) -> String {
         (&ModelSpec::EmccdStochastic, "the EMCCD"),
     );
     charts(&mut h, p);
+    real_noise_section(&mut h, &s.real_noise, &at.describe());
     effective_table(&mut h, p.effective);
     fit_table(&mut h, p.fit);
     let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with its BLAKE3 checksum), darks_summary.json.</p></body></html>",
         if p.has_ptc { ", ptc_points.csv/.json (the photon-transfer points: mean, variance and gain per light level)" } else { "" });
     h
+}
+
+/// A value ± SE (e-) with `decimals`, or a dash when there is none.
+fn pm(v: Option<f64>, se: Option<f64>, decimals: usize) -> String {
+    match (v, se) {
+        (Some(v), Some(se)) => format!("{} ± {}", num(v, decimals), num(se, decimals)),
+        (Some(v), None) => num(v, decimals),
+        _ => "–".into(),
+    }
+}
+
+/// "The camera's noise beyond Gaussian pixels": the pixel/row/column split, the telegraph
+/// pixels, their example series, and the effective read noise of the richer models at the
+/// operating point (`at`) beside the map's, with what each adds.
+fn real_noise_section(h: &mut String, r: &RealNoise, at: &str) {
+    let t = &r.temporal_noise;
+    h.push_str("<h2>The camera's noise beyond Gaussian pixels</h2>");
+    let _ = write!(h, "<p>Dark temporal noise split into its parts ({} frames; each part's rms with its SE): </p><table><tr><th>part</th><th>rms (e⁻)</th><th>rms (adu)</th></tr>", t.frames);
+    for (name, e, se_e, adu, se_adu) in [
+        (
+            "pixel (independent per pixel)",
+            t.pixel_rms_e,
+            t.pixel_rms_se_e,
+            t.pixel_rms_adu,
+            t.pixel_rms_se_adu,
+        ),
+        (
+            "row (shared along a row)",
+            t.row_rms_e,
+            t.row_rms_se_e,
+            t.row_rms_adu,
+            t.row_rms_se_adu,
+        ),
+        (
+            "column (shared along a column)",
+            t.column_rms_e,
+            t.column_rms_se_e,
+            t.column_rms_adu,
+            t.column_rms_se_adu,
+        ),
+        (
+            "total",
+            t.total_rms_e,
+            t.total_rms_se_e,
+            t.total_rms_adu,
+            t.total_rms_se_adu,
+        ),
+    ] {
+        let _ = write!(
+            h,
+            "<tr><td>{name}</td><td>{}</td><td>{}</td></tr>",
+            pm(e, se_e, 3),
+            pm(adu, se_adu, 3)
+        );
+    }
+    h.push_str("</table>");
+    let rts = &r.rts;
+    let _ = write!(h, "<p>Random-telegraph (RTS) pixels: {} flagged, {} fitted, {} fitted <span class=\"status\">ok</span> ({} two-level, {} three-level); median span between a pixel's outer levels {} e⁻, median dwell time {} frames (per pixel in rts.csv / rts.fits).</p>",
+        rts.flagged, rts.fitted, rts.ok, rts.two_level, rts.three_level,
+        rts.median_span_e.map_or("–".into(), |v| num(v, 2)),
+        rts.median_dwell_frames.map_or("–".into(), |v| num(v, 1)));
+    if !rts.example_pixels.is_empty() {
+        figure(h, "rts_series.png", "Example RTS pixel time series", "Example RTS pixels: output less the pixel's mean (e⁻) against frame, stacked apart; data in rts-series.csv (adu).");
+    }
+    if let Some(d) = &r.dark_frames {
+        let _ = write!(h, "<p class=\"note\">scmos-frames: {}.</p>", esc(d));
+    }
+    let _ = write!(h, "<p>Effective read noise at {} with each model of the camera's noise, and what it adds to the measured map's (common random numbers; the SE of a difference combines both SEs, which overstates it). A difference is a result only when marked <span class=\"status\">ok</span> (both values ok, the difference at least 2 SE).</p><table><tr><th>model</th><th>σ<sub>eff</sub> ± SE (e⁻)</th><th>adds to the map's ± SE (e⁻)</th><th>status of the difference</th></tr>", esc(at));
+    for row in &r.rows {
+        let sigma = fmt_effective(
+            row.sigma_eff_e.unwrap_or(f64::NAN),
+            row.sigma_eff_se_e.unwrap_or(f64::NAN),
+            row.status,
+        );
+        let adds = if row.adds_status == "ok" || row.adds_status == "not_resolved" {
+            format!(
+                "{:+.3} ± {:.3}",
+                row.adds_e.unwrap_or(f64::NAN),
+                row.adds_se_e.unwrap_or(f64::NAN)
+            )
+        } else {
+            "–".into()
+        };
+        let _ = write!(h, "<tr><td>{}</td><td>{sigma}</td><td>{adds}</td><td><span class=\"status\">{}</span></td></tr>", esc(&row.model), esc(&row.adds_status));
+    }
+    h.push_str("</table>");
 }
 
 /// The page's charts: the pdf fit, the comparison, the heatmaps, the noise histogram and the

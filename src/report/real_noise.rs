@@ -2,13 +2,58 @@
 //! of the measured map beside the models that add what `darks` measured (its telegraph pixels,
 //! its row and column noise) or read through the camera's own dark frames, and what each adds.
 
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
 use serde::Serialize;
 
-use crate::detector::{ModelParams, ModelSpec};
+use crate::calib::darks::{RtsFits, RtsSummary, TemporalNoiseSummary};
+use crate::detector::dark_frames::DEFAULT_MAX_MIB;
+use crate::detector::{DarkFrames, ModelParams, ModelSpec, RtsTable};
 use crate::effective::{effective_table, Effective, Precision, Status};
 use crate::montecarlo::SimConfig;
+use crate::plot::{LineChart, Series};
 use crate::progress::Observer;
 use crate::Result;
+
+/// The camera's noise beyond Gaussian pixels, as summary.json's `real_noise` records it.
+#[derive(Debug, Clone, Serialize)]
+pub struct RealNoise {
+    /// The dark temporal noise split into pixel, row and column parts (as `darks` gives it).
+    pub temporal_noise: TemporalNoiseSummary,
+    /// The telegraph (RTS) pixels found and fitted (as `darks` gives it).
+    pub rts: RtsSummary,
+    /// Dark frames kept for `scmos-frames`, and their size in memory (one sentence).
+    pub dark_frames: Option<String>,
+    /// Effective read noise at the operating point per model, and what each adds to the map's.
+    pub rows: Vec<RealNoiseRow>,
+}
+
+/// Set in `params` the inputs of the richer models from what `darks` measured: the telegraph
+/// table it wrote (`rts_csv`, when `rts_ok` pixels were fitted `ok`), the row and column noise
+/// of `temporal` (e-), and the dark stack `darks` itself as frames (e- with `gain_e_per_adu`).
+/// Returns the dark frames' description.
+pub(crate) fn measured_inputs(
+    params: &mut ModelParams,
+    darks: &[PathBuf],
+    gain_e_per_adu: f64,
+    temporal: &TemporalNoiseSummary,
+    (rts_csv, rts_ok): (&Path, usize),
+    observer: &dyn Observer,
+) -> Result<String> {
+    if rts_ok > 0 {
+        params.rts_table = Some(Arc::new(RtsTable::read(rts_csv, observer)?));
+    }
+    // A component that the split could not resolve (no estimate) adds nothing.
+    if temporal.row_rms_e.is_some() || temporal.column_rms_e.is_some() {
+        params.row_noise_e = Some(temporal.row_rms_e.unwrap_or(0.0));
+        params.column_noise_e = Some(temporal.column_rms_e.unwrap_or(0.0));
+    }
+    let frames = DarkFrames::read(darks, gain_e_per_adu, DEFAULT_MAX_MIB)?;
+    let described = frames.summary();
+    params.dark_frames = Some(Arc::new(frames));
+    Ok(described)
+}
 
 /// The models compared with the measured map, with their labels on the page.
 const MODELS: [(&str, &str); 3] = [
@@ -17,7 +62,10 @@ const MODELS: [(&str, &str); 3] = [
         "scmos-correlated",
         "scmos-correlated (map + measured row and column noise)",
     ),
-    ("scmos-frames", "scmos-frames (the camera's own dark frames)"),
+    (
+        "scmos-frames",
+        "scmos-frames (the camera's own dark frames)",
+    ),
 ];
 
 /// One model's effective read noise at the operating point, and what it adds to the map's.
@@ -39,15 +87,18 @@ pub struct RealNoiseRow {
     /// positively, so this overstates the uncertainty of the difference.
     pub adds_se_e: Option<f64>,
     /// `ok` when both values are `ok` and the difference is resolved (|adds| >= 2 SE),
-    /// `not_resolved` when both are `ok` but the difference is below 2 SE, else the worse
-    /// status of the two.
+    /// `not_resolved` when both are `ok` but the difference is below 2 SE, `reference` on the
+    /// map's own row, else the worse status of the two.
     pub adds_status: String,
 }
 
 /// The value and standard error (e-) of an effective-noise solution when it has both (an
 /// `imprecise` one is shown for information, its status beside it).
 fn value(e: &Effective) -> Option<(f64, f64)> {
-    let shown = matches!(e.status, Status::Ok | Status::Imprecise | Status::LowerBound);
+    let shown = matches!(
+        e.status,
+        Status::Ok | Status::Imprecise | Status::LowerBound
+    );
     (shown && e.sigma_eff_e.is_finite() && e.sigma_eff_se_e.is_finite())
         .then_some((e.sigma_eff_e, e.sigma_eff_se_e))
 }
@@ -55,7 +106,9 @@ fn value(e: &Effective) -> Option<(f64, f64)> {
 /// The row of `model` (a page label) solved as `e`, against the map's solution `map`.
 fn row(model: &str, e: &Effective, map: &Effective) -> RealNoiseRow {
     let (own, base) = (value(e), value(map));
-    let adds = own.zip(base).map(|((a, sa), (b, sb))| (a - b, sa.hypot(sb)));
+    let adds = own
+        .zip(base)
+        .map(|((a, sa), (b, sb))| (a - b, sa.hypot(sb)));
     let adds_status = match (e.status, map.status, adds) {
         (Status::Ok, Status::Ok, Some((d, se))) if d.abs() >= 2.0 * se => "ok".to_string(),
         (Status::Ok, Status::Ok, _) => "not_resolved".to_string(),
@@ -74,11 +127,12 @@ fn row(model: &str, e: &Effective, map: &Effective) -> RealNoiseRow {
 
 /// Solve the richer models at the operating point `cfg` (the configuration the map's headline
 /// value `map` was solved on, same seed: common random numbers) with `params` (map, RTS table,
-/// row and column noise, dark frames set); one row per model whose inputs `params` holds.
+/// row and column noise, dark frames set): the fitted pdf's row (`fitted`), the map's, then one
+/// row per model whose inputs `params` holds.
 pub(crate) fn real_noise_rows(
     cfg: &SimConfig,
     params: &ModelParams,
-    map: &Effective,
+    (fitted, map): (&Effective, &Effective),
     precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<Vec<RealNoiseRow>> {
@@ -93,12 +147,68 @@ pub(crate) fn real_noise_rows(
         .iter()
         .map(|(name, _)| ModelSpec::parse(name))
         .collect::<Result<Vec<_>>>()?;
-    let records = effective_table(std::slice::from_ref(cfg), &specs, params, precision, observer)?;
-    Ok(chosen
-        .iter()
-        .zip(&records)
-        .map(|((_, label), r)| row(label, &r.effective, map))
+    let records = effective_table(
+        std::slice::from_ref(cfg),
+        &specs,
+        params,
+        precision,
+        observer,
+    )?;
+    let reference = RealNoiseRow {
+        adds_e: None,
+        adds_se_e: None,
+        adds_status: "reference".into(),
+        ..row("scmos-map (measured map)", map, map)
+    };
+    let base = [row("scmos-random (fitted pdf)", fitted, map), reference];
+    Ok(base
+        .into_iter()
+        .chain(
+            chosen
+                .iter()
+                .zip(&records)
+                .map(|((_, label), r)| row(label, &r.effective, map)),
+        )
         .collect())
+}
+
+/// `rts_series.png`: the example telegraph pixels' outputs (e-, each less its mean over the
+/// stack) against frame, one line per pixel, stacked apart so that each one's levels show.
+pub(crate) fn rts_series_chart(
+    fits: &RtsFits,
+    cols: usize,
+    gain_e_per_adu: f64,
+    path: &Path,
+) -> Result<()> {
+    let span = fits
+        .examples
+        .iter()
+        .flat_map(|(_, v)| v.iter())
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), &v| {
+            (lo.min(v), hi.max(v))
+        });
+    let step = ((span.1 - span.0) * gain_e_per_adu * 1.1).max(1e-9);
+    let mut chart = LineChart::new(
+        "Example random-telegraph pixels (dark frames)",
+        "frame",
+        format!("output - pixel mean (e-); pixel k drawn {step:.2} e- x k higher"),
+    );
+    chart.series = fits
+        .examples
+        .iter()
+        .enumerate()
+        .map(|(k, (index, values))| {
+            let shift = step * k as f64;
+            Series::new(
+                format!("pixel x {} y {}", index % cols, index / cols),
+                values
+                    .iter()
+                    .enumerate()
+                    .map(|(f, v)| (f as f64, v * gain_e_per_adu + shift)),
+            )
+        })
+        .collect();
+    chart.save(path)
 }
 
 #[cfg(test)]

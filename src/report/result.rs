@@ -2,6 +2,7 @@
 //! computed, and the files it wrote.
 
 use super::point::ChosenPoint;
+pub use super::real_noise::{RealNoise, RealNoiseRow};
 use crate::calib::ptc::PtcResult;
 use crate::calib::summary::InputFile;
 use crate::detector::ModelSpec;
@@ -130,6 +131,9 @@ pub struct ReportSummary {
     pub sampling: String,
     /// True for the reduced `quick` grid.
     pub quick: bool,
+    /// The camera's noise beyond Gaussian pixels (row, column and telegraph noise, its own
+    /// dark frames) and what it adds to the effective read noise at the operating point.
+    pub real_noise: RealNoise,
 }
 
 /// The headline numbers of an sCMOS report: the effective read noise at the operating point.

@@ -10,6 +10,7 @@ use super::heatmaps::NoiseScale;
 use super::options::{GainSource, ReportOptions};
 use super::page::{index_html, ScmosPage};
 use super::point::{ChosenPoint, OperatingPoint};
+use super::real_noise::{measured_inputs, real_noise_rows, rts_series_chart, RealNoise};
 use super::result::{Headline, ReportInput, ReportResult, ReportSummary, Summary};
 use crate::calib::darks::write_outputs as write_dark_outputs;
 use crate::calib::darks::{dark_maps_hashed, require_dark, DarkMaps, DarkOptions};
@@ -99,6 +100,14 @@ pub(crate) fn run(
     let mut params = o.model_params.clone();
     params.pdf = fit.pdf(None)?;
     params.map = Some(Arc::new(rms_e));
+    let dark_frames = measured_inputs(
+        &mut params,
+        &o.darks_paths,
+        gain.e_per_adu,
+        &dark_summary.temporal_noise,
+        (&dir.path("rts.csv"), dark_summary.rts.ok),
+        observer,
+    )?;
     let op = o.operating_point();
     let in_grid = grid.contains(&op);
     let grid_len = grid.configs(o.qe).len();
@@ -109,6 +118,38 @@ pub(crate) fn run(
         effective_tables(&configs, &params, &o.precision_in_use(), observer)?;
     let at = ChosenPoint::new(&op, o.operating_point.is_some(), in_grid);
     let operating_point = headline(at, &op, &fitted, &measured);
+    let op_cfg = grid.config(op.subap_px, op.spot, op.signal_photons, o.qe);
+    let real_noise = RealNoise {
+        temporal_noise: dark_summary.temporal_noise.clone(),
+        rts: dark_summary.rts.clone(),
+        dark_frames: Some(dark_frames),
+        rows: real_noise_rows(
+            &op_cfg,
+            &params,
+            (&at_point(&fitted, &op), &at_point(&measured, &op)),
+            &o.precision_in_use(),
+            observer,
+        )?,
+    };
+    for (name, format) in [
+        ("real_noise.csv", TableFormat::Csv),
+        ("real_noise.json", TableFormat::Json),
+    ] {
+        write_atomic(
+            &dir.path(name),
+            render(&real_noise.rows, format)?.as_bytes(),
+        )?;
+        files.push(name.into());
+    }
+    if !dark_summary.rts.example_pixels.is_empty() {
+        rts_series_chart(
+            &maps.rts,
+            stack.shape.1,
+            gain.e_per_adu,
+            &dir.path("rts_series.png"),
+        )?;
+        files.push("rts_series.png".into());
+    }
     fitted.truncate(grid_len);
     measured.truncate(grid_len);
     let heatmaps = effective_heatmaps(&fitted, dir)?;
@@ -155,6 +196,7 @@ pub(crate) fn run(
         seed: grid.seed,
         sampling: grid.sampling.label().into(),
         quick: o.quick,
+        real_noise,
     };
     write_json(&dir.path("summary.json"), &summary)?;
     let page = index_html(&ScmosPage {
@@ -260,20 +302,7 @@ fn headline(
     fitted: &[EffectiveRecord],
     measured: &[EffectiveRecord],
 ) -> Headline {
-    let find = |records: &[EffectiveRecord]| -> Effective {
-        records
-            .iter()
-            .find(|r| {
-                let c = &r.config;
-                c.subap_px == op.subap_px
-                    && c.spot == op.spot
-                    && c.signal_photons == op.signal_photons
-            })
-            .expect("the operating point is solved with the table")
-            .effective
-            .clone()
-    };
-    let (f, m) = (find(fitted), find(measured));
+    let (f, m) = (at_point(fitted, op), at_point(measured, op));
     Headline {
         at,
         sigma_eff_fitted_pdf_e: f.sigma_eff_e,
@@ -283,4 +312,17 @@ fn headline(
         sigma_eff_map_se_e: m.sigma_eff_se_e,
         sigma_eff_map_status: m.status,
     }
+}
+
+/// The solution at the operating point `op` among `records` (solved with the table).
+fn at_point(records: &[EffectiveRecord], op: &OperatingPoint) -> Effective {
+    records
+        .iter()
+        .find(|r| {
+            let c = &r.config;
+            c.subap_px == op.subap_px && c.spot == op.spot && c.signal_photons == op.signal_photons
+        })
+        .expect("the operating point is solved with the table")
+        .effective
+        .clone()
 }

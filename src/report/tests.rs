@@ -332,6 +332,12 @@ fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String 
         seed: 1,
         sampling: "integrated".into(),
         quick: true,
+        real_noise: super::RealNoise {
+            temporal_noise: Default::default(),
+            rts: Default::default(),
+            dark_frames: None,
+            rows: vec![],
+        },
     };
     let heatmaps = vec![
         PathBuf::from("out/effective_noise_S20.png"),

@@ -151,7 +151,7 @@ const METHOD: &str = "EMVA 1288 style split of the dark temporal variance over a
 
 /// `temporal_noise` in summary.json: rms components in adu and e- (null without a gain, or
 /// row/column with a single column/row), each with its standard error.
-#[derive(Clone, Debug, Serialize, PartialEq)]
+#[derive(Clone, Debug, Default, Serialize, PartialEq)]
 pub struct TemporalNoiseSummary {
     /// Pixel component (adu).
     pub pixel_rms_adu: Option<f64>,

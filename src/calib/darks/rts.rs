@@ -206,7 +206,7 @@ impl RtsFits {
 }
 
 /// `rts` in summary.json.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct RtsSummary {
     /// Pixels flagged RTS.
     pub flagged: usize,
