@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use crate::progress::Observer;
 use crate::{Error, Result};
 
-/// Most levels of a telegraph pixel in the table.
-pub const MAX_LEVELS: usize = 3;
+/// Most levels of a telegraph pixel in the table (the writer's, `darks`').
+pub use crate::calib::darks::MAX_LEVELS;
 
 /// Largest distance of a row's occupancies' sum from 1 accepted: the table's round-off
 /// (the occupancies are renormalised to sum to 1 exactly).
