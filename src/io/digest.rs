@@ -299,5 +299,16 @@ pub fn hash_stack_while<T>(
     })
 }
 
+/// The `algorithm` digest of a file's bytes in one call of the hash crates' own one-shot
+/// functions, independent of this module's streaming: the reference of the tests.
+#[cfg(test)]
+pub(crate) fn one_shot_digest(path: &Path, algorithm: Checksum) -> String {
+    let bytes = std::fs::read(path).expect("a readable test file");
+    match algorithm {
+        Checksum::Sha256 => format!("{:x}", Sha256::digest(bytes)),
+        Checksum::Blake3 => blake3::hash(&bytes).to_hex().to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests;

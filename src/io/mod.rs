@@ -26,6 +26,8 @@ mod stream;
 pub mod tiff;
 
 pub use checks::{name_file, MAX_EXPANSION, MAX_SAMPLE_ABS};
+#[cfg(test)]
+pub(crate) use digest::one_shot_digest;
 pub use digest::{checksum_file, hash_stack_while, ByteTap, Checksum};
 pub use file::{read_first_frame, SourceFile};
 pub use format::{SampleType, StackFormat};

@@ -2,9 +2,7 @@
 //! the correctly rounded mean, the variance rounded from its exact value, exact clipping;
 //! and the checksummed calibration gives the same maps with the files' BLAKE3 / SHA-256.
 
-use std::path::{Path, PathBuf};
-
-use sha2::{Digest, Sha256};
+use std::path::Path;
 
 use super::*;
 use crate::io::{Checksum, FrameStack};
@@ -109,15 +107,6 @@ fn clipping_takes_exactly_the_rejected_samples_out() {
     assert!(sigma.count[3] < FRAMES as f64);
 }
 
-/// The file's digest, computed in one call independently of the streaming hasher.
-fn digest_of(p: &PathBuf, algorithm: Checksum) -> String {
-    let bytes = std::fs::read(p).unwrap();
-    match algorithm {
-        Checksum::Sha256 => format!("{:x}", Sha256::digest(bytes)),
-        Checksum::Blake3 => blake3::hash(&bytes).to_hex().to_string(),
-    }
-}
-
 #[test]
 fn checksummed_maps_are_the_maps_with_the_files_digests() {
     let d = tempfile::tempdir().unwrap();
@@ -152,7 +141,7 @@ fn checksummed_maps_are_the_maps_with_the_files_digests() {
             .collect();
         let want: Vec<Option<String>> = paths
             .iter()
-            .map(|p| Some(digest_of(p, algorithm)))
+            .map(|p| Some(crate::io::one_shot_digest(p, algorithm)))
             .collect();
         assert_eq!(digests, want, "{clip:?}");
     }

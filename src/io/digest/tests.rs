@@ -124,15 +124,6 @@ fn tapped(paths: &[PathBuf], algorithm: Checksum) -> (Vec<FrameOrigin>, Vec<Stri
     (origins, hashes)
 }
 
-/// The digest of a file's bytes, computed in one call independently of this module.
-fn digest_of(p: &Path, algorithm: Checksum) -> String {
-    let bytes = std::fs::read(p).unwrap();
-    match algorithm {
-        Checksum::Sha256 => format!("{:x}", Sha256::digest(bytes)),
-        Checksum::Blake3 => blake3::hash(&bytes).to_hex().to_string(),
-    }
-}
-
 #[test]
 fn blake3_of_an_empty_file_is_the_reference_digest() {
     // The BLAKE3 test vector for empty input (BLAKE3 specification, test_vectors.json).
@@ -165,7 +156,10 @@ fn tapped_digests_are_the_files_digests_in_every_format() {
     for algorithm in [Checksum::Blake3, Checksum::Sha256] {
         for paths in &stacks {
             let (_, hashes) = tapped(paths, algorithm);
-            let want: Vec<String> = paths.iter().map(|p| digest_of(p, algorithm)).collect();
+            let want: Vec<String> = paths
+                .iter()
+                .map(|p| one_shot_digest(p, algorithm))
+                .collect();
             assert_eq!(hashes, want, "{paths:?} {algorithm:?}");
             let alone: Vec<String> = paths
                 .iter()
