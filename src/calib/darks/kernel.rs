@@ -1,15 +1,21 @@
 //! The inner loop of the dark statistics: a batch of frames swept across one tile.
 //!
-//! The tile is cut into blocks of [`SUB`] pixels. A block's samples of every frame of the
-//! batch are decoded (stored integers to f64) into a small scratch buffer, then added to the
-//! block's sums a few pixels at a time, with those pixels' sums held in vector registers
-//! across all the frames of the batch: the per-pixel state is read and written once per
-//! batch, not once per frame. The loop is compiled for AVX-512, AVX2 and the baseline and
+//! Integer frames (stored 8- or 16-bit integers plus an integer zero, the usual darks) take
+//! the fused sweep: `W` pixels' sums are held in vector registers across all the frames of
+//! the batch while each frame's samples of those pixels are decoded into registers and added
+//! to the line shares and the sums, so the per-pixel state is read and written once per
+//! batch, and no sample goes through memory after it is read. Other frames (values, scaled
+//! or wide integers, clipping) take the blocked sweep: the tile is cut into blocks of
+//! [`SUB`] pixels, a block's samples of every frame are decoded into a small scratch buffer,
+//! then added to the block's sums `W` pixels at a time in the same way. The loop is compiled for AVX-512, AVX2 and the baseline and
 //! chosen at run time; every variant does the same IEEE operations per pixel in the same
 //! order (no fused multiply-add), so the results do not depend on it.
 
+use std::ops::Range;
+
+use super::lines::{Place, TileLines};
 use super::tile::Tile;
-use crate::io::RawLayout;
+use crate::io::{RawKind, RawLayout};
 
 /// Pixels per cache block: a batch's rows of one block (f64) and the block's sums stay in
 /// L1/L2 while the block sees every frame of the batch.
@@ -82,10 +88,33 @@ fn sweep_w<const W: usize>(
     seed: bool,
     extremes: usize,
 ) {
+    if tile.window.is_none() && extremes == 0 {
+        if let Some((raw, layout)) = integer_frames(frames) {
+            let zero = layout.zero;
+            match (layout.kind, layout.big_endian) {
+                (RawKind::I16, true) => {
+                    return fused::<W, 2>(tile, &raw, layout, first, seed, |a| {
+                        i16::from_be_bytes(a) as f64 + zero
+                    })
+                }
+                (RawKind::I16, false) => {
+                    return fused::<W, 2>(tile, &raw, layout, first, seed, |a| {
+                        i16::from_le_bytes(a) as f64 + zero
+                    })
+                }
+                (RawKind::U8, _) => {
+                    return fused::<W, 1>(tile, &raw, layout, first, seed, |a| {
+                        u8::from_be_bytes(a) as f64 + zero
+                    })
+                }
+                _ => {}
+            }
+        }
+    }
     let count = frames.len();
     let mut rows = vec![0.0; count * SUB];
     if let Some(lines) = tile.lines.as_mut() {
-        lines.begin(count);
+        lines.begin(count, true);
     }
     for a in (0..tile.len).step_by(SUB) {
         let n = SUB.min(tile.len - a);
@@ -124,6 +153,91 @@ fn sweep_w<const W: usize>(
     }
 }
 
+/// The stored bytes of `frames` when all are raw frames of one layout whose values are the
+/// stored integers plus an integer zero (unscaled), so that every sum of the batch is an
+/// integer, exact in any order of addition.
+fn integer_frames<'a>(frames: &[FrameView<'a>]) -> Option<(Vec<&'a [u8]>, RawLayout)> {
+    let FrameView::Raw(_, layout) = *frames.first()? else {
+        return None;
+    };
+    if layout.scale != 1.0 || layout.zero.fract() != 0.0 {
+        return None;
+    }
+    frames
+        .iter()
+        .map(|f| match *f {
+            FrameView::Raw(b, l) if l == layout => Some(b),
+            _ => None,
+        })
+        .collect::<Option<Vec<_>>>()
+        .map(|raw| (raw, layout))
+}
+
+/// The sweep of integer frames (`raw`, stored samples of `N` bytes, `value` of each): each
+/// frame's samples of `W` pixels are decoded into registers, added to the line shares and
+/// to the pixels' sums, with no scratch buffer in between; per pixel the same operations in
+/// the same order as the other sweep, so the same sums.
+#[inline(always)]
+fn fused<const W: usize, const N: usize>(
+    tile: &mut Tile,
+    raw: &[&[u8]],
+    layout: RawLayout,
+    first: usize,
+    seed: bool,
+    value: impl Fn([u8; N]) -> f64 + Copy,
+) {
+    let (count, start, len) = (raw.len(), tile.start, tile.len);
+    if seed && first == 0 {
+        layout.decode(&raw[0][start * N..(start + len) * N], &mut tile.shift);
+        tile.prev.copy_from_slice(&tile.shift);
+    }
+    let (mut acc, mut lines) = Acc::of(tile, 0..len);
+    if let Some(lines) = lines.as_deref_mut() {
+        lines.begin(count, false);
+    }
+    let mut c = 0;
+    while c + W <= len {
+        let lines = lines.as_deref_mut().map(|l| {
+            let at = l.place::<W>(c);
+            (l, at)
+        });
+        let p = start + c;
+        chunk::<W>(
+            &mut acc,
+            c,
+            count,
+            first % 2,
+            Stored {
+                raw,
+                lines,
+                p,
+                value,
+            },
+        );
+        c += W;
+    }
+    while c < len {
+        let lines = lines.as_deref_mut().map(|l| {
+            let at = l.place::<1>(c);
+            (l, at)
+        });
+        let p = start + c;
+        chunk::<1>(
+            &mut acc,
+            c,
+            count,
+            first % 2,
+            Stored {
+                raw,
+                lines,
+                p,
+                value,
+            },
+        );
+        c += 1;
+    }
+}
+
 /// The running sums of a run of pixels.
 struct Acc<'a> {
     shift: &'a [f64],
@@ -134,6 +248,35 @@ struct Acc<'a> {
     vn: &'a mut [f64],
     prev: &'a mut [f64],
     max: &'a mut [f64],
+}
+
+impl<'a> Acc<'a> {
+    /// The sums of tile-local pixels `r` of `tile`, and the tile's line shares.
+    fn of(tile: &'a mut Tile, r: Range<usize>) -> (Acc<'a>, Option<&'a mut TileLines>) {
+        let Tile {
+            shift,
+            s1: [s1e, s1o],
+            s2: [s2e, s2o],
+            s3,
+            s4,
+            vn,
+            prev,
+            max,
+            lines,
+            ..
+        } = tile;
+        let acc = Acc {
+            shift: &shift[r.clone()],
+            s1: [&mut s1e[r.clone()], &mut s1o[r.clone()]],
+            s2: [&mut s2e[r.clone()], &mut s2o[r.clone()]],
+            s3: &mut s3[r.clone()],
+            s4: &mut s4[r.clone()],
+            vn: &mut vn[r.clone()],
+            prev: &mut prev[r.clone()],
+            max: &mut max[r],
+        };
+        (acc, lines.as_mut())
+    }
 }
 
 /// Add `count` rows (`SUB` apart in `rows`, the first of `parity`) to the plain sums of the
@@ -147,27 +290,60 @@ fn plain<const W: usize>(
     count: usize,
     parity: usize,
 ) {
-    let r = a..a + n;
-    let [s1e, s1o] = &mut tile.s1;
-    let [s2e, s2o] = &mut tile.s2;
-    let mut acc = Acc {
-        shift: &tile.shift[r.clone()],
-        s1: [&mut s1e[r.clone()], &mut s1o[r.clone()]],
-        s2: [&mut s2e[r.clone()], &mut s2o[r.clone()]],
-        s3: &mut tile.s3[r.clone()],
-        s4: &mut tile.s4[r.clone()],
-        vn: &mut tile.vn[r.clone()],
-        prev: &mut tile.prev[r.clone()],
-        max: &mut tile.max[r],
-    };
+    let (mut acc, _) = Acc::of(tile, a..a + n);
     let mut c = 0;
     while c + W <= n {
-        chunk::<W>(&mut acc, c, rows, count, parity);
+        chunk::<W>(&mut acc, c, count, parity, Rows { rows, c });
         c += W;
     }
     while c < n {
-        chunk::<1>(&mut acc, c, rows, count, parity);
+        chunk::<1>(&mut acc, c, count, parity, Rows { rows, c });
         c += 1;
+    }
+}
+
+/// Where [`chunk`] takes the samples of its `W` pixels in frame `j` of the batch from (a
+/// trait rather than a closure, so that it is always inlined and the samples stay in
+/// registers).
+trait Samples<const W: usize> {
+    fn get(&mut self, j: usize) -> [f64; W];
+}
+
+/// Decoded rows, `SUB` values per frame, from block-local pixel `c`.
+struct Rows<'a> {
+    rows: &'a [f64],
+    c: usize,
+}
+
+impl<const W: usize> Samples<W> for Rows<'_> {
+    #[inline(always)]
+    fn get(&mut self, j: usize) -> [f64; W] {
+        let at = j * SUB + self.c;
+        self.rows[at..at + W].try_into().expect("W pixels")
+    }
+}
+
+/// Stored samples of tile-local pixel `c` (frame pixel `p`), decoded in registers and added
+/// to the tile's line shares on the way.
+struct Stored<'a, 'l, V, const N: usize> {
+    raw: &'a [&'a [u8]],
+    lines: Option<(&'l mut TileLines, Place)>,
+    p: usize,
+    value: V,
+}
+
+impl<const W: usize, const N: usize, V: Fn([u8; N]) -> f64> Samples<W> for Stored<'_, '_, V, N> {
+    #[inline(always)]
+    fn get(&mut self, j: usize) -> [f64; W] {
+        let b = &self.raw[j][self.p * N..(self.p + W) * N];
+        let mut x = [0.0; W];
+        for (o, a) in x.iter_mut().zip(b.chunks_exact(N)) {
+            *o = (self.value)(a.try_into().expect("N bytes"));
+        }
+        if let Some((lines, at)) = self.lines.as_mut() {
+            lines.add_chunk(at, &x, j);
+        }
+        x
     }
 }
 
@@ -202,7 +378,13 @@ fn step<const W: usize>(x: &[f64; W], s1: &mut [f64; W], s2: &mut [f64; W], p: &
 /// All rows of pixels `c..c + W`, their sums in registers; frames alternate in parity, so
 /// they go in pairs (no run-time choice of accumulator inside the loop).
 #[inline(always)]
-fn chunk<const W: usize>(acc: &mut Acc, c: usize, rows: &[f64], count: usize, parity: usize) {
+fn chunk<const W: usize>(
+    acc: &mut Acc,
+    c: usize,
+    count: usize,
+    parity: usize,
+    mut sample: impl Samples<W>,
+) {
     let ld = |v: &[f64]| -> [f64; W] { v[c..c + W].try_into().expect("W pixels") };
     let (mut s1e, mut s1o) = (ld(acc.s1[0]), ld(acc.s1[1]));
     let (mut s2e, mut s2o) = (ld(acc.s2[0]), ld(acc.s2[1]));
@@ -214,23 +396,18 @@ fn chunk<const W: usize>(acc: &mut Acc, c: usize, rows: &[f64], count: usize, pa
         prev: ld(acc.prev),
         max: ld(acc.max),
     };
-    let row = |j: usize| -> &[f64; W] {
-        rows[j * SUB + c..j * SUB + c + W]
-            .try_into()
-            .expect("W pixels")
-    };
     let mut j = 0;
     if parity == 1 && count > 0 {
-        step(row(0), &mut s1o, &mut s2o, &mut p);
+        step(&sample.get(0), &mut s1o, &mut s2o, &mut p);
         j = 1;
     }
     while j + 1 < count {
-        step(row(j), &mut s1e, &mut s2e, &mut p);
-        step(row(j + 1), &mut s1o, &mut s2o, &mut p);
+        step(&sample.get(j), &mut s1e, &mut s2e, &mut p);
+        step(&sample.get(j + 1), &mut s1o, &mut s2o, &mut p);
         j += 2;
     }
     if j < count {
-        step(row(j), &mut s1e, &mut s2e, &mut p);
+        step(&sample.get(j), &mut s1e, &mut s2e, &mut p);
     }
     let st = |v: &mut [f64], x: [f64; W]| v[c..c + W].copy_from_slice(&x);
     st(acc.s1[0], s1e);
@@ -245,121 +422,4 @@ fn chunk<const W: usize>(acc: &mut Acc, c: usize, rows: &[f64], count: usize, pa
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::io::RawKind;
-
-    /// Samples of a 300-pixel, 11-frame stack: integers with a large offset, some pixels
-    /// constant, one with a jump.
-    fn sample(k: usize, i: usize) -> f64 {
-        let noise = ((k * 7919 + i * 104_729) % 23) as f64 - 11.0;
-        let jump = if i == 5 && k > 6 { 5000.0 } else { 0.0 };
-        if i % 50 == 3 {
-            40_000.0
-        } else {
-            30_000.0 + (i % 17) as f64 + noise + jump
-        }
-    }
-
-    /// The sums of `tile` computed one sample at a time, the obvious way.
-    fn reference(len: usize, frames: usize) -> Tile {
-        let mut t = Tile::new(0, len, 0);
-        for i in 0..len {
-            t.shift[i] = sample(0, i);
-            for k in 0..frames {
-                let x = sample(k, i);
-                let d = x - t.shift[i];
-                t.s1[k % 2][i] += d;
-                t.s2[k % 2][i] += d * d;
-                t.s3[i] += d * d * d;
-                t.s4[i] += d * d * d * d;
-                if k > 0 {
-                    let e = x - sample(k - 1, i);
-                    t.vn[i] += e * e;
-                }
-                t.max[i] = t.max[i].max(x);
-            }
-            t.prev[i] = sample(frames - 1, i);
-        }
-        t
-    }
-
-    fn same(a: &Tile, b: &Tile) {
-        assert_eq!(a.shift, b.shift);
-        assert_eq!(a.s1, b.s1);
-        assert_eq!(a.s2, b.s2);
-        assert_eq!(a.s3, b.s3);
-        assert_eq!(a.s4, b.s4);
-        assert_eq!(a.vn, b.vn);
-        assert_eq!(a.prev, b.prev);
-        assert_eq!(a.max, b.max);
-    }
-
-    /// Sweep 11 frames in batches of 4, 4 and 3 (odd first frames included) with `run`.
-    fn swept(len: usize, raw: bool, run: impl Fn(&mut Tile, &[FrameView], usize)) -> Tile {
-        let layout = RawLayout {
-            kind: RawKind::I16,
-            big_endian: true,
-            scale: 1.0,
-            zero: 32768.0,
-        };
-        let values: Vec<Vec<f64>> = (0..11)
-            .map(|k| (0..len).map(|i| sample(k, i)).collect())
-            .collect();
-        let bytes: Vec<Vec<u8>> = values
-            .iter()
-            .map(|f| {
-                f.iter()
-                    .flat_map(|x| ((*x - 32768.0) as i16).to_be_bytes())
-                    .collect()
-            })
-            .collect();
-        let mut t = Tile::new(0, len, 0);
-        for first in [0, 4, 8] {
-            let views: Vec<FrameView> = (first..(first + 4).min(11))
-                .map(|k| match raw {
-                    true => FrameView::Raw(&bytes[k], layout),
-                    false => FrameView::Values(&values[k]),
-                })
-                .collect();
-            run(&mut t, &views, first);
-        }
-        t
-    }
-
-    #[test]
-    fn every_vector_width_gives_the_sums_of_the_obvious_loop() {
-        // 300 pixels: a full block of 256 and a tail that is not a multiple of any width.
-        let want = reference(300, 11);
-        for raw in [false, true] {
-            same(&swept(300, raw, |t, v, k| sweep(t, v, k, true, 0)), &want);
-            same(
-                &swept(300, raw, |t, v, k| sweep_w::<1>(t, v, k, true, 0)),
-                &want,
-            );
-            same(
-                &swept(300, raw, |t, v, k| sweep_w::<4>(t, v, k, true, 0)),
-                &want,
-            );
-            same(
-                &swept(300, raw, |t, v, k| sweep_w::<16>(t, v, k, true, 0)),
-                &want,
-            );
-            #[cfg(target_arch = "x86_64")]
-            {
-                if std::arch::is_x86_feature_detected!("avx2") {
-                    // SAFETY: the CPU supports AVX2.
-                    let t = swept(300, raw, |t, v, k| unsafe { sweep_avx2(t, v, k, true, 0) });
-                    same(&t, &want);
-                }
-                if std::arch::is_x86_feature_detected!("avx512f") {
-                    // SAFETY: the CPU supports AVX-512F.
-                    let t = swept(300, raw, |t, v, k| unsafe {
-                        sweep_avx512(t, v, k, true, 0)
-                    });
-                    same(&t, &want);
-                }
-            }
-        }
-    }
-}
+mod tests;

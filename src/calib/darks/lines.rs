@@ -54,13 +54,81 @@ impl TileLines {
         }
     }
 
-    /// Start a batch of `count` frames (all shares zero).
-    pub(super) fn begin(&mut self, count: usize) {
+    /// Start a batch of `count` frames: row shares zero; column shares zero with
+    /// `clear_cols`, else left to [`TileLines::add_chunk`], which writes each on first touch
+    /// (clearing them every batch cost as much as a tenth of the kernel's time).
+    pub(super) fn begin(&mut self, count: usize, clear_cols: bool) {
         self.count = count;
         self.row_part.clear();
         self.row_part.resize(count * self.rows * 8, 0.0);
-        self.col_part.clear();
+        if clear_cols {
+            self.col_part.clear();
+        }
         self.col_part.resize(count * self.span, 0.0);
+    }
+
+    /// Where the `W` tile-local pixels `i..i + W` go in the shares of a frame (computed once
+    /// for all the frames of a batch).
+    #[inline(always)]
+    pub(super) fn place<const W: usize>(&self, i: usize) -> Place {
+        let p = self.start + i;
+        let col = if self.len <= self.cols {
+            i
+        } else {
+            p % self.cols
+        };
+        let first = i + W <= self.cols;
+        Place {
+            i,
+            lanes: (p / self.cols - self.row0) * 8,
+            col,
+            // One row, and every column first touched or every one touched before.
+            whole: p % self.cols + W <= self.cols && (first || i >= self.cols),
+            first,
+        }
+    }
+
+    /// Add the `W` samples `x` of the pixels at `at` (from [`TileLines::place`]) of frame `j`
+    /// of the batch, writing each column share on its first touch in the batch (after
+    /// `begin(_, false)`): the tile's first `cols` pixels hold every column it covers once.
+    /// Inlined into the kernel, with its vector instructions.
+    #[inline(always)]
+    pub(super) fn add_chunk<const W: usize>(&mut self, at: &Place, x: &[f64; W], j: usize) {
+        let rows = &mut self.row_part[j * self.rows * 8..(j + 1) * self.rows * 8];
+        let cols = &mut self.col_part[j * self.span..(j + 1) * self.span];
+        if at.whole {
+            let lanes: &mut [f64; 8] = (&mut rows[at.lanes..at.lanes + 8])
+                .try_into()
+                .expect("8 lanes");
+            for k in 0..W {
+                lanes[k % 8] += x[k];
+            }
+            let dst: &mut [f64; W] = (&mut cols[at.col..at.col + W])
+                .try_into()
+                .expect("W columns");
+            if at.first {
+                *dst = *x;
+            } else {
+                for k in 0..W {
+                    dst[k] += x[k];
+                }
+            }
+            return;
+        }
+        for (k, v) in x.iter().enumerate() {
+            let (i, p) = (at.i + k, self.start + at.i + k);
+            rows[(p / self.cols - self.row0) * 8 + k % 8] += v;
+            let c = if self.len <= self.cols {
+                i
+            } else {
+                p % self.cols
+            };
+            if i < self.cols {
+                cols[c] = *v;
+            } else {
+                cols[c] += v;
+            }
+        }
     }
 
     /// Add the samples `x` of tile-local pixels from `a` of frame `j` of the batch (inlined
@@ -110,6 +178,20 @@ impl TileLines {
             add_into(cols, part);
         }
     }
+}
+
+/// Where a run of a tile's pixels goes in its line shares.
+pub(super) struct Place {
+    /// First tile-local pixel.
+    i: usize,
+    /// Offset of the row's lanes in a frame's row shares.
+    lanes: usize,
+    /// First column share.
+    col: usize,
+    /// The run is in one row, with every column first touched or every one touched before.
+    whole: bool,
+    /// Every column first touched (when `whole`).
+    first: bool,
 }
 
 /// Add `x` to `dst` element by element and its sum to the eight lanes `lanes` (lane i gets
@@ -363,7 +445,7 @@ mod tests {
             let mut acc = LineAcc::new(shape);
             for batch in [0..5, 5..frames] {
                 for t in &mut tiles {
-                    t.begin(batch.len());
+                    t.begin(batch.len(), true);
                     for (j, k) in batch.clone().enumerate() {
                         for a in (0..t.len).step_by(3) {
                             let n = 3.min(t.len - a);
