@@ -152,15 +152,7 @@ impl DarkFrames {
             }
             Ok(())
         })?;
-        if read != stack.frames {
-            return Err(Error::input(
-                &stack.sources[0].path,
-                format!(
-                    "frame {read}: stack ended after {read} of {} frames",
-                    stack.frames
-                ),
-            ));
-        }
+        stack.require_all_read(read)?;
         // value - offset = (value - reference) - (mean - reference), then to e-.
         let offset: Vec<f64> = sum.iter().map(|s| s / read as f64).collect();
         let mut power = 0.0;

@@ -91,6 +91,21 @@ impl FrameStack {
             .try_fold(f64::INFINITY, |m, v| v.map(|v| m.min(v)))
     }
 
+    /// An error naming the first file unless `read` frames, all of the stack's, were read (a
+    /// file that shrank or changed while it was read).
+    pub fn require_all_read(&self, read: usize) -> Result<()> {
+        if read == self.frames {
+            return Ok(());
+        }
+        Err(Error::input(
+            &self.sources[0].path,
+            format!(
+                "frame {read}: stack ended after {read} of {} frames",
+                self.frames
+            ),
+        ))
+    }
+
     /// Fail unless the stack has at least `n` frames (variances need 2).
     pub fn require_frames(&self, n: usize, what: &str) -> Result<()> {
         if self.frames < n {

@@ -203,15 +203,7 @@ fn pass(
         Some(pool) => pool.install(reading)?,
         None => reading()?,
     }
-    if read != stack.frames {
-        return Err(Error::input(
-            &stack.sources[0].path,
-            format!(
-                "frame {read}: stack ended after {read} of {} frames",
-                stack.frames
-            ),
-        ));
-    }
+    stack.require_all_read(read)?;
     if !raw_max.is_empty() {
         for t in &mut tiles {
             t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);
