@@ -26,14 +26,21 @@ pub fn median(values: &[f64]) -> f64 {
     between(lo, hi, if n % 2 == 0 { 0.5 } else { 0.0 })
 }
 
-/// Percentile `p` (0..100) of the finite values, linear interpolation (NaN if none).
+/// Percentile `p` (0..100) of the finite values, linear interpolation (NaN if none). Found
+/// by selection in O(n); the result is bit for bit `percentile_sorted` of the sorted values.
 pub fn percentile(values: &[f64], p: f64) -> f64 {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
     if v.is_empty() {
         return f64::NAN;
     }
-    v.sort_by(f64::total_cmp);
-    percentile_sorted(&v, p)
+    let pos = p / 100.0 * (v.len() - 1) as f64;
+    let (i, f) = (pos.floor() as usize, pos.fract());
+    let (_, lo, upper) = v.select_nth_unstable_by(i, f64::total_cmp);
+    let lo = *lo;
+    match upper.iter().copied().min_by(f64::total_cmp) {
+        Some(hi) => between(lo, hi, f),
+        None => lo,
+    }
 }
 
 /// Percentile `p` (0..100) of ascending finite values, linear interpolation (NaN if empty).
@@ -100,6 +107,15 @@ mod tests {
         assert!((percentile_sorted(&v, 90.0) - 46.0).abs() < 1e-12);
         assert!(percentile(&[f64::NAN], 50.0).is_nan());
         assert!(percentile_sorted(&[], 50.0).is_nan());
+        // Selection gives the bits of the sorted values' percentile (unordered, repeated).
+        let u: Vec<f64> = (0..101)
+            .map(|i| ((i * 37) % 101 / 3) as f64 * 0.7)
+            .collect();
+        let mut sorted = u.clone();
+        sorted.sort_by(f64::total_cmp);
+        for p in [0.0, 0.3, 1.0, 25.0, 50.0, 63.7, 99.0, 99.9, 100.0] {
+            assert_eq!(percentile(&u, p), percentile_sorted(&sorted, p), "p = {p}");
+        }
     }
 
     #[test]

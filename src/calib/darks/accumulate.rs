@@ -334,18 +334,29 @@ pub(super) fn stats_tapped(
     let mut rms_even = vec![f64::NAN; npix];
     let mut rms_odd = vec![f64::NAN; npix];
     let mut count = vec![0.0; npix];
-    for t in &p.tiles {
-        for i in 0..t.len {
-            let g = t.start + i;
-            let tot = t.sums(i, None, nf);
-            let (m, var) = mean_var(tot);
-            count[g] = tot.n;
-            mean[g] = m;
-            rms[g] = var.sqrt();
-            rms_even[g] = mean_var(t.sums(i, Some(0), nf)).1.sqrt();
-            rms_odd[g] = mean_var(t.sums(i, Some(1), nf)).1.sqrt();
-        }
-    }
+    // Per tile in parallel (the serial loop was a tenth of the time after the reading).
+    let per_tile = mean
+        .par_chunks_mut(TILE)
+        .zip(rms.par_chunks_mut(TILE))
+        .zip(
+            rms_even
+                .par_chunks_mut(TILE)
+                .zip(rms_odd.par_chunks_mut(TILE)),
+        )
+        .zip(count.par_chunks_mut(TILE));
+    per_tile
+        .zip(&p.tiles)
+        .for_each(|((((mean, rms), (rms_even, rms_odd)), count), t)| {
+            for i in 0..t.len {
+                let tot = t.sums(i, None, nf);
+                let (m, var) = mean_var(tot);
+                count[i] = tot.n;
+                mean[i] = m;
+                rms[i] = var.sqrt();
+                rms_even[i] = mean_var(t.sums(i, Some(0), nf)).1.sqrt();
+                rms_odd[i] = mean_var(t.sums(i, Some(1), nf)).1.sqrt();
+            }
+        });
     Ok(PixelStats {
         frames,
         mean: Map::new(rows, cols, mean, Unit::Adu),
