@@ -29,10 +29,12 @@ pub struct RealNoise {
     pub rows: Vec<RealNoiseRow>,
 }
 
-/// Set in `params` the inputs of the richer models from what `darks` measured: the telegraph
-/// table it wrote (`rts_csv`, when `rts_ok` pixels were fitted `ok`), the row and column noise
-/// of `temporal` (e-), and the dark stack `darks` itself as frames (e- with `gain_e_per_adu`).
-/// Returns the dark frames' description.
+/// Set in `params` the inputs of the richer models that the caller did not give, from what
+/// `darks` measured: the telegraph table it wrote (`rts_csv`, when `rts_ok` pixels were fitted
+/// `ok`), the row and column noise of `temporal` (e-), and the dark stack `darks` itself as
+/// frames (e- with `gain_e_per_adu`). Inputs given by the caller (`--rts-table`,
+/// `--row-noise-e` / `--column-noise-e`, `--dark-frames`) are kept. Returns the dark frames'
+/// description.
 pub(crate) fn measured_inputs(
     params: &mut ModelParams,
     darks: &[PathBuf],
@@ -41,26 +43,30 @@ pub(crate) fn measured_inputs(
     (rts_csv, rts_ok): (&Path, usize),
     observer: &dyn Observer,
 ) -> Result<String> {
-    if rts_ok > 0 {
+    if params.rts_table.is_none() && rts_ok > 0 {
         params.rts_table = Some(Arc::new(RtsTable::read(rts_csv, observer)?));
     }
     // A component that the split could not resolve (no estimate) adds nothing.
-    if temporal.row_rms_e.is_some() || temporal.column_rms_e.is_some() {
+    let measured = temporal.row_rms_e.is_some() || temporal.column_rms_e.is_some();
+    if params.row_noise_e.is_none() && params.column_noise_e.is_none() && measured {
         params.row_noise_e = Some(temporal.row_rms_e.unwrap_or(0.0));
         params.column_noise_e = Some(temporal.column_rms_e.unwrap_or(0.0));
     }
-    let frames = DarkFrames::read(darks, gain_e_per_adu, DEFAULT_MAX_MIB)?;
+    let frames = match params.dark_frames.take() {
+        Some(given) => given,
+        None => Arc::new(DarkFrames::read(darks, gain_e_per_adu, DEFAULT_MAX_MIB)?),
+    };
     let described = frames.summary();
-    params.dark_frames = Some(Arc::new(frames));
+    params.dark_frames = Some(frames);
     Ok(described)
 }
 
 /// The models compared with the measured map, with their labels on the page.
 const MODELS: [(&str, &str); 3] = [
-    ("scmos-rts", "scmos-rts (map + measured telegraph pixels)"),
+    ("scmos-rts", "scmos-rts (map + telegraph pixels)"),
     (
         "scmos-correlated",
-        "scmos-correlated (map + measured row and column noise)",
+        "scmos-correlated (map + row and column noise)",
     ),
     (
         "scmos-frames",
