@@ -67,6 +67,10 @@ pub enum Error {
     /// A numerical procedure failed (fit did not converge, bracket not found; exit code 1).
     #[error("{0}")]
     Numeric(String),
+    /// The run was stopped by its driver ([`crate::progress::Observer::cancelled`]; exit code
+    /// 130, as for Ctrl-C).
+    #[error("interrupted")]
+    Interrupted,
 }
 
 impl Error {
@@ -100,6 +104,7 @@ impl Error {
         match self {
             Error::Usage { .. } => EXIT_USAGE,
             Error::Input { .. } | Error::Io { .. } | Error::Numeric(_) => EXIT_FAILURE,
+            Error::Interrupted => EXIT_INTERRUPTED,
         }
     }
 }
@@ -115,6 +120,7 @@ mod tests {
         assert_eq!(Error::input("a.fits", "bad").exit_code(), EXIT_FAILURE);
         assert_eq!(Error::io("a.fits", io).exit_code(), EXIT_FAILURE);
         assert_eq!(Error::Numeric("no fit".into()).exit_code(), EXIT_FAILURE);
+        assert_eq!(Error::Interrupted.exit_code(), EXIT_INTERRUPTED);
         for code in [EXIT_OK, EXIT_FAILURE, EXIT_USAGE, EXIT_INTERRUPTED] {
             assert!(EXIT_CODES_HELP.contains(&format!("  {code} ")), "{code}");
         }

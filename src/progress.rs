@@ -24,6 +24,11 @@ pub trait Observer: Sync {
     /// Something the user should know that does not stop the run (e.g. an optimum at a grid
     /// edge). Settings are named as `` `field` `` (backticks), like in errors.
     fn warn(&self, _message: &str) {}
+    /// The driver wants the run stopped (e.g. Ctrl-C in Python): long loops poll this between
+    /// work items and return [`crate::Error::Interrupted`], leaving no output behind.
+    fn cancelled(&self) -> bool {
+        false
+    }
 }
 
 /// An observer that ignores everything: for library callers that want no progress.

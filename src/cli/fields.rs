@@ -135,7 +135,7 @@ pub fn to_cli(e: Error) -> Error {
             message: flags_in(&message),
         },
         Error::Numeric(message) => Error::Numeric(flags_in(&message)),
-        io @ Error::Io { .. } => io,
+        other @ (Error::Io { .. } | Error::Interrupted) => other,
     }
 }
 

@@ -162,6 +162,10 @@ impl<'m> Experiment<'m> {
         // Chunks run in parallel a batch at a time and are merged in chunk order, so the sums do
         // not depend on the thread count and memory does not grow with the iterations.
         for batch in chunks.clone().step_by(BATCH_CHUNKS as usize) {
+            if observer.cancelled() {
+                // Batches already merged stay: the experiment is consistent, only shorter.
+                return Err(Error::Interrupted);
+            }
             let this = &*self;
             let partials: Vec<ChunkSums> = (batch..(batch + BATCH_CHUNKS).min(chunks.end))
                 .into_par_iter()
@@ -183,6 +187,7 @@ impl<'m> Experiment<'m> {
                     }
                 }
             }
+            self.done = ((batch + BATCH_CHUNKS) * CHUNK).min(end);
         }
         self.done = end;
         Ok(())

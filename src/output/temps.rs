@@ -196,6 +196,7 @@ pub fn hide_temporaries(e: Error) -> Error {
             }
         }
         Error::Numeric(m) => Error::Numeric(text(m)),
+        Error::Interrupted => Error::Interrupted,
     }
 }
 

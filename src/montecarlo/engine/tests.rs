@@ -293,3 +293,30 @@ fn extensions_advance_the_observer_by_their_weighted_iterations() {
         .unwrap_err();
     assert!(err.to_string().contains("`iters`"), "{err}");
 }
+
+#[test]
+fn a_cancelled_run_stops_between_batches_and_can_be_continued() {
+    // An observer that asks to stop once the first batch has advanced: the run returns
+    // `Interrupted`, keeps the batch it merged (iters() says so), and continuing it gives the
+    // same sums as an uninterrupted run.
+    struct StopAfter(std::sync::atomic::AtomicU64, u64);
+    impl crate::progress::Observer for StopAfter {
+        fn advance(&self, n: u64) {
+            self.0.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
+        }
+        fn cancelled(&self) -> bool {
+            self.0.load(std::sync::atomic::Ordering::Relaxed) >= self.1
+        }
+    }
+    let mut cfg = SimConfig::paper(2);
+    cfg.iters = 2 * CHUNK * BATCH_CHUNKS + 5;
+    let m = ScmosConstant::new(1.0, "one".into());
+    let mut exp = Experiment::new(&cfg, &[&m]).unwrap();
+    let stop = StopAfter(Default::default(), 1);
+    let err = exp.extend_to(cfg.iters, &stop, 1).unwrap_err();
+    assert!(matches!(err, Error::Interrupted));
+    assert_eq!(exp.iters(), CHUNK * BATCH_CHUNKS);
+    exp.extend_to(cfg.iters, &Silent, 1).unwrap();
+    let whole = run(&cfg, &[&m], &Silent).unwrap().remove(0);
+    assert_eq!(exp.results()[0].r_px.to_bits(), whole.r_px.to_bits());
+}
