@@ -9,6 +9,10 @@ pub struct FrameInput<'a> {
     pub subap_px: usize,
     /// Expected photo-electrons per pixel (noiseless spot x signal x QE).
     pub expected_e: &'a [f64],
+    /// Expected photo-electrons per pixel of the spot at the sub-aperture centre: the mean
+    /// spot image a closed-loop controller knows (the same every frame of a run), for models
+    /// and centroiders that use a per-pixel prior.
+    pub mean_e: &'a [f64],
     /// Photo-electrons per pixel after shot noise (shared by all models of a sweep).
     pub photo_e: &'a [u32],
     /// One standard normal deviate per pixel, the frame's read-noise draws: every model of a
@@ -56,6 +60,7 @@ pub(super) mod sampling {
                 let input = FrameInput {
                     subap_px: 1,
                     expected_e: &expected,
+                    mean_e: &expected,
                     photo_e: &k,
                     normals: &z,
                 };
@@ -84,6 +89,7 @@ pub(super) mod sampling {
             let input = FrameInput {
                 subap_px,
                 expected_e: &expected,
+                mean_e: &expected,
                 photo_e: &zeros,
                 normals: &z,
             };
@@ -110,6 +116,7 @@ pub(super) mod sampling {
             let input = FrameInput {
                 subap_px,
                 expected_e: &expected,
+                mean_e: &expected,
                 photo_e: &zeros,
                 normals: &z,
             };

@@ -230,6 +230,7 @@ impl<'m> Experiment<'m> {
         let mut accs = out.totals.clone();
         let mut sweep = BackgroundSweep::new(levels.to_vec(), n);
         let mut expected = vec![0.0; npix];
+        let mean = mean_spot_e(cfg, &self.renderer);
         let mut photons = vec![0u32; npix];
         let mut shot = ShotNoise::new(npix);
         let mut normals = vec![0.0; npix];
@@ -258,6 +259,7 @@ impl<'m> Experiment<'m> {
             let input = FrameInput {
                 subap_px: n,
                 expected_e: &expected,
+                mean_e: &mean,
                 photo_e: &photons,
                 normals: &normals,
             };
@@ -285,6 +287,21 @@ impl<'m> Experiment<'m> {
         }
         out
     }
+}
+
+/// Expected photo-electrons per pixel of the spot at the sub-aperture centre, scaled to S x QE
+/// in the sub-aperture (zeros when nothing of it falls inside).
+pub(crate) fn mean_spot_e(cfg: &SimConfig, renderer: &SpotRenderer) -> Vec<f64> {
+    let mut img = vec![0.0; cfg.subap_px * cfg.subap_px];
+    renderer.render(0.0, 0.0, &mut img);
+    let total: f64 = img.iter().sum();
+    let scale = if total > 0.0 {
+        cfg.signal_photons * cfg.qe / total
+    } else {
+        0.0
+    };
+    img.iter_mut().for_each(|v| *v *= scale);
+    img
 }
 
 /// Brightest expected pixel (e-) of a centred spot: sizes the automatic background grid.
