@@ -1,14 +1,23 @@
-//! Centre of gravity with background subtraction, swept over background levels.
+//! Centroiders: the centre of gravity with background subtraction swept over background
+//! levels (the paper's), and the methods that use the camera's known noise map or the spot's
+//! shape (`spec` names them, `thresholded` and `brightest` implement them behind the
+//! [`Centroider`] trait of `centroider`).
 //!
 //! At level b each pixel contributes v = max(x - b, 0) (the Durham platform's "subtract and
 //! clip"). Positions are in pixels from the sub-aperture centre (n-1)/2.
 
+mod brightest;
+mod centroider;
 mod levels;
+mod spec;
 mod sums;
 mod sweep;
+mod thresholded;
 
+pub use centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
+pub use spec::{CentroidContext, CentroiderKind, CentroiderSpec, ALL_KINDS};
 pub use sums::{LevelSums, LevelTotals};
-pub use sweep::BackgroundSweep;
+pub use sweep::{BackgroundSweep, PixelTerms, Plain, Scaled, Weighted};
 
 /// Centre of gravity (x, y) in px from the centre of an n x n row-major image; None if the
 /// image sums to zero or less.
@@ -26,7 +35,10 @@ pub fn cog(img: &[f64], n: usize) -> Option<(f64, f64)> {
 }
 
 #[cfg(test)]
-mod tests {
+mod tests;
+
+#[cfg(test)]
+mod sweep_tests {
     use super::*;
 
     #[test]

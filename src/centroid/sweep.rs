@@ -4,8 +4,87 @@ use super::levels::LevelIndex;
 use super::sums::LevelSums;
 
 /// Sums over the pixels of one bucket, positions relative to the truth: value, value x
-/// column offset, value x row offset, count, column offset, row offset.
+/// column offset, value x row offset, count, column offset, row offset (each pixel's terms
+/// multiplied by its weight w; count and offsets by its threshold scale s too).
 type Bin = [f64; 6];
+
+/// Per-pixel terms of a sweep. At level l pixel i contributes w_i max(x_i - l s_i, 0): a
+/// weight w (0 leaves the pixel out) and a threshold scale s (the level is in units of s),
+/// and the centroid's x and y are multiplied by `gain` (a bias correction). The plain sweep has w = s =
+/// gain = 1, constants the compiler folds away.
+pub trait PixelTerms {
+    /// Weight of pixel `i` (>= 0).
+    fn weight(&self, i: usize) -> f64;
+    /// Threshold scale of pixel `i` (> 0).
+    fn scale(&self, i: usize) -> f64;
+    /// Factors applied to the centroid's (x, y) (dimensionless).
+    fn gain(&self) -> (f64, f64);
+}
+
+/// The plain centre of gravity: w = s = gain = 1.
+#[derive(Debug, Clone, Copy)]
+pub struct Plain;
+
+impl PixelTerms for Plain {
+    #[inline(always)]
+    fn weight(&self, _: usize) -> f64 {
+        1.0
+    }
+    #[inline(always)]
+    fn scale(&self, _: usize) -> f64 {
+        1.0
+    }
+    #[inline(always)]
+    fn gain(&self) -> (f64, f64) {
+        (1.0, 1.0)
+    }
+}
+
+/// Per-pixel weights (s = 1) and a centroid gain.
+#[derive(Debug, Clone, Copy)]
+pub struct Weighted<'a> {
+    /// Weight per pixel (>= 0), row-major.
+    pub weight: &'a [f64],
+    /// Factors applied to the centroid's (x, y).
+    pub gain: (f64, f64),
+}
+
+impl PixelTerms for Weighted<'_> {
+    #[inline(always)]
+    fn weight(&self, i: usize) -> f64 {
+        self.weight[i]
+    }
+    #[inline(always)]
+    fn scale(&self, _: usize) -> f64 {
+        1.0
+    }
+    #[inline(always)]
+    fn gain(&self) -> (f64, f64) {
+        self.gain
+    }
+}
+
+/// Per-pixel threshold scales (w = 1, gain = 1): levels in units of each pixel's own scale.
+#[derive(Debug, Clone, Copy)]
+pub struct Scaled<'a> {
+    /// Threshold scale per pixel (> 0), row-major.
+    pub scale: &'a [f64],
+}
+
+impl PixelTerms for Scaled<'_> {
+    #[inline(always)]
+    fn weight(&self, _: usize) -> f64 {
+        1.0
+    }
+    #[inline(always)]
+    fn scale(&self, i: usize) -> f64 {
+        self.scale[i]
+    }
+    #[inline(always)]
+    fn gain(&self) -> (f64, f64) {
+        (1.0, 1.0)
+    }
+}
 
 /// Background levels (e-), ascending, with reusable scratch for one sub-aperture size.
 #[derive(Debug, Clone)]
@@ -61,32 +140,59 @@ impl BackgroundSweep {
     /// R). An empty frame's estimate is the centre, so its error is the distance of the truth
     /// from the centre.
     pub fn accumulate(&mut self, img: &[f64], truth: (f64, f64), acc: &mut LevelSums) {
+        self.accumulate_terms(img, &Plain, truth, acc)
+    }
+
+    /// [`Self::accumulate`] for the centroid of w_i max(x_i - b s_i, 0) times a gain, the
+    /// terms given by `terms` ([`PixelTerms`]): each pixel goes to the bucket of x_i / s_i, and
+    /// the positions are taken from truth / gain (per axis), so that gain x centroid - truth =
+    /// gain x (centroid - truth / gain). A pixel of weight 0 never contributes.
+    pub fn accumulate_terms<T: PixelTerms>(
+        &mut self,
+        img: &[f64],
+        terms: &T,
+        truth: (f64, f64),
+        acc: &mut LevelSums,
+    ) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is set only when the CPU has AVX2 (checked in `new`).
-            return unsafe { self.accumulate_avx2(img, truth, acc) };
+            return unsafe { self.accumulate_avx2(img, terms, truth, acc) };
         }
-        self.accumulate_inline(img, truth, acc)
+        self.accumulate_inline(img, terms, truth, acc)
     }
 
-    /// [`Self::accumulate`] compiled for AVX2: the same operations in the same order (no
+    /// [`Self::accumulate_terms`] compiled for AVX2: the same operations in the same order (no
     /// fused multiply-add), so the results are identical bit for bit, with wider vectors.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn accumulate_avx2(&mut self, img: &[f64], truth: (f64, f64), acc: &mut LevelSums) {
-        self.accumulate_inline(img, truth, acc)
+    unsafe fn accumulate_avx2<T: PixelTerms>(
+        &mut self,
+        img: &[f64],
+        terms: &T,
+        truth: (f64, f64),
+        acc: &mut LevelSums,
+    ) {
+        self.accumulate_inline(img, terms, truth, acc)
     }
 
     #[inline(always)]
-    fn accumulate_inline(&mut self, img: &[f64], truth: (f64, f64), acc: &mut LevelSums) {
-        let top = self.bin_pixels(img, truth);
+    fn accumulate_inline<T: PixelTerms>(
+        &mut self,
+        img: &[f64],
+        terms: &T,
+        truth: (f64, f64),
+        acc: &mut LevelSums,
+    ) {
+        let g = terms.gain();
+        let top = self.bin_pixels(img, terms, (truth.0 / g.0, truth.1 / g.1));
         // Distances are O(1) px: plain sqrt is exact enough and much cheaper than hypot.
         let centre_error = (truth.0 * truth.0 + truth.1 * truth.1).sqrt();
         // Levels at and above the brightest pixel see an empty frame (recorded once).
         acc.tail_sum[top] += centre_error;
         acc.tail_sum_sq[top] += centre_error * centre_error;
         acc.tail_count[top] += 1;
-        self.level_sums(top);
+        self.level_sums(top, g);
         // Two simple loops over equal-length slices, so that both vectorise: distances, then
         // the sums (a level whose sum S(b) is not positive, left by round-off just below the
         // brightest pixel, counts as an empty frame).
@@ -114,7 +220,7 @@ impl BackgroundSweep {
     /// centre); the highest bucket used, which is the number of levels below the brightest
     /// pixel.
     #[inline(always)]
-    fn bin_pixels(&mut self, img: &[f64], truth: (f64, f64)) -> usize {
+    fn bin_pixels<T: PixelTerms>(&mut self, img: &[f64], terms: &T, truth: (f64, f64)) -> usize {
         let n = self.n;
         let c = (n as f64 - 1.0) / 2.0;
         let (tx, ty) = (truth.0 + c, truth.1 + c);
@@ -124,7 +230,13 @@ impl BackgroundSweep {
         for (i, row) in img.chunks_exact(n).enumerate() {
             let y = i as f64 - ty;
             for (j, &v) in row.iter().enumerate() {
-                let k = self.index.count_below(v);
+                let (w, s) = (terms.weight(i * n + j), terms.scale(i * n + j));
+                // A pixel of weight 0 counts nowhere, like one below every level.
+                let k = if w > 0.0 {
+                    self.index.count_below(v / s)
+                } else {
+                    0
+                };
                 // A pixel below every level counts nowhere; it is added to one of 8 spare
                 // buckets in turn, without a branch (at low light about half the pixels are
                 // such, unpredictably) and without chaining them all through one bucket.
@@ -132,12 +244,13 @@ impl BackgroundSweep {
                 let x = j as f64 - tx;
                 // SAFETY: k <= levels (count_below), so slot < junk + 8 = bins.len().
                 let b = unsafe { self.bins.get_unchecked_mut(slot) };
-                b[0] += v;
-                b[1] += v * x;
-                b[2] += v * y;
-                b[3] += 1.0;
-                b[4] += x;
-                b[5] += y;
+                let (wv, ws) = (w * v, w * s);
+                b[0] += wv;
+                b[1] += wv * x;
+                b[2] += wv * y;
+                b[3] += ws;
+                b[4] += ws * x;
+                b[5] += ws * y;
                 top = top.max(k);
             }
         }
@@ -145,9 +258,10 @@ impl BackgroundSweep {
         top
     }
 
-    /// Fill `mass` and `moment_sq` for levels 0..top from the buckets (cleared).
+    /// Fill `mass` and `moment_sq` for levels 0..top from the buckets (cleared), the first
+    /// moments multiplied by the gains.
     #[inline(always)]
-    fn level_sums(&mut self, top: usize) {
+    fn level_sums(&mut self, top: usize, (gx, gy): (f64, f64)) {
         let mut run: Bin = [0.0; 6];
         for l in (0..top).rev() {
             // Level l sees the pixels of buckets above it.
@@ -157,8 +271,8 @@ impl BackgroundSweep {
             }
             let lv = self.levels[l];
             let [a0, a1, a2, b0, b1, b2] = run;
-            let x = a1 - lv * b1;
-            let y = a2 - lv * b2;
+            let x = (a1 - lv * b1) * gx;
+            let y = (a2 - lv * b2) * gy;
             self.mass[l] = (a0 - lv * b0) as f32;
             self.moment_sq[l] = (x * x + y * y) as f32;
         }

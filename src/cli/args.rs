@@ -412,3 +412,73 @@ pub fn parse_list<T: std::str::FromStr>(text: &str, option: &str) -> Result<Vec<
 
 #[cfg(test)]
 mod tests;
+
+/// The centroiders to run (simulate, effective, report).
+#[derive(clap::Args, Debug, Clone)]
+pub struct CentroiderArgs {
+    /// Centroiders, comma-separated NAME[:PARAM]; a PARAM fixes the method's parameter instead
+    /// of sweeping it (K in sigmas, M in times the median sigma, W in px, N in pixels). Each is
+    /// reported at its best setting; every method is listed with --help.
+    #[arg(long, default_value = "cog", long_help = centroider_help())]
+    pub centroider: String,
+    /// Mask pixels whose read noise exceeds this many times the camera's median (sets the
+    /// parameter of masked-cog in --centroider; times the median sigma).
+    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, ""))]
+    pub mask_above: Option<f64>,
+}
+
+/// The long help of `--centroider`: the methods and what each does.
+fn centroider_help() -> String {
+    use crate::centroid::ALL_KINDS;
+    let methods: String = ALL_KINDS
+        .iter()
+        .map(|k| format!("\n  {:<12} {}", k.name(), k.help()))
+        .collect();
+    format!(
+        "Centroiders, comma-separated NAME[:PARAM]; a PARAM fixes the method's parameter instead \
+         of sweeping it. Each is reported at its best setting (the eligible-level rule applies), \
+         on the same frames as the others. Methods:{methods}"
+    )
+}
+
+impl CentroiderArgs {
+    /// The centroiders, `--mask-above` applied to masked-cog.
+    pub fn specs(&self) -> Result<Vec<crate::centroid::CentroiderSpec>> {
+        use crate::centroid::{CentroiderKind, CentroiderSpec};
+        let mut specs: Vec<CentroiderSpec> = self
+            .centroider
+            .split(',')
+            .filter(|s| !s.trim().is_empty())
+            .map(|s| CentroiderSpec::parse(s.trim()))
+            .collect::<Result<_>>()?;
+        if specs.is_empty() {
+            return Err(Error::invalid("--centroider", "no centroider given"));
+        }
+        if let Some(m) = self.mask_above {
+            let masked = specs
+                .iter_mut()
+                .filter(|s| s.kind == CentroiderKind::MaskedCog);
+            let mut any = false;
+            for s in masked {
+                any = true;
+                s.param.get_or_insert(m);
+            }
+            if !any {
+                return Err(Error::invalid(
+                    "--mask-above",
+                    "applies to masked-cog: add it to --centroider",
+                ));
+            }
+        }
+        let mut seen = std::collections::HashSet::new();
+        for s in &specs {
+            if !seen.insert(s.label()) {
+                return Err(Error::invalid(
+                    "--centroider",
+                    format!("{} is given twice", s.label()),
+                ));
+            }
+        }
+        Ok(specs)
+    }
+}

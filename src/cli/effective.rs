@@ -208,6 +208,8 @@ mod tests {
             r_px: 0.5,
             r_se_px: 0.01,
             b_opt_e: 2.0,
+            param_name: None,
+            param_opt: None,
             sigma_grid_e: vec![],
             r_const_px: vec![],
             status,

@@ -1,8 +1,8 @@
 //! `detnoise simulate`: the sub-aperture Monte-Carlo for one configuration or a sweep.
 
-use super::args::{parse_models, DetectorArgs, SweepArgs};
+use super::args::{parse_models, CentroiderArgs, DetectorArgs, SweepArgs};
 use super::progress::Terminal;
-use crate::montecarlo::sweep;
+use crate::montecarlo::sweep_with;
 use crate::output::{check_file, render, write_atomic, FileOut, TableFormat};
 use crate::Result;
 use std::path::PathBuf;
@@ -24,6 +24,9 @@ pub struct SimulateArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
+    /// The centroiders every model is read through.
+    #[command(flatten)]
+    pub centroiders: CentroiderArgs,
     /// Output format: table (for reading: the settings shared by every row stated once, only
     /// the columns that apply, at most 100 characters wide), csv (every column) or json (an
     /// array of records, with R at every level).
@@ -46,6 +49,7 @@ impl SimulateArgs {
     pub fn validate(&self) -> Result<()> {
         let specs = parse_models(&self.model)?;
         self.detector.validate(&specs)?;
+        self.centroiders.specs()?;
         self.sweep.validate()
     }
 }
@@ -55,9 +59,10 @@ pub fn run_cli(args: &SimulateArgs) -> Result<()> {
     args.validate()?;
     check_outputs(args)?;
     let (specs, params) = (parse_models(&args.model)?, args.detector.params()?);
-    let records = sweep(
+    let records = sweep_with(
         &args.sweep.configs()?,
         &specs,
+        &args.centroiders.specs()?,
         &params,
         &Terminal::default(),
     )?;

@@ -44,6 +44,8 @@ pub struct DarkFrames {
     data: Vec<f32>,
     /// Rms of the kept values (e-).
     rms_e: f64,
+    /// Rms of each pixel's kept values (e-), row-major: the camera's own noise map.
+    pixel_rms_e: Vec<f64>,
 }
 
 impl std::fmt::Debug for DarkFrames {
@@ -156,13 +158,16 @@ impl DarkFrames {
         // value - offset = (value - reference) - (mean - reference), then to e-.
         let offset: Vec<f64> = sum.iter().map(|s| s / read as f64).collect();
         let mut power = 0.0;
+        let mut pixel_power = vec![0.0; npx];
         for frame in data.chunks_exact_mut(npx) {
-            for (k, o) in frame.iter_mut().zip(&offset) {
+            for ((k, o), p) in frame.iter_mut().zip(&offset).zip(&mut pixel_power) {
                 let e = (*k as f64 - o) * gain_e_per_adu;
                 *k = e as f32;
                 power += e * e;
+                *p += e * e;
             }
         }
+        let kept = (data.len() / npx.max(1)).max(1) as f64;
         Ok(DarkFrames {
             rows,
             cols,
@@ -171,6 +176,7 @@ impl DarkFrames {
             max_mib,
             source: stack.sources[0].path.clone(),
             rms_e: (power / data.len() as f64).sqrt(),
+            pixel_rms_e: pixel_power.iter().map(|p| (p / kept).sqrt()).collect(),
             data,
         })
     }
@@ -188,6 +194,11 @@ impl DarkFrames {
     /// Rms of the kept bias-subtracted values (e-).
     pub fn rms_e(&self) -> f64 {
         self.rms_e
+    }
+
+    /// Rms of each pixel over the kept frames (e-), rows x cols row-major.
+    pub fn pixel_rms_e(&self) -> &[f64] {
+        &self.pixel_rms_e
     }
 
     /// Kept frame `k` (rows x cols, row-major, e-).

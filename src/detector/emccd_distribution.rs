@@ -77,6 +77,11 @@ impl Readout for EmccdDistribution {
     fn noise_scale_e(&self) -> f64 {
         self.read_noise_e / self.gain
     }
+
+    fn photon_variance_factor(&self) -> f64 {
+        // Gamma(k, g) / g has variance k, on top of the Poisson variance of k.
+        2.0
+    }
 }
 
 #[cfg(test)]

@@ -62,6 +62,10 @@ impl Readout for EmccdStochastic {
     fn noise_scale_e(&self) -> f64 {
         self.read_noise_e / self.register.gain()
     }
+
+    fn photon_variance_factor(&self) -> f64 {
+        self.register.excess_noise_factor_sq()
+    }
 }
 
 #[cfg(test)]

@@ -37,6 +37,30 @@ pub trait Readout: Send + Sync {
     fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]);
     /// Typical per-pixel read noise (e-), used to size the default background grid.
     fn noise_scale_e(&self) -> f64;
+    /// Read one frame exactly as [`Readout::read`] does (same draws, same output) and write into
+    /// `sigma_e` the read-noise sigma (e-) of each of its pixels that a controller knowing this
+    /// camera's noise map assigns to it: the map's window for map models, the frame's own
+    /// sigmas for per-frame random ones, the constant otherwise.
+    fn read_known(
+        &self,
+        input: &FrameInput,
+        aux: &mut SimRng,
+        out: &mut [f64],
+        sigma_e: &mut [f64],
+    ) {
+        self.read(input, aux, out);
+        sigma_e.fill(self.noise_scale_e());
+    }
+    /// Median per-pixel read noise (e-) of the camera: the reference of noise-map masking.
+    fn median_sigma_e(&self) -> f64 {
+        self.noise_scale_e()
+    }
+    /// Variance of the output per expected photo-electron (e-^2 per e-): 1 for Poisson light
+    /// read directly, about 2 behind an EM register (its excess noise), q for light thinned
+    /// to a fraction q. Inverse-variance centroiders weight with it.
+    fn photon_variance_factor(&self) -> f64 {
+        1.0
+    }
 }
 
 /// Samplers shared by the readouts' exact tests.

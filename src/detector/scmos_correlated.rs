@@ -83,8 +83,33 @@ impl Readout for ScmosCorrelated {
     }
 
     fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+        self.read_at(input, aux, out);
+    }
+
+    fn read_known(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64], sigma_e: &mut [f64]) {
+        // Each pixel's total: its own sigma with the row and column noise added in quadrature.
+        let at = self.read_at(input, aux, out);
+        self.map.window_sigma(at, sigma_e);
+        let shared = self.row_noise_e.powi(2) + self.column_noise_e.powi(2);
+        sigma_e.iter_mut().for_each(|s| *s = (*s * *s + shared).sqrt());
+    }
+
+    fn median_sigma_e(&self) -> f64 {
+        let m = self.map.median_sigma_e();
+        (m * m + self.row_noise_e.powi(2) + self.column_noise_e.powi(2)).sqrt()
+    }
+
+    fn noise_scale_e(&self) -> f64 {
+        let s = self.map.noise_scale_e();
+        (s * s + self.row_noise_e.powi(2) + self.column_noise_e.powi(2)).sqrt()
+    }
+}
+
+impl ScmosCorrelated {
+    /// Read one frame (see [`Readout::read`]); the window's top-left (row, column) in the map.
+    fn read_at(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) -> (usize, usize) {
         let n = self.n;
-        self.map.read_window(input, aux, out);
+        let at = self.map.read_window(input, aux, out);
         // Then n row deviates and n column deviates, in that order, from the same stream (on
         // the stack up to 128 px sub-apertures, the largest a run can have).
         let mut stack = [0.0; STACK_DEVIATES];
@@ -103,11 +128,7 @@ impl Readout for ScmosCorrelated {
                 *o += shared + self.column_noise_e * c;
             }
         }
-    }
-
-    fn noise_scale_e(&self) -> f64 {
-        let s = self.map.noise_scale_e();
-        (s * s + self.row_noise_e.powi(2) + self.column_noise_e.powi(2)).sqrt()
+        at
     }
 }
 

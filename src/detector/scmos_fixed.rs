@@ -84,6 +84,15 @@ impl Readout for PerPixelSigma {
         let n = self.sigma_e.len() as f64;
         (self.sigma_e.iter().map(|s| s * s).sum::<f64>() / n).sqrt()
     }
+
+    fn read_known(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64], sigma_e: &mut [f64]) {
+        self.read(input, aux, out);
+        sigma_e.copy_from_slice(&self.sigma_e);
+    }
+
+    fn median_sigma_e(&self) -> f64 {
+        crate::stats::median(&self.sigma_e)
+    }
 }
 
 #[cfg(test)]

@@ -37,6 +37,7 @@ pub const ENTRY: ModelEntry = ModelEntry {
 pub struct ScmosFrames {
     frames: Arc<DarkFrames>,
     n: usize,
+    median_e: f64,
 }
 
 impl ScmosFrames {
@@ -51,7 +52,12 @@ impl ScmosFrames {
                 ),
             ));
         }
-        Ok(ScmosFrames { frames, n })
+        let median_e = crate::stats::median(frames.pixel_rms_e());
+        Ok(ScmosFrames {
+            frames,
+            n,
+            median_e,
+        })
     }
 }
 
@@ -61,6 +67,30 @@ impl Readout for ScmosFrames {
     }
 
     fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+        self.read_at(input, aux, out);
+    }
+
+    fn read_known(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64], sigma_e: &mut [f64]) {
+        // The controller's map: each pixel's rms over the camera's own kept frames.
+        let (r0, c0) = self.read_at(input, aux, out);
+        let (n, d) = (self.n, &*self.frames);
+        for (i, srow) in sigma_e.chunks_exact_mut(n).enumerate() {
+            srow.copy_from_slice(&d.pixel_rms_e()[(r0 + i) * d.cols + c0..][..n]);
+        }
+    }
+
+    fn median_sigma_e(&self) -> f64 {
+        self.median_e
+    }
+
+    fn noise_scale_e(&self) -> f64 {
+        self.frames.rms_e()
+    }
+}
+
+impl ScmosFrames {
+    /// Read one frame (see [`Readout::read`]); the window's top-left (row, column).
+    fn read_at(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) -> (usize, usize) {
         use rand::RngExt;
         let (n, d) = (self.n, &*self.frames);
         let frame = d.frame(aux.random_range(0..d.kept()));
@@ -76,10 +106,7 @@ impl Readout for ScmosFrames {
                 *o = k as f64 + e as f64;
             }
         }
-    }
-
-    fn noise_scale_e(&self) -> f64 {
-        self.frames.rms_e()
+        (r0, c0)
     }
 }
 

@@ -32,6 +32,7 @@ pub struct ScmosMap {
     map: Arc<Map>,
     n: usize,
     rms_e: f64,
+    median_e: f64,
 }
 
 impl ScmosMap {
@@ -67,7 +68,13 @@ impl ScmosMap {
             ));
         }
         let rms_e = (finite.iter().map(|v| v * v).sum::<f64>() / finite.len() as f64).sqrt();
-        Ok(ScmosMap { map, n, rms_e })
+        let median_e = crate::stats::median(&finite);
+        Ok(ScmosMap {
+            map,
+            n,
+            rms_e,
+            median_e,
+        })
     }
 }
 
@@ -99,6 +106,18 @@ impl ScmosMap {
         }
         (r0, c0)
     }
+
+    /// The sigmas (e-) of the window at (`r0`, `c0`) into `sigma_e`, excluded pixels as the
+    /// map's rms (as [`Self::read_window`] reads them).
+    pub(super) fn window_sigma(&self, (r0, c0): (usize, usize), sigma_e: &mut [f64]) {
+        let n = self.n;
+        for (i, srow) in sigma_e.chunks_exact_mut(n).enumerate() {
+            let mrow = &self.map.data[(r0 + i) * self.map.cols + c0..][..n];
+            for (s, &m) in srow.iter_mut().zip(mrow) {
+                *s = if m.is_finite() { m } else { self.rms_e };
+            }
+        }
+    }
 }
 
 impl Readout for ScmosMap {
@@ -112,6 +131,15 @@ impl Readout for ScmosMap {
 
     fn noise_scale_e(&self) -> f64 {
         self.rms_e
+    }
+
+    fn read_known(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64], sigma_e: &mut [f64]) {
+        let at = self.read_window(input, aux, out);
+        self.window_sigma(at, sigma_e);
+    }
+
+    fn median_sigma_e(&self) -> f64 {
+        self.median_e
     }
 }
 

@@ -136,6 +136,28 @@ impl Readout for ScmosRts {
     }
 
     fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
+        self.read_at(input, aux, out);
+    }
+
+    fn read_known(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64], sigma_e: &mut [f64]) {
+        // The measured map already holds each telegraph pixel's total rms.
+        let at = self.read_at(input, aux, out);
+        self.map.window_sigma(at, sigma_e);
+    }
+
+    fn median_sigma_e(&self) -> f64 {
+        self.map.median_sigma_e()
+    }
+
+    fn noise_scale_e(&self) -> f64 {
+        // The map's rms, telegraph variance included.
+        self.map.noise_scale_e()
+    }
+}
+
+impl ScmosRts {
+    /// Read one frame (see [`Readout::read`]); the window's top-left (row, column) in the map.
+    fn read_at(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) -> (usize, usize) {
         use rand::RngExt;
         let n = self.n;
         let (r0, c0) = self.map.read_window(input, aux, out);
@@ -149,11 +171,7 @@ impl Readout for ScmosRts {
                 out[j] = input.photo_e[j] as f64 + t.level_e[k] + t.width_e[k] * input.normals[j];
             }
         }
-    }
-
-    fn noise_scale_e(&self) -> f64 {
-        // The map's rms, telegraph variance included.
-        self.map.noise_scale_e()
+        (r0, c0)
     }
 }
 

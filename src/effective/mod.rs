@@ -9,6 +9,8 @@ mod status;
 mod table;
 
 pub use precision::Precision;
-pub use solve::{effective_sigma, planned_work, Effective};
+pub use solve::{effective_sigma, effective_sigma_with, planned_work, Effective};
 pub use status::Status;
-pub use table::{effective_table, write_tables, EffectiveRecord, TABLE_NAMES};
+pub use table::{
+    effective_table, effective_table_with, write_tables, EffectiveRecord, TABLE_NAMES,
+};

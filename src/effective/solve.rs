@@ -17,8 +17,9 @@
 use super::invert::{invert, Inversion, Outside};
 use super::precision::Precision;
 use super::status::Status;
+use crate::centroid::CentroiderSpec;
 use crate::detector::{Readout, ScmosConstant};
-use crate::montecarlo::{Experiment, SimConfig, SimResult, Term};
+use crate::montecarlo::{Arm, Experiment, SimConfig, SimResult, Term};
 use crate::progress::Observer;
 use crate::Result;
 
@@ -52,6 +53,10 @@ pub struct Effective {
     pub r_se_px: f64,
     /// The detector's best background level (e-).
     pub b_opt_e: f64,
+    /// Name (with unit) of the detector's centroider parameter; None for `cog`.
+    pub param_name: Option<&'static str>,
+    /// The centroider's parameter at the detector's optimum.
+    pub param_opt: Option<f64>,
     /// Constant sigmas of the final run (e-), ascending.
     pub sigma_grid_e: Vec<f64>,
     /// R of the constant-sigma model at each of them (px).
@@ -91,12 +96,33 @@ pub fn effective_sigma(
     precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<Effective> {
+    effective_sigma_with(
+        cfg,
+        detector,
+        CentroiderSpec::default(),
+        precision,
+        observer,
+    )
+}
+
+/// [`effective_sigma`] for `detector` read through `centroider`: the constant sigma whose
+/// plain-`cog` R equals the detector's R under that centroider ("with masking, this camera
+/// behaves like a uniform 1.4 e- camera"). The constant-sigma references always use `cog`.
+pub fn effective_sigma_with(
+    cfg: &SimConfig,
+    detector: &dyn Readout,
+    centroider: CentroiderSpec,
+    precision: &Precision,
+    observer: &dyn Observer,
+) -> Result<Effective> {
     cfg.validate()?;
     precision.validate(cfg.iters)?;
+    centroider.validate()?;
     let scale = detector.noise_scale_e().max(1e-3);
     let s = Solver {
         cfg,
         detector,
+        centroider,
         precision,
         observer,
     };
@@ -127,6 +153,7 @@ pub fn effective_sigma(
 struct Solver<'a> {
     cfg: &'a SimConfig,
     detector: &'a dyn Readout,
+    centroider: CentroiderSpec,
     precision: &'a Precision,
     observer: &'a dyn Observer,
 }
@@ -182,6 +209,26 @@ fn split(mut results: Vec<SimResult>) -> (SimResult, Vec<SimResult>) {
 }
 
 impl Solver<'_> {
+    /// An experiment of `models` (the detector first, then constants): the detector read
+    /// through the chosen centroider, the constants through `cog`.
+    fn experiment<'m>(
+        &self,
+        cfg: &SimConfig,
+        models: &[&'m dyn Readout],
+    ) -> Result<Experiment<'m>> {
+        let arms: Vec<Arm> = (0..models.len())
+            .map(|model| Arm {
+                model,
+                centroider: if model == 0 {
+                    self.centroider
+                } else {
+                    CentroiderSpec::default()
+                },
+            })
+            .collect();
+        Experiment::with_arms(cfg, models, &arms)
+    }
+
     /// The pilot's estimate of sigma_eff (e-): 0 below its grid, its top above it. The pilot
     /// uses other streams than the final runs, so its noise does not bias the final grid.
     fn pilot(&self, scale: f64) -> Result<f64> {
@@ -193,7 +240,7 @@ impl Solver<'_> {
         let grid = scaled(&PILOT_FACTORS, scale);
         let constants = constants(&grid);
         let models = with_detector(self.detector, &constants);
-        let mut exp = Experiment::new(&cfg, &models)?;
+        let mut exp = self.experiment(&cfg, &models)?;
         let weight = models.len() as u64 * pixels(&cfg);
         exp.extend_to(cfg.iters, self.observer, weight)?;
         let (det, consts) = split(exp.results());
@@ -214,7 +261,7 @@ impl Solver<'_> {
         budget: &mut Budget,
     ) -> Result<Refined<'m>> {
         let weight = models.len() as u64 * pixels(self.cfg);
-        let mut exp = Experiment::new(self.cfg, models)?.with_blocks();
+        let mut exp = self.experiment(self.cfg, models)?.with_blocks();
         let mut to = start;
         loop {
             budget.spend((to - exp.iters()) * weight, self.observer);
@@ -290,6 +337,8 @@ impl Solver<'_> {
             r_px: det.r_px,
             r_se_px: det.r_se_px,
             b_opt_e: det.b_opt_e,
+            param_name: det.param_name,
+            param_opt: det.param_opt,
             sigma_grid_e: grid.to_vec(),
             r_const_px: consts.iter().map(|c| c.r_px).collect(),
             status,
@@ -308,18 +357,16 @@ fn paired_se(exp: &Experiment, det: &SimResult, consts: &[SimResult], inv: &Inve
     if inv.slope <= 0.0 {
         return f64::INFINITY;
     }
-    let term = |model: usize, b_e: f64, coef: f64| Term {
+    let term = |model: usize, r: &SimResult, coef: f64| Term {
         model,
-        level: exp
-            .level_index(b_e)
-            .expect("a result's level is one of its experiment's"),
+        level: r.best,
         coef,
     };
-    let terms: Vec<Term> = std::iter::once(term(0, det.b_opt_e, 1.0))
+    let terms: Vec<Term> = std::iter::once(term(0, det, 1.0))
         .chain(
             inv.weights
                 .iter()
-                .map(|&(i, w)| term(i + 1, consts[i].b_opt_e, -w)),
+                .map(|&(i, w)| term(i + 1, &consts[i], -w)),
         )
         .collect();
     exp.paired_se(&terms) / inv.slope

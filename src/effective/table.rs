@@ -2,7 +2,8 @@
 //! configuration, written as `effective_noise.csv` and `effective_noise.json`.
 
 use super::precision::Precision;
-use super::solve::{effective_sigma, planned_work, Effective};
+use super::solve::{effective_sigma_with, planned_work, Effective};
+use crate::centroid::CentroiderSpec;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::montecarlo::{config_columns, SimConfig};
 use crate::output::{render, write_atomic, TableFormat};
@@ -16,18 +17,21 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 
 /// One configuration's effective read noise.
 ///
-/// Serialised (CSV, JSON) as the columns `model`; the configuration (`subap_px`, `spot`,
+/// Serialised (CSV, JSON) as the columns `model`, `centroider`; the configuration (`subap_px`, `spot`,
 /// `sampling`, `signal_photons`, `qe`, then `iters`: the iterations the value rests on, from
 /// the starting count up to the cap, and `seed`); `sigma_eff_e` and `sigma_eff_se_e` (e-;
 /// empty/null for `unreachable` and `no_eligible_level`); `target_se_e` (e-, the standard error
 /// the value had to reach: the larger of the absolute target and the relative one times the
 /// value; empty/null without a target or a value); `r_px`, `r_se_px` (the detector's R and its
-/// SE), `b_opt_e` (its best background level); and `status` (`ok`, `imprecise`, `lower_bound`,
+/// SE), `b_opt_e` (its best background level), `centroider_param` and `centroider_param_opt`
+/// (the centroider's parameter at the optimum; empty for `cog`); and `status` (`ok`, `imprecise`, `lower_bound`,
 /// `unreachable`, `no_eligible_level`: see [`crate::effective::Status::meaning`]).
 #[derive(Debug, Clone)]
 pub struct EffectiveRecord {
     /// The detector model (its name, or a caller's label).
     pub model: String,
+    /// The detector's centroider (`--centroider` text; the references use `cog`).
+    pub centroider: String,
     /// The configuration solved.
     pub config: SimConfig,
     /// The solution.
@@ -35,10 +39,11 @@ pub struct EffectiveRecord {
 }
 
 impl EffectiveRecord {
-    /// The record of `model` (a label) in configuration `cfg`.
+    /// The record of `model` (a label) read through `cog` in configuration `cfg`.
     pub fn new(model: String, cfg: &SimConfig, e: &Effective) -> Self {
         EffectiveRecord {
             model,
+            centroider: CentroiderSpec::default().label(),
             config: cfg.clone(),
             effective: e.clone(),
         }
@@ -48,8 +53,9 @@ impl EffectiveRecord {
 impl Serialize for EffectiveRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let e = &self.effective;
-        let mut s = serializer.serialize_struct("EffectiveRecord", 15)?;
+        let mut s = serializer.serialize_struct("EffectiveRecord", 18)?;
         s.serialize_field("model", &self.model)?;
+        s.serialize_field("centroider", &self.centroider)?;
         let used = SimConfig {
             iters: e.iters,
             ..self.config.clone()
@@ -63,6 +69,8 @@ impl Serialize for EffectiveRecord {
         s.serialize_field("r_px", &e.r_px)?;
         s.serialize_field("r_se_px", &e.r_se_px)?;
         s.serialize_field("b_opt_e", &e.b_opt_e)?;
+        s.serialize_field("centroider_param", &e.param_name)?;
+        s.serialize_field("centroider_param_opt", &e.param_opt)?;
         s.serialize_field("status", &e.status)?;
         s.end()
     }
@@ -80,14 +88,33 @@ pub fn effective_table(
     precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<Vec<EffectiveRecord>> {
+    let cog = [CentroiderSpec::default()];
+    effective_table_with(configs, specs, &cog, params, precision, observer)
+}
+
+/// [`effective_table`] with every detector read through each of `centroiders` (the
+/// references always through `cog`): records in model, then centroider, then configuration
+/// order.
+pub fn effective_table_with(
+    configs: &[SimConfig],
+    specs: &[ModelSpec],
+    centroiders: &[CentroiderSpec],
+    params: &ModelParams,
+    precision: &Precision,
+    observer: &dyn Observer,
+) -> Result<Vec<EffectiveRecord>> {
     for cfg in configs {
         cfg.validate()?;
         precision.validate(cfg.iters)?;
     }
-    let work: u64 = configs.iter().map(planned_work).sum::<u64>() * specs.len() as u64;
+    for c in centroiders {
+        c.validate()?;
+    }
+    let runs = (specs.len() * centroiders.len()) as u64;
+    let work: u64 = configs.iter().map(planned_work).sum::<u64>() * runs;
     observer.begin("effective", work, work);
     observer.unit("pixel-frames");
-    let records = solve_all(configs, specs, params, precision, observer);
+    let records = solve_all(configs, specs, centroiders, params, precision, observer);
     observer.end();
     records
 }
@@ -95,16 +122,21 @@ pub fn effective_table(
 fn solve_all(
     configs: &[SimConfig],
     specs: &[ModelSpec],
+    centroiders: &[CentroiderSpec],
     params: &ModelParams,
     precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<Vec<EffectiveRecord>> {
-    let mut out = Vec::with_capacity(specs.len() * configs.len());
+    let mut out = Vec::with_capacity(specs.len() * centroiders.len() * configs.len());
     for spec in specs {
-        for cfg in configs {
-            let model = spec.build(params, cfg.subap_px)?;
-            let e = effective_sigma(cfg, model.as_ref(), precision, observer)?;
-            out.push(EffectiveRecord::new(model.name(), cfg, &e));
+        for &c in centroiders {
+            for cfg in configs {
+                let model = spec.build(params, cfg.subap_px)?;
+                let e = effective_sigma_with(cfg, model.as_ref(), c, precision, observer)?;
+                let mut record = EffectiveRecord::new(model.name(), cfg, &e);
+                record.centroider = c.label();
+                out.push(record);
+            }
         }
     }
     Ok(out)
@@ -126,6 +158,7 @@ pub fn write_tables(records: &[EffectiveRecord], dir: &Path) -> Result<Vec<PathB
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::effective::effective_sigma;
     use crate::effective::Status;
     use crate::progress::{Recorder, Silent};
     use std::sync::atomic::Ordering::Relaxed;
@@ -206,6 +239,8 @@ mod tests {
             r_px: 0.5,
             r_se_px: 0.25,
             b_opt_e: 2.0,
+            param_name: None,
+            param_opt: None,
             sigma_grid_e: vec![0.0, 1.0],
             r_const_px: vec![0.1, 0.2],
             status,

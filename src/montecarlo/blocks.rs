@@ -13,23 +13,25 @@ pub(crate) const SUB_BLOCK: u64 = 32;
 /// Most blocks kept; past it the block size doubles (256 to 512 blocks: ample degrees of freedom).
 pub(crate) const MAX_BLOCKS: usize = 512;
 
-/// One term of a linear combination of R values: `coef` x R of model `model` at level `level`
-/// (indices into the run's models and background levels).
+/// One term of a linear combination of R values: `coef` x R of arm `model` at setting `level`
+/// (indices into the run's arms, see [`super::Experiment::with_arms`], and that arm's
+/// settings; with [`super::Experiment::new`] the arms are the models and the settings the
+/// background levels).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Term {
-    /// Index of the model in the run.
+    /// Index of the arm (model read through a centroider) in the run.
     pub model: usize,
-    /// Index of the background level in the run's levels.
+    /// Index of the setting (background level) in the arm's settings.
     pub level: usize,
     /// Coefficient of the term (dimensionless).
     pub coef: f64,
 }
 
-/// Per-block sums of the radial error (px) for every model and level of a run.
+/// Per-block sums of the radial error (px) for every arm and setting of a run.
 #[derive(Debug, Clone)]
 pub(crate) struct Blocks {
-    models: usize,
-    levels: usize,
+    /// Start of each arm's settings in a block's sums, and their total at the end.
+    offsets: Vec<usize>,
     /// Iterations per full block (a power-of-two multiple of [`SUB_BLOCK`]).
     size: u64,
     /// Iterations in each block (the last may be partial).
@@ -39,11 +41,16 @@ pub(crate) struct Blocks {
 }
 
 impl Blocks {
-    /// No blocks yet, for `models` models and `levels` levels.
-    pub fn new(models: usize, levels: usize) -> Self {
+    /// No blocks yet, for arms of `sizes` settings each.
+    pub fn new(sizes: &[usize]) -> Self {
+        let offsets = std::iter::once(0)
+            .chain(sizes.iter().scan(0, |acc, &n| {
+                *acc += n;
+                Some(*acc)
+            }))
+            .collect();
         Blocks {
-            models,
-            levels,
+            offsets,
             size: SUB_BLOCK,
             counts: Vec::new(),
             sums: Vec::new(),
@@ -51,10 +58,10 @@ impl Blocks {
     }
 
     fn stride(&self) -> usize {
-        self.models * self.levels
+        *self.offsets.last().expect("offsets start with 0")
     }
 
-    /// Add the per-model, per-level sums (`models x levels`, model-major) of the `count`
+    /// Add the per-arm, per-setting sums (arm-major) of the `count`
     /// iterations starting at `start`; they lie inside one sub-block, after every earlier add.
     pub fn add(&mut self, start: u64, count: u64, sums: &[f64]) {
         debug_assert_eq!(sums.len(), self.stride());
@@ -115,7 +122,7 @@ impl Blocks {
             .map(|j| {
                 terms
                     .iter()
-                    .map(|t| t.coef * self.sums[j * stride + t.model * self.levels + t.level])
+                    .map(|t| t.coef * self.sums[j * stride + self.offsets[t.model] + t.level])
                     .sum()
             })
             .collect();
@@ -140,7 +147,7 @@ mod tests {
     #[test]
     fn doubling_keeps_the_sums_and_bounds_the_count() {
         // One model, two levels; per-iteration values k and 2k for iteration k.
-        let mut b = Blocks::new(1, 2);
+        let mut b = Blocks::new(&[2]);
         let total = SUB_BLOCK * MAX_BLOCKS as u64 * 3 + 17;
         let mut start = 0;
         while start < total {
@@ -167,7 +174,7 @@ mod tests {
         // with 2 models x 1 level, 4096 iterations in blocks of 32 (128 blocks), the SE estimate
         // has a relative standard error near 1 / sqrt(2 x 127) = 6.3 %, so 4 of them is 25 %.
         let n = 4096u64;
-        let mut b = Blocks::new(2, 1);
+        let mut b = Blocks::new(&[1, 1]);
         let mut rng = stream(7, 0, 0);
         for start in (0..n).step_by(SUB_BLOCK as usize) {
             let (mut sx, mut sy) = (0.0, 0.0);

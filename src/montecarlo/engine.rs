@@ -12,7 +12,9 @@
 use super::blocks::{Blocks, Term, SUB_BLOCK};
 use super::config::SimConfig;
 use super::photons::ShotNoise;
-use crate::centroid::{cog, BackgroundSweep, LevelSums};
+use crate::centroid::{
+    cog, CentroidContext, CentroidFrame, Centroider, CentroiderSpec, Setting, SettingSums,
+};
 use crate::detector::{draw_normals, FrameInput, Readout};
 use crate::progress::Observer;
 use crate::rng::stream;
@@ -33,9 +35,12 @@ const PHOTONS: u64 = 1;
 const NOISE: u64 = 2;
 const AUX: u64 = 3;
 
-/// R and its statistics at one background level.
+/// R and its statistics at one setting of the centroider (a background level for `cog`).
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct LevelStats {
+    /// The centroider's own parameter at this setting (see [`SimResult::param_name`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub param: Option<f64>,
     /// Background level (e-).
     pub b_e: f64,
     /// Mean radial error (px).
@@ -46,29 +51,48 @@ pub struct LevelStats {
     pub empty_frames: u64,
 }
 
-/// The outcome for one readout model.
+/// The outcome for one readout model read through one centroider.
 #[derive(Debug, Clone, serde::Serialize)]
 pub struct SimResult {
     /// Model name.
     pub model: String,
-    /// R: minimum over eligible levels of the mean radial error (px).
+    /// Centroider, as `--centroider` takes it (`cog` for the paper's).
+    pub centroider: String,
+    /// Name (with unit) of the centroider's own parameter; None for `cog` and `ivw-cog`.
+    pub param_name: Option<&'static str>,
+    /// The centroider's parameter at the optimum.
+    pub param_opt: Option<f64>,
+    /// R: minimum over eligible settings of the mean radial error (px).
     pub r_px: f64,
     /// Standard error of R (px).
     pub r_se_px: f64,
-    /// Background level at the minimum (e-).
+    /// Background level at the minimum (e-; 0 for centroiders without one).
     pub b_opt_e: f64,
-    /// True when the optimum is the highest level of the grid (widen the grid).
+    /// True when the optimum is the last setting of its sweep (widen the grid).
     pub b_at_grid_edge: bool,
-    /// True when no level met the empty-frame limit (the least-empty level is then reported).
+    /// True when no setting met the empty-frame limit (the least-empty one is then reported).
     pub no_eligible_level: bool,
-    /// Mean radial error with no background subtraction (b = 0; px).
+    /// Mean radial error at the first setting of the optimum's parameter: no background
+    /// subtraction (b = 0) for background-swept centroiders (px).
     pub r0_px: f64,
     /// Standard error of R(0) (px).
     pub r0_se_px: f64,
-    /// Frames with nothing above the optimum level.
+    /// Frames with nothing above the optimum setting.
     pub zero_frames: u64,
-    /// R at every level.
+    /// Index of the optimum in `levels` (for [`Term`]s of paired standard errors).
+    #[serde(skip)]
+    pub best: usize,
+    /// R at every setting.
     pub levels: Vec<LevelStats>,
+}
+
+/// One arm of a run: a model of the run read through a centroider.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Arm {
+    /// Index of the readout model in the run's models.
+    pub model: usize,
+    /// The centroider.
+    pub centroider: CentroiderSpec,
 }
 
 /// Run the Monte-Carlo for every model; `observer` is advanced by the iterations of each chunk
@@ -84,29 +108,51 @@ pub fn run(
 }
 
 /// A Monte-Carlo run of several readout models on common random numbers that can be continued:
-/// it keeps every model's per-level sums (and, with [`Experiment::with_blocks`], their sums per
+/// it keeps every arm's per-setting sums (and, with [`Experiment::with_blocks`], their sums per
 /// block of iterations for paired standard errors).
 pub struct Experiment<'m> {
     cfg: SimConfig,
     models: Vec<&'m dyn Readout>,
+    arms: Vec<BuiltArm>,
     renderer: SpotRenderer,
-    levels: Vec<f64>,
-    totals: Vec<LevelSums>,
+    /// The centred spot's expected photo-electrons per pixel (the controller's mean image).
+    mean_e: Vec<f64>,
+    totals: Vec<SettingSums>,
     blocks: Option<Blocks>,
     done: u64,
 }
 
-/// What one chunk of iterations adds: per-model sums, and the sums of its sub-blocks
-/// `(first iteration, iterations, models x levels sums)` when blocks are kept.
+/// An arm with its centroider built for the run.
+struct BuiltArm {
+    model: usize,
+    label: String,
+    centroider: Box<dyn Centroider>,
+    settings: Vec<Setting>,
+}
+
+/// What one chunk of iterations adds: per-arm sums, and the sums of its sub-blocks
+/// `(first iteration, iterations, arms x settings sums)` when blocks are kept.
 struct ChunkSums {
-    totals: Vec<LevelSums>,
+    totals: Vec<SettingSums>,
     blocks: Vec<(u64, u64, Vec<f64>)>,
 }
 
 impl<'m> Experiment<'m> {
     /// An experiment of configuration `cfg` (validated; its `iters` is not used) for `models`,
-    /// with no iteration run yet.
+    /// each read through the paper's centre of gravity, with no iteration run yet.
     pub fn new(cfg: &SimConfig, models: &[&'m dyn Readout]) -> Result<Self> {
+        let arms: Vec<Arm> = (0..models.len())
+            .map(|model| Arm {
+                model,
+                centroider: CentroiderSpec::default(),
+            })
+            .collect();
+        Self::with_arms(cfg, models, &arms)
+    }
+
+    /// An experiment of `cfg` whose results are `arms` (each a model of `models` read through a
+    /// centroider): every model is read once per frame, and its arms centroid that frame.
+    pub fn with_arms(cfg: &SimConfig, models: &[&'m dyn Readout], arms: &[Arm]) -> Result<Self> {
         cfg.validate()?;
         let renderer = SpotRenderer::new(
             cfg.spot,
@@ -115,12 +161,40 @@ impl<'m> Experiment<'m> {
             cfg.position_half_range_px,
         );
         let levels = cfg.bg_grid.levels(peak_expected_e(cfg, &renderer));
+        let mean_e = mean_spot_e(cfg, &renderer);
+        let arms = arms
+            .iter()
+            .map(|a| {
+                let readout = models.get(a.model).ok_or_else(|| {
+                    Error::invalid(
+                        "models",
+                        format!("arm of model {} of {}", a.model, models.len()),
+                    )
+                })?;
+                let ctx = CentroidContext {
+                    subap_px: cfg.subap_px,
+                    levels_e: &levels,
+                    mean_e: &mean_e,
+                    spot: cfg.spot,
+                    sampling: cfg.sampling,
+                    median_sigma_e: readout.median_sigma_e(),
+                };
+                let centroider = a.centroider.build(&ctx)?;
+                Ok(BuiltArm {
+                    model: a.model,
+                    label: a.centroider.label(),
+                    settings: centroider.settings(),
+                    centroider,
+                })
+            })
+            .collect::<Result<Vec<_>>>()?;
         Ok(Experiment {
             cfg: cfg.clone(),
             models: models.to_vec(),
-            totals: vec![LevelSums::new(levels.len()); models.len()],
+            totals: arms.iter().map(|a| a.centroider.sums()).collect(),
+            arms,
             renderer,
-            levels,
+            mean_e,
             blocks: None,
             done: 0,
         })
@@ -128,7 +202,8 @@ impl<'m> Experiment<'m> {
 
     /// Also keep the sums per block of iterations, for [`Experiment::paired_se`].
     pub fn with_blocks(mut self) -> Self {
-        self.blocks = Some(Blocks::new(self.models.len(), self.levels.len()));
+        let sizes: Vec<usize> = self.arms.iter().map(|a| a.settings.len()).collect();
+        self.blocks = Some(Blocks::new(&sizes));
         self
     }
 
@@ -193,44 +268,64 @@ impl<'m> Experiment<'m> {
         Ok(())
     }
 
-    /// Every model's result over the iterations run so far.
+    /// Every arm's result over the iterations run so far (with [`Experiment::new`], one per
+    /// model).
     pub fn results(&self) -> Vec<SimResult> {
-        self.models
+        self.arms
             .iter()
             .zip(&self.totals)
-            .map(|(m, acc)| summarise(m.name(), acc, &self.levels, &self.cfg, self.done))
+            .map(|(a, acc)| {
+                let head = Head {
+                    model: self.models[a.model].name(),
+                    centroider: a.label.clone(),
+                    param_name: a.centroider.param_name(),
+                };
+                summarise(head, acc, &a.settings, &self.cfg, self.done)
+            })
             .collect()
     }
 
-    /// Index of background level `b_e` (e-) in [`Experiment::levels`] (a level of a result).
-    pub fn level_index(&self, b_e: f64) -> Option<usize> {
-        self.levels.iter().position(|&l| l == b_e)
-    }
-
-    /// Standard error (px) of the linear combination sum(coef x R) of `terms` (models at
-    /// levels), from the scatter of block means: it carries the correlation of models run on
-    /// common random numbers. Infinite without blocks kept or with fewer than two blocks.
+    /// Standard error (px) of the linear combination sum(coef x R) of `terms` (arms at
+    /// settings, e.g. a result's [`SimResult::best`]), from the scatter of block means: it
+    /// carries the correlation of arms run on common random numbers. Infinite without blocks
+    /// kept or with fewer than two blocks.
     pub fn paired_se(&self, terms: &[Term]) -> f64 {
         self.blocks
             .as_ref()
             .map_or(f64::INFINITY, |b| b.standard_error(terms))
     }
 
-    /// Run iterations `iters` for every model, in sub-blocks of `sub` iterations (aligned on
+    /// Run iterations `iters` for every arm, in sub-blocks of `sub` iterations (aligned on
     /// multiples of `sub`).
     fn run_chunk(&self, iters: std::ops::Range<u64>, sub: u64) -> ChunkSums {
         let cfg = &self.cfg;
-        let (levels, models) = (&self.levels, &self.models);
+        let models = &self.models;
         let n = cfg.subap_px;
         let npix = n * n;
         let mut out = ChunkSums {
-            totals: vec![LevelSums::new(levels.len()); models.len()],
+            totals: self.arms.iter().map(|a| a.centroider.sums()).collect(),
             blocks: Vec::new(),
         };
         let mut accs = out.totals.clone();
-        let mut sweep = BackgroundSweep::new(levels.to_vec(), n);
+        let mut workers: Vec<_> = self.arms.iter().map(|a| a.centroider.worker()).collect();
+        // Per model: its arms, and whether any of them uses the known noise map.
+        let arms_of: Vec<Vec<usize>> = (0..models.len())
+            .map(|m| {
+                (0..self.arms.len())
+                    .filter(|&a| self.arms[a].model == m)
+                    .collect()
+            })
+            .collect();
+        let needs_map: Vec<bool> = arms_of
+            .iter()
+            .map(|arms| {
+                arms.iter()
+                    .any(|&a| self.arms[a].centroider.needs_noise_map())
+            })
+            .collect();
+        let mut sigma = vec![0.0; npix];
         let mut expected = vec![0.0; npix];
-        let mean = mean_spot_e(cfg, &self.renderer);
+        let mean = &self.mean_e;
         let mut photons = vec![0u32; npix];
         let mut shot = ShotNoise::new(npix);
         let mut normals = vec![0.0; npix];
@@ -259,14 +354,29 @@ impl<'m> Experiment<'m> {
             let input = FrameInput {
                 subap_px: n,
                 expected_e: &expected,
-                mean_e: &mean,
+                mean_e: mean,
                 photo_e: &photons,
                 normals: &normals,
             };
             let aux0 = stream(cfg.seed, it, AUX);
-            for (model, acc) in models.iter().zip(accs.iter_mut()) {
-                model.read(&input, &mut aux0.clone(), &mut image);
-                sweep.accumulate(&image, truth, acc);
+            for (m, model) in models.iter().enumerate() {
+                let known: &[f64] = if needs_map[m] {
+                    model.read_known(&input, &mut aux0.clone(), &mut image, &mut sigma);
+                    &sigma
+                } else {
+                    model.read(&input, &mut aux0.clone(), &mut image);
+                    &[]
+                };
+                let frame = CentroidFrame {
+                    image_e: &image,
+                    truth_px: truth,
+                    sigma_e: known,
+                    mean_e: mean,
+                    photon_variance_factor: model.photon_variance_factor(),
+                };
+                for &a in &arms_of[m] {
+                    workers[a].accumulate(&frame, &mut accs[a]);
+                }
             }
             if (it + 1) % sub == 0 || it + 1 == iters.end {
                 // A sub-block ends: its sums join the chunk's (into zeros when it is the whole
@@ -317,23 +427,31 @@ fn peak_expected_e(cfg: &SimConfig, renderer: &SpotRenderer) -> f64 {
     }
 }
 
-/// The result of one model from its sums over `iters` iterations.
-fn summarise(
+/// What names a result: its model, centroider and the centroider's parameter name.
+struct Head {
     model: String,
-    acc: &LevelSums,
-    levels: &[f64],
+    centroider: String,
+    param_name: Option<&'static str>,
+}
+
+/// The result of one arm from its sums over `iters` iterations at `settings`.
+fn summarise(
+    head: Head,
+    acc: &SettingSums,
+    settings: &[Setting],
     cfg: &SimConfig,
     iters: u64,
 ) -> SimResult {
     let n = iters as f64;
-    let stats: Vec<LevelStats> = levels
+    let stats: Vec<LevelStats> = settings
         .iter()
         .zip(acc.finish())
-        .map(|(&b, (sum, sum_sq, empty))| {
+        .map(|(s, (sum, sum_sq, empty))| {
             let mean = sum / n;
             let var = ((sum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
             LevelStats {
-                b_e: b,
+                param: s.param,
+                b_e: s.b_e,
                 r_px: mean,
                 r_se_px: (var / n).sqrt(),
                 empty_frames: empty,
@@ -357,16 +475,25 @@ fn summarise(
         .into_iter()
         .min_by(|&a, &b| stats[a].r_px.total_cmp(&stats[b].r_px))
         .expect("at least one level");
+    // The optimum's sweep: the settings of its part (one background sweep, or the whole
+    // parameter sweep of `tcog` and `brightest-n`).
+    let part = settings[best].part;
+    let first = settings.iter().position(|s| s.part == part).unwrap_or(best);
+    let last_of_sweep = settings.get(best + 1).is_none_or(|s| s.part != part);
     SimResult {
-        model,
+        model: head.model,
+        centroider: head.centroider,
+        param_name: head.param_name,
+        param_opt: settings[best].param,
         r_px: stats[best].r_px,
         r_se_px: stats[best].r_se_px,
         b_opt_e: stats[best].b_e,
-        b_at_grid_edge: best + 1 == stats.len() && stats.len() > 1,
+        b_at_grid_edge: last_of_sweep && stats.len() > 1,
         no_eligible_level,
-        r0_px: stats[0].r_px,
-        r0_se_px: stats[0].r_se_px,
+        r0_px: stats[first].r_px,
+        r0_se_px: stats[first].r_se_px,
         zero_frames: stats[best].empty_frames,
+        best,
         levels: stats,
     }
 }

@@ -13,7 +13,7 @@ mod sweep;
 
 pub use blocks::Term;
 pub use config::{BgGrid, SimConfig};
-pub use engine::{run, Experiment, LevelStats, SimResult, CHUNK};
+pub use engine::{run, Arm, Experiment, LevelStats, SimResult, CHUNK};
 pub(crate) use record::config_columns;
 pub use record::SimRecord;
-pub use sweep::{sweep, Grid};
+pub use sweep::{sweep, sweep_with, Grid};

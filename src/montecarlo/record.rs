@@ -6,9 +6,11 @@ use serde::ser::{Serialize, SerializeStruct, Serializer};
 
 /// One row of simulation output: a configuration and one model's result in it.
 ///
-/// Serialised (CSV, JSON) as the columns `model`, the configuration (`subap_px`, `spot`,
-/// `sampling`, `signal_photons`, `qe`, `em_gain` (empty for models without an EM register), `iters`, `seed`), the result (`r_px` ...
-/// `zero_frames`), then `bg_levels_e` and `r_by_level_px` (arrays: JSON only).
+/// Serialised (CSV, JSON) as the columns `model`, `centroider`, the configuration
+/// (`subap_px`, `spot`, `sampling`, `signal_photons`, `qe`, `em_gain` (empty for models without
+/// an EM register), `iters`, `seed`), the result (`r_px` ... `zero_frames`, then
+/// `centroider_param` and `centroider_param_opt`, empty for `cog`), then `bg_levels_e`,
+/// `param_by_level` and `r_by_level_px` (arrays: JSON only).
 #[derive(Debug, Clone)]
 pub struct SimRecord {
     /// The configuration run.
@@ -53,8 +55,9 @@ pub(crate) fn config_columns<S: SerializeStruct>(
 impl Serialize for SimRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let r = &self.result;
-        let mut s = serializer.serialize_struct("SimRecord", 19)?;
+        let mut s = serializer.serialize_struct("SimRecord", 23)?;
         s.serialize_field("model", &r.model)?;
+        s.serialize_field("centroider", &r.centroider)?;
         config_columns(&mut s, &self.config, Some(self.em_gain))?;
         s.serialize_field("r_px", &r.r_px)?;
         s.serialize_field("r_se_px", &r.r_se_px)?;
@@ -64,8 +67,12 @@ impl Serialize for SimRecord {
         s.serialize_field("r0_px", &r.r0_px)?;
         s.serialize_field("r0_se_px", &r.r0_se_px)?;
         s.serialize_field("zero_frames", &r.zero_frames)?;
+        s.serialize_field("centroider_param", &r.param_name)?;
+        s.serialize_field("centroider_param_opt", &r.param_opt)?;
         let levels: Vec<f64> = r.levels.iter().map(|l| l.b_e).collect();
         s.serialize_field("bg_levels_e", &levels)?;
+        let params: Vec<Option<f64>> = r.levels.iter().map(|l| l.param).collect();
+        s.serialize_field("param_by_level", &params)?;
         let r_by_level: Vec<f64> = r.levels.iter().map(|l| l.r_px).collect();
         s.serialize_field("r_by_level_px", &r_by_level)?;
         s.end()
@@ -86,6 +93,7 @@ mod tests {
             sigma_y_px: 2.5,
         };
         let level = |b_e, r_px| LevelStats {
+            param: None,
             b_e,
             r_px,
             r_se_px: 0.01,
@@ -93,6 +101,10 @@ mod tests {
         };
         let result = SimResult {
             model: "scmos-mean".into(),
+            centroider: "cog".into(),
+            param_name: None,
+            param_opt: None,
+            best: 1,
             r_px: 0.25,
             r_se_px: 0.5,
             b_opt_e: 1.5,
@@ -106,14 +118,16 @@ mod tests {
         let rec = SimRecord::new(&config, None, result);
         assert_eq!(
             render(std::slice::from_ref(&rec), TableFormat::Csv).unwrap(),
-            "model,subap_px,spot,sampling,signal_photons,qe,em_gain,iters,seed,r_px,r_se_px,b_opt_e,\
-             b_at_grid_edge,no_eligible_level,r0_px,r0_se_px,zero_frames\n\
-             scmos-mean,8,\"gauss:1,2.5\",integrated,50,1,,10000,1,0.25,0.5,1.5,false,true,\
-             0.75,0.125,3\n"
+            "model,centroider,subap_px,spot,sampling,signal_photons,qe,em_gain,iters,seed,r_px,\
+             r_se_px,b_opt_e,b_at_grid_edge,no_eligible_level,r0_px,r0_se_px,zero_frames,\
+             centroider_param,centroider_param_opt\n\
+             scmos-mean,cog,8,\"gauss:1,2.5\",integrated,50,1,,10000,1,0.25,0.5,1.5,false,true,\
+             0.75,0.125,3,,\n"
         );
         let json = serde_json::to_value(&rec).unwrap();
         assert_eq!(json["bg_levels_e"], serde_json::json!([0.0, 1.5]));
         assert_eq!(json["r_by_level_px"], serde_json::json!([0.75, 0.25]));
-        assert_eq!(json.as_object().unwrap().len(), 19);
+        assert_eq!(json["param_by_level"], serde_json::json!([null, null]));
+        assert_eq!(json.as_object().unwrap().len(), 23);
     }
 }

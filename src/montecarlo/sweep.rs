@@ -2,8 +2,9 @@
 //! configuration and model. Every caller (simulate, the paper's figures, the report) uses it.
 
 use super::config::SimConfig;
-use super::engine::run;
+use super::engine::{Arm, Experiment};
 use super::record::SimRecord;
+use crate::centroid::CentroiderSpec;
 use crate::detector::{ModelParams, ModelSpec, Readout};
 use crate::progress::Observer;
 use crate::spot::Spot;
@@ -56,12 +57,31 @@ pub fn sweep(
     params: &ModelParams,
     observer: &dyn Observer,
 ) -> Result<Vec<SimRecord>> {
+    sweep_with(
+        configs,
+        specs,
+        &[CentroiderSpec::default()],
+        params,
+        observer,
+    )
+}
+
+/// [`sweep`] with every model read through each of `centroiders` (each model read once per
+/// frame, its centroiders sharing that frame): records in configuration, then model, then
+/// centroider order.
+pub fn sweep_with(
+    configs: &[SimConfig],
+    specs: &[ModelSpec],
+    centroiders: &[CentroiderSpec],
+    params: &ModelParams,
+    observer: &dyn Observer,
+) -> Result<Vec<SimRecord>> {
     let work: u64 = configs
         .iter()
         .map(|c| c.iters * (c.subap_px * c.subap_px * specs.len()) as u64)
         .sum();
     observer.begin("simulate", configs.iter().map(|c| c.iters).sum(), work);
-    let records = run_all(configs, specs, params, observer);
+    let records = run_all(configs, specs, centroiders, params, observer);
     observer.end();
     records
 }
@@ -69,17 +89,28 @@ pub fn sweep(
 fn run_all(
     configs: &[SimConfig],
     specs: &[ModelSpec],
+    centroiders: &[CentroiderSpec],
     params: &ModelParams,
     observer: &dyn Observer,
 ) -> Result<Vec<SimRecord>> {
-    let mut records = Vec::with_capacity(configs.len() * specs.len());
+    let mut records = Vec::with_capacity(configs.len() * specs.len() * centroiders.len());
     for cfg in configs {
         let models: Vec<Box<dyn Readout>> = specs
             .iter()
             .map(|s| s.build(params, cfg.subap_px))
             .collect::<Result<_>>()?;
         let refs: Vec<&dyn Readout> = models.iter().map(|m| m.as_ref()).collect();
-        for (spec, r) in specs.iter().zip(run(cfg, &refs, observer)?) {
+        let arms: Vec<Arm> = (0..specs.len())
+            .flat_map(|model| {
+                centroiders
+                    .iter()
+                    .map(move |&centroider| Arm { model, centroider })
+            })
+            .collect();
+        let mut exp = Experiment::with_arms(cfg, &refs, &arms)?;
+        exp.extend_to(cfg.iters, observer, 1)?;
+        for (arm, r) in arms.iter().zip(exp.results()) {
+            let spec = &specs[arm.model];
             if r.b_at_grid_edge {
                 observer.warn(&format!(
                     "{} at {}x{} px, {}, S = {}: the optimum background is the top of the grid; \
@@ -101,7 +132,7 @@ fn run_all(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::montecarlo::BgGrid;
+    use crate::montecarlo::{run, BgGrid};
     use crate::progress::{Recorder, Silent};
     use std::sync::atomic::Ordering::Relaxed;
 

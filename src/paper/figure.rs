@@ -227,6 +227,10 @@ mod tests {
         let record = |point: usize, model: usize| {
             let result = SimResult {
                 model: format!("m{model}"),
+                centroider: "cog".into(),
+                param_name: None,
+                param_opt: None,
+                best: 0,
                 r_px: (10 * point + model) as f64,
                 r_se_px: 0.5,
                 b_opt_e: 0.0,

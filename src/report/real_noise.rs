@@ -230,6 +230,8 @@ mod tests {
             r_px: 0.1,
             r_se_px: 0.001,
             b_opt_e: 1.0,
+            param_name: None,
+            param_opt: None,
             sigma_grid_e: vec![],
             r_const_px: vec![],
             status,

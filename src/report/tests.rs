@@ -155,6 +155,10 @@ fn compared(spec: ModelSpec, signal_photons: f64, r_px: f64, r_se_px: f64) -> Co
     };
     let result = SimResult {
         model: format!("{spec:?}"),
+        centroider: "cog".into(),
+        param_name: None,
+        param_opt: None,
+        best: 0,
         r_px,
         r_se_px,
         b_opt_e: 0.0,
@@ -257,6 +261,8 @@ pub(crate) fn record(
         r_px: 0.3,
         r_se_px: 0.003,
         b_opt_e: 0.0,
+        param_name: None,
+        param_opt: None,
         sigma_grid_e: vec![],
         r_const_px: vec![],
         iters: cfg.iters,

@@ -137,6 +137,19 @@ impl Spot {
             } => format!("gauss:{sigma_x_px},{sigma_y_px}"),
         }
     }
+
+    /// Full width at half maximum of the intensity (px; the geometric mean of the two axes
+    /// for an elongated Gaussian). The Airy FWHM is 1.029 lambda/D and its first dark ring
+    /// has diameter 2.44 lambda/D, so FWHM = 0.4217 x the ring diameter.
+    pub fn fwhm_px(&self) -> f64 {
+        match *self {
+            Spot::Airy { diameter_px } => 1.029 / 2.44 * diameter_px,
+            Spot::Gauss {
+                sigma_x_px,
+                sigma_y_px,
+            } => (8.0 * std::f64::consts::LN_2).sqrt() * (sigma_x_px * sigma_y_px).sqrt(),
+        }
+    }
 }
 
 /// How the intensity is turned into pixel values.

@@ -113,6 +113,12 @@ fn result_columns(records: &[SimRecord]) -> Vec<Column> {
         name: "model",
         cell: |r| r.result.model.clone(),
     }];
+    if records.iter().any(|r| r.result.centroider != "cog") {
+        cols.push(Column {
+            name: "centroider",
+            cell: |r| r.result.centroider.clone(),
+        });
+    }
     if records.iter().any(|r| r.em_gain.is_some()) {
         cols.push(Column {
             name: "em_gain",
@@ -137,6 +143,15 @@ fn result_columns(records: &[SimRecord]) -> Vec<Column> {
             cell: |r| sig(r.result.r0_px, 4),
         },
     ]);
+    if records.iter().any(|r| r.result.param_opt.is_some()) {
+        cols.push(Column {
+            name: "param_opt",
+            cell: |r| match (r.result.param_name, r.result.param_opt) {
+                (Some(name), Some(v)) => format!("{name}={}", plain(trimmed(v, 3))),
+                _ => String::new(),
+            },
+        });
+    }
     if records.iter().any(|r| r.result.zero_frames > 0) {
         cols.push(Column {
             name: "zero_frames",

@@ -1,0 +1,108 @@
+//! `brightest-n`: the centre of gravity of a frame's N brightest pixels, each less the value
+//! of the (N+1)-th brightest (the selection of the Durham simulation platform), N swept.
+//!
+//! With the pixels sorted once per frame, running sums over the sorted order give every N's
+//! centroid in O(1): sum(v) = sum(x) - N t, sum(v X) = sum(x X) - t sum(X), with t the
+//! (N+1)-th value and X the positions relative to the truth.
+
+use super::centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
+
+/// The brightest-N centroider over a grid of N.
+#[derive(Debug, Clone)]
+pub(super) struct BrightestN {
+    /// Pixel counts N, ascending, each below n^2.
+    grid: Vec<usize>,
+    n: usize,
+}
+
+impl BrightestN {
+    /// N over `grid` (ascending, each in 1..n^2) for n x n sub-apertures.
+    pub(super) fn new(grid: Vec<usize>, n: usize) -> Self {
+        debug_assert!(grid.windows(2).all(|w| w[0] < w[1]) && grid.iter().all(|&k| k < n * n));
+        BrightestN { grid, n }
+    }
+}
+
+impl Centroider for BrightestN {
+    fn name(&self) -> String {
+        "brightest-n".into()
+    }
+
+    fn param_name(&self) -> Option<&'static str> {
+        Some("n_pixels")
+    }
+
+    fn settings(&self) -> Vec<Setting> {
+        self.grid
+            .iter()
+            .map(|&k| Setting {
+                param: Some(k as f64),
+                b_e: 0.0,
+                part: 0,
+            })
+            .collect()
+    }
+
+    fn sums(&self) -> SettingSums {
+        SettingSums::new(&[self.grid.len()])
+    }
+
+    fn needs_noise_map(&self) -> bool {
+        false
+    }
+
+    fn worker(&self) -> Box<dyn CentroidWorker + '_> {
+        Box::new(BrightestWorker {
+            c: self,
+            order: (0..self.n * self.n).collect(),
+        })
+    }
+}
+
+/// A thread's pixel order.
+struct BrightestWorker<'c> {
+    c: &'c BrightestN,
+    order: Vec<usize>,
+}
+
+impl CentroidWorker for BrightestWorker<'_> {
+    fn accumulate(&mut self, f: &CentroidFrame, acc: &mut SettingSums) {
+        let (img, n) = (f.image_e, self.c.n);
+        let c = (n as f64 - 1.0) / 2.0;
+        let (tx, ty) = (f.truth_px.0 + c, f.truth_px.1 + c);
+        // Brightest first; ties broken by pixel index so the order is reproducible.
+        self.order
+            .sort_unstable_by(|&a, &b| img[b].total_cmp(&img[a]).then(a.cmp(&b)));
+        let centre_error = f.truth_px.0.hypot(f.truth_px.1);
+        let sums = acc.part_mut(0);
+        // Running sums over the brightest pixels: value, value x X, value x Y, X, Y.
+        let mut run = [0.0f64; 5];
+        let mut taken = 0;
+        for (k, &want) in self.c.grid.iter().enumerate() {
+            while taken < want {
+                let p = self.order[taken];
+                let (x, y) = ((p % n) as f64 - tx, (p / n) as f64 - ty);
+                let v = img[p];
+                run[0] += v;
+                run[1] += v * x;
+                run[2] += v * y;
+                run[3] += x;
+                run[4] += y;
+                taken += 1;
+            }
+            let t = img[self.order[want]];
+            let mass = run[0] - want as f64 * t;
+            let d = if mass > 0.0 {
+                let (mx, my) = (run[1] - t * run[3], run[2] - t * run[4]);
+                (mx * mx + my * my).sqrt() / mass
+            } else {
+                // All N equal to the (N+1)-th: nothing above the threshold, the centre is
+                // the estimate.
+                sums.empty[k] += 1;
+                centre_error
+            };
+            sums.sum[k] += d;
+            sums.sum_sq[k] += d * d;
+        }
+    }
+}
