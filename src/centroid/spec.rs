@@ -251,13 +251,15 @@ impl CentroiderSpec {
                     ));
                 }
                 let grid = match self.param {
-                    Some(p) if p as usize >= n * n => return Err(Error::invalid(
-                        "centroider",
-                        format!(
+                    Some(p) if p as usize >= n * n => {
+                        return Err(Error::invalid(
+                            "centroider",
+                            format!(
                             "brightest-n:{p}: N must be below the {} pixels of the sub-aperture",
                             n * n
                         ),
-                    )),
+                        ))
+                    }
                     Some(p) => vec![p as usize],
                     None => n_grid(n * n - 1),
                 };

@@ -1,10 +1,10 @@
 //! `detnoise effective`: the effective Gaussian read noise over a grid of configurations.
 
-use super::args::{real, whole, DetectorArgs, SweepArgs};
+use super::args::{real, whole, CentroiderArgs, DetectorArgs, SweepArgs};
 use super::progress::Terminal;
 use crate::detector::ModelSpec;
 use crate::effective::{
-    effective_table, write_tables, EffectiveRecord, Precision, Status, TABLE_NAMES,
+    effective_table_with, write_tables, EffectiveRecord, Precision, Status, TABLE_NAMES,
 };
 use crate::montecarlo::SimConfig;
 use crate::output::{DirPlan, OutputDir};
@@ -85,6 +85,12 @@ pub struct EffectiveArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
+    /// The centroiders the detector is read through (the constant-sigma references always use
+    /// cog): sigma_eff is then the uniform camera that, centroided plainly, matches this camera
+    /// under that centroider. Heatmaps of a centroider other than cog carry its name, e.g.
+    /// effective_noise_S50_masked-cog.png.
+    #[command(flatten)]
+    pub centroiders: CentroiderArgs,
     /// Output directory: effective_noise.csv, effective_noise.json and one heatmap per signal
     /// (e.g. effective_noise_S50.png and .svg for 50 photons). Written only when the run succeeds; an existing
     /// directory is replaced only if detnoise wrote it.
@@ -108,6 +114,7 @@ impl EffectiveArgs {
     pub fn validate(&self) -> Result<()> {
         let spec = ModelSpec::parse(&self.model)?;
         self.detector.validate(std::slice::from_ref(&spec))?;
+        self.centroiders.specs()?;
         self.sweep.validate()?;
         self.precision
             .precision(self.sweep.iters)
@@ -137,7 +144,15 @@ pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
     let params = args.detector.params()?;
     let configs = args.sweep.configs()?;
     let precision = args.precision.precision(args.sweep.iters);
-    let records = effective_table(&configs, &specs, &params, &precision, &Terminal::default())?;
+    let centroiders = args.centroiders.specs()?;
+    let records = effective_table_with(
+        &configs,
+        &specs,
+        &centroiders,
+        &params,
+        &precision,
+        &Terminal::default(),
+    )?;
     write_outputs(&records, &dir)?;
     print!("{}", terminal_table(&records));
     let path = dir.commit()?;
@@ -166,7 +181,13 @@ pub fn terminal_table(records: &[EffectiveRecord]) -> String {
         "{:>5}  {:<12} {:>8} {:>9} {:>10} {:>8} {:>8}  status",
         "subap", "spot", "photons", "iters", "sigma_eff", "SE", "target"
     );
-    for r in records {
+    let several = records
+        .iter()
+        .any(|r| r.centroider != records[0].centroider);
+    for (k, r) in records.iter().enumerate() {
+        if several && (k == 0 || records[k - 1].centroider != r.centroider) {
+            let _ = writeln!(out, "centroider {}:", r.centroider);
+        }
         let (c, e) = (&r.config, &r.effective);
         let num = |v: f64, ok: bool| {
             if ok && v.is_finite() {

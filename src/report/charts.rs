@@ -47,6 +47,9 @@ pub fn r_against_sweep(records: &[SimRecord], path: &Path) -> Result<()> {
     let (x_label, x_of, log_x) = axes[k];
     let series_key = |r: &SimRecord| {
         let mut parts = vec![r.result.model.clone()];
+        if r.result.centroider != "cog" {
+            parts.push(r.result.centroider.clone());
+        }
         if k != 0 && counts[0] > 1 {
             parts.push(format!("S = {}", r.config.signal_photons));
         }
@@ -99,12 +102,37 @@ fn spot_size(spot: &str) -> f64 {
 /// are not `ok` grey with their status. The records must be of one model.
 pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
     let model = records.first().map_or("", |r| r.model.as_str());
-    save_heatmaps(
-        records,
-        &NoiseScale::from_ok(records),
-        &|s| format!("Effective read noise (e-), {model}, S = {s} photons per sub-aperture"),
-        &|s, ext| dir.path(&format!("effective_noise_S{s}.{ext}")),
-    )
+    let scale = NoiseScale::from_ok(records);
+    let mut centroiders: Vec<&str> = Vec::new();
+    for r in records {
+        if !centroiders.contains(&r.centroider.as_str()) {
+            centroiders.push(&r.centroider);
+        }
+    }
+    let mut paths = Vec::new();
+    for c in centroiders {
+        // The paper's centroider keeps the plain names; the others are named in the file.
+        let (suffix, named) = match c {
+            "cog" => (String::new(), String::new()),
+            c => (format!("_{}", c.replace(':', "_")), format!(", {c}")),
+        };
+        let mine: Vec<EffectiveRecord> = records
+            .iter()
+            .filter(|r| r.centroider == c)
+            .cloned()
+            .collect();
+        paths.extend(save_heatmaps(
+            &mine,
+            &scale,
+            &|s| {
+                format!(
+                    "Effective read noise (e-), {model}{named}, S = {s} photons per sub-aperture"
+                )
+            },
+            &|s, ext| dir.path(&format!("effective_noise_S{s}{suffix}.{ext}")),
+        )?);
+    }
+    Ok(paths)
 }
 
 /// R against signal at one sub-aperture and spot, one line per model (in order of first
