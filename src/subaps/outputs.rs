@@ -150,8 +150,6 @@ pub struct SubapsSummary {
     pub options: Binding,
     /// How sub-apertures are given to shards.
     pub shard_rule: String,
-    /// Shards of the run (1 for a single run).
-    pub shards: usize,
     /// Sub-apertures by status word (every word listed, in the order of the legend).
     pub counts: serde_json::Map<String, serde_json::Value>,
     /// sigma_eff over the `ok` sub-apertures; null when none is `ok`.
@@ -168,7 +166,6 @@ impl SubapsSummary {
             map_source: header.map_source.clone(),
             options: header.binding.clone(),
             shard_rule: "shard K of N holds the sub-apertures whose index is K-1 modulo N".into(),
-            shards: header.shard.n,
             counts: Status::ALL
                 .iter()
                 .map(|s| {
