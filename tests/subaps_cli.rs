@@ -169,3 +169,84 @@ fn shards_merged_from_the_command_line_equal_one_run() {
         .unwrap();
     assert_eq!(o.status.code(), Some(2));
 }
+
+/// The bundled sCMOS darks' report on a one-configuration grid, optionally with a lenslet
+/// geometry; returns the directory written.
+fn report(dir: &Path, name: &str, geometry: Option<&str>) -> PathBuf {
+    use detnoise::effective::Precision;
+    use detnoise::report::{run, ReportOptions};
+    use detnoise::subaps::{Geometry, GridSpec};
+    let out = dir.join(name);
+    let options = ReportOptions {
+        darks_paths: vec![common::data("scmos-darks-64x64.fits")],
+        gain_e_per_adu: Some(0.25),
+        subaps_px: Some(vec![8]),
+        spots: Some(vec![detnoise::spot::Spot::Airy { diameter_px: 2.0 }]),
+        signals_photons: Some(vec![50.0]),
+        iters: 2000,
+        precision: Precision::fixed(2000),
+        out_dir: out.clone(),
+        subaps: geometry.map(|g| Geometry {
+            grid: GridSpec::parse(g).unwrap(),
+            mask: None,
+        }),
+        ..ReportOptions::default()
+    };
+    run(&options, &detnoise::progress::Silent).unwrap();
+    out
+}
+
+#[test]
+fn a_report_with_a_lenslet_grid_adds_the_map_and_is_otherwise_unchanged() {
+    let d = tempfile::tempdir().unwrap();
+    let plain = report(d.path(), "plain", None);
+    let with = report(d.path(), "with", Some("16,16,0,0"));
+    let names = |dir: &Path| {
+        let mut v: Vec<String> = std::fs::read_dir(dir)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    let (a, b) = (names(&plain), names(&with));
+    let added: Vec<&String> = b.iter().filter(|n| !a.contains(n)).collect();
+    let mut expect: Vec<&str> = detnoise::subaps::OUTPUT_NAMES.to_vec();
+    expect.sort();
+    assert_eq!(added, expect);
+    assert!(!a.iter().any(|n| n.starts_with("subaps")));
+    // Every file of the plain report is the same in the other, but for the summary and the
+    // page (and the manifest, which lists the files): the summary gains one key.
+    for n in &a {
+        if ["summary.json", "index.html", ".detnoise-manifest.json"].contains(&n.as_str()) {
+            continue;
+        }
+        assert_eq!(
+            std::fs::read(plain.join(n)).unwrap(),
+            std::fs::read(with.join(n)).unwrap(),
+            "{n}"
+        );
+    }
+    let json = |dir: &Path| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap()
+    };
+    let (mut s_plain, mut s_with) = (json(&plain), json(&with));
+    assert!(s_plain.get("subaps").is_none());
+    let subaps = s_with.as_object_mut().unwrap().remove("subaps").unwrap();
+    s_plain.as_object_mut().unwrap().remove("tool");
+    s_with.as_object_mut().unwrap().remove("tool");
+    assert_eq!(s_plain, s_with);
+    // 4x4 sub-apertures of 16 px, every one counted once, at the operating point's signal.
+    let counts = subaps["counts"].as_object().unwrap();
+    let total: u64 = counts.values().map(|v| v.as_u64().unwrap()).sum();
+    assert_eq!(total, 16);
+    assert_eq!(subaps["options"]["signal_photons"], 50.0);
+    let page = std::fs::read_to_string(with.join("index.html")).unwrap();
+    assert!(
+        page.contains("Effective read noise per sub-aperture")
+            && page.contains("subaps_sigma_eff.png")
+    );
+    assert!(!std::fs::read_to_string(plain.join("index.html"))
+        .unwrap()
+        .contains("per sub-aperture</h2>"));
+}

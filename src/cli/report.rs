@@ -81,6 +81,11 @@ pub struct ReportArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
+    /// Lenslet geometry of the per-sub-aperture map (sCMOS): with --subap-grid the report adds
+    /// the effective read noise of every sub-aperture of its measured map at the operating
+    /// point's spot and signal (subaps.* files and a section of the page).
+    #[command(flatten)]
+    pub subap_geometry: super::subaps::SubapGeometryArgs,
     /// Output directory, written only when the whole report succeeded; an existing directory is
     /// replaced only if detnoise wrote it.
     #[arg(long)]
@@ -185,6 +190,10 @@ impl ReportArgs {
         // The register is checked with the user's gain and stages before any file is read.
         options.model_params.em_gain = self.detector.em_gain;
         options.model_params.stages = self.detector.stages;
+        options.subaps = self.subap_geometry.geometry()?;
+        options
+            .model_input_paths
+            .extend(self.subap_geometry.subap_mask.iter().cloned());
         options.validate()?;
         options.model_params = self.detector.params()?;
         Ok(options)

@@ -16,6 +16,7 @@ mod point;
 mod real_noise;
 mod result;
 mod scmos;
+mod subaps;
 
 #[cfg(test)]
 mod tests;
@@ -84,17 +85,32 @@ pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportRes
         .chain(&options.model_input_paths)
         .cloned()
         .collect();
+    // With a lenslet geometry, the per-sub-aperture map's files too.
+    let names: Vec<&str> = OUTPUT_NAMES
+        .iter()
+        .chain(
+            options
+                .subaps
+                .iter()
+                .flat_map(|_| &crate::subaps::OUTPUT_NAMES),
+        )
+        .copied()
+        .collect();
     let dir = OutputDir::prepare(
         &options.out_dir,
         DirPlan {
             command: "report",
             force: options.force,
             inputs: &inputs,
-            names: &OUTPUT_NAMES,
+            names: &names,
         },
     )?;
     let stack = FrameStack::open(&options.darks_paths)?;
     stack.require_frames(2, "a read-noise map")?;
+    // The geometry must fit the frames (known from the headers) before the work.
+    if let Some(g) = &options.subaps {
+        g.layout(stack.shape.0, stack.shape.1)?;
+    }
     let mut result = match options.detector {
         DetectorKind::Scmos => scmos::run(options, &grid, &stack, &dir, observer)?,
         DetectorKind::Emccd => emccd::run(options, &grid, &stack, &dir)?,

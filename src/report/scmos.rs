@@ -163,6 +163,15 @@ pub(crate) fn run(
         write_atomic(&dir.path(name), render(&effective, format)?.as_bytes())?;
         files.push(name.into());
     }
+    let subaps = match (&o.subaps, params.map.as_deref()) {
+        (Some(geometry), Some(map)) => {
+            let (summary, names) =
+                super::subaps::subaps_section(o, grid, geometry, map, dir, observer)?;
+            files.extend(names);
+            Some(summary)
+        }
+        _ => None,
+    };
     let comparison = compare_models(grid, &op, &params, &scmos_groups(o.qe, o.qe_emccd))?;
     let error_bars = write_comparison(&comparison, dir, &scmos_labels(&params))?;
     files.extend(COMPARISON_FILES.map(String::from));
@@ -197,6 +206,7 @@ pub(crate) fn run(
         sampling: grid.sampling.label().into(),
         quick: o.quick,
         real_noise,
+        subaps,
     };
     write_json(&dir.path("summary.json"), &summary)?;
     let page = index_html(&ScmosPage {
