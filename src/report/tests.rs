@@ -338,6 +338,7 @@ fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String 
             dark_frames: None,
             rows: vec![],
         },
+        subaps: None,
     };
     let heatmaps = vec![
         PathBuf::from("out/effective_noise_S20.png"),
