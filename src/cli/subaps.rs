@@ -51,6 +51,18 @@ impl SubapGeometryArgs {
 /// Options of `detnoise subaps`.
 #[derive(clap::Args, Debug)]
 #[command(mut_arg("subap", |a| a.hide(true).default_value(GRID_SIZE)))]
+#[command(mut_arg("spot", |a| a.help(
+    "The spot of every sub-aperture (one): airy:D (first-dark-ring diameter D px) or \
+     gauss:SX,SY (standard deviations in px); sizes >= 0.1 px"
+)))]
+#[command(mut_arg("signal", |a| a.help(
+    "The signal of every sub-aperture (one), photons per sub-aperture before QE; signal x QE at \
+     most 1e9 photo-electrons"
+)))]
+#[command(mut_arg("iters", |a| a.help(
+    "Starting Monte-Carlo iterations (frames) per sub-aperture, 2 to 1e9: more are added, up \
+     to --max-iters, until the precision target is met"
+)))]
 pub struct SubapsArgs {
     /// Measured read-noise map in e- (FITS/TIFF/EXR path, e.g. rms_e.fits from `darks`); a FITS
     /// map whose BUNIT is not electrons is refused. Non-finite pixels read with the rms of the
