@@ -492,3 +492,65 @@ fn the_images_hold_ok_values_only_and_the_status_codes() {
     assert!(csv.starts_with("index,grid_row,grid_col,x0_px,y0_px,sigma_eff_e,sigma_eff_se_e"));
     assert_eq!(csv.lines().count(), 13);
 }
+
+#[test]
+fn a_large_grid_is_drawn_as_an_image_with_its_files_complete() {
+    // 30x30 sub-apertures (above the heatmap's side): records made up, every tenth unreachable.
+    let map = Map::filled(60, 60, 1.0, Unit::Electrons).with_source("flat.fits");
+    let geometry = grid("2");
+    let job = small_job(&map, &geometry, 1);
+    let plan = SubapsJob {
+        config: config(2, 1000),
+        ..job
+    }
+    .plan()
+    .unwrap();
+    let window = WindowStats::of(&[1.0; 4]);
+    let records: Vec<PartRecord> = plan
+        .layout
+        .subaps
+        .iter()
+        .map(|s| PartRecord {
+            index: s.index,
+            grid_row: s.grid_row,
+            grid_col: s.grid_col,
+            status: if s.index % 10 == 0 {
+                Status::Unreachable
+            } else {
+                Status::Ok
+            },
+            sigma_eff_e: if s.index % 10 == 0 {
+                f64::NAN
+            } else {
+                1.0 + s.index as f64 / 900.0
+            },
+            sigma_eff_se_e: 0.01,
+            target_se_e: Some(0.05),
+            iters: 1000,
+            r_px: 0.3,
+            r_se_px: 0.001,
+            b_opt_e: 1.0,
+            window,
+        })
+        .collect();
+    let d = tempfile::tempdir().unwrap();
+    let (summary, _) = write_outputs(&plan.header(Shard::ALL), &records, d.path()).unwrap();
+    assert_eq!(
+        (
+            summary.count(Status::Ok),
+            summary.count(Status::Unreachable)
+        ),
+        (810, 90)
+    );
+    let spread = summary.sigma_eff_ok.unwrap();
+    assert_eq!((spread.ok, spread.min_e), (810, 1.0 + 1.0 / 900.0));
+    for name in ["subaps_sigma_eff.png", "subaps_sigma_eff.svg"] {
+        assert!(
+            std::fs::metadata(d.path().join(name)).unwrap().len() > 1000,
+            "{name}"
+        );
+    }
+    let sigma = Map::read(d.path().join("subaps_sigma_eff_e.fits"), Unit::Electrons).unwrap();
+    assert_eq!(sigma.shape(), (30, 30));
+    assert!(sigma.data[0].is_nan() && sigma.data[1] == 1.0 + 1.0 / 900.0);
+}
