@@ -26,6 +26,7 @@ pub mod rng;
 pub mod special;
 pub mod spot;
 pub mod stats;
+pub mod subaps;
 pub mod synth;
 
 pub use error::{Error, Result};

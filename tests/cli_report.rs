@@ -107,7 +107,7 @@ fn constant_noise_camera_has_that_effective_noise_and_every_output() {
     }
     assert!(std::fs::read_to_string(out.join("effective_noise.csv"))
         .unwrap()
-        .starts_with("model,subap_px,"));
+        .starts_with("model,centroider,subap_px,"));
 }
 
 #[test]

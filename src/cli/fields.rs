@@ -89,6 +89,13 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("qe_emccd", "--qe-emccd"),
     // report: the operating point of the headline numbers (crate::report::OperatingPoint)
     ("operating_point", "--operating-point"),
+    // Per-sub-aperture noise map (crate::subaps): geometry, shards, part files to merge.
+    ("subap_grid", "--subap-grid"),
+    // Centroiders (centroid).
+    ("centroider", "--centroider"),
+    ("subap_mask", "--subap-mask"),
+    ("shard", "--shard"),
+    ("parts", "PART"),
 ];
 
 /// Fields of library-only settings (chart building blocks) that no option sets: errors about

@@ -11,6 +11,7 @@ pub mod progress;
 pub mod ptc;
 pub mod report;
 pub mod simulate;
+pub mod subaps;
 pub mod synth;
 
 use crate::error::{EXIT_CODES_HELP, EXIT_OK, EXIT_USAGE};
@@ -55,6 +56,10 @@ pub enum Command {
     Ptc(ptc::PtcArgs),
     /// Write a synthetic sCMOS or EMCCD stack with a manifest of its truth.
     Synth(synth::SynthArgs),
+    /// Effective read noise of every sub-aperture of a measured noise map (resumable, shardable).
+    Subaps(subaps::SubapsArgs),
+    /// Merge the part files of `subaps --shard K/N` runs into the per-sub-aperture map.
+    SubapsMerge(subaps::SubapsMergeArgs),
 }
 
 /// The command line: the derived parser, with the exit codes at the end of every help page,
@@ -115,6 +120,8 @@ pub fn main() -> i32 {
         Command::Emgain(a) => emgain::run(a),
         Command::Ptc(a) => ptc::run(a),
         Command::Synth(a) => synth::run(a),
+        Command::Subaps(a) => subaps::run_cli(a),
+        Command::SubapsMerge(a) => subaps::run_merge_cli(a),
     };
     // An interruption being handled ends the process with its own code: wait for it.
     crate::output::temps::settle();

@@ -17,6 +17,7 @@ use crate::report::DetectorKind;
 /// Options of `detnoise report`.
 #[derive(clap::Args, Debug)]
 #[command(after_long_help = SIMULATION_OPTIONS_HELP)]
+#[command(mut_arg("centroider", |a| a.default_value("cog,tcog,masked-cog,ivw-cog,wcog,brightest-n")))]
 #[command(mut_arg("gain_e_per_adu", |a| a.help(
     "Conversion gain, e- per adu, of --darks (needed when no flats are given) and of \
      --dark-frames"
@@ -81,6 +82,16 @@ pub struct ReportArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
+    /// Lenslet geometry of the per-sub-aperture map (sCMOS): with --subap-grid the report adds
+    /// the effective read noise of every sub-aperture of its measured map at the operating
+    /// point's spot and signal (subaps.* files and a section of the page).
+    #[command(flatten)]
+    pub subap_geometry: super::subaps::SubapGeometryArgs,
+    /// The centroiders of the sCMOS report's centroider section (each at its best parameter,
+    /// at the operating point and over the grid's sub-aperture sizes; cog is always the
+    /// reference); the first reads the per-sub-aperture map of --subap-grid.
+    #[command(flatten)]
+    pub centroiders: super::args::CentroiderArgs,
     /// Output directory, written only when the whole report succeeded; an existing directory is
     /// replaced only if detnoise wrote it.
     #[arg(long)]
@@ -121,6 +132,12 @@ How a report uses the simulation options:
   --map
       Not used (a file given is still read): an sCMOS report simulates its own measured map,
       an EMCCD report no map.
+  --centroider, --mask-above
+      sCMOS report: the centroiders of the centroider section (the measured map and the fitted
+      pdf at the operating point, the map over the grid's sub-aperture sizes, and the EMCCD
+      comparison with each side's best); cog is always run as the reference, and every other
+      table and chart of the report uses cog. The first centroider also reads --subap-grid's
+      per-sub-aperture map. EMCCD report: not used.
   --rts-table, --row-noise-e, --column-noise-e, --dark-frames, --dark-frames-max-mib
       The scmos-rts, scmos-correlated and scmos-frames models (see `detnoise simulate
       --help`); a file given is read and checked.
@@ -185,6 +202,11 @@ impl ReportArgs {
         // The register is checked with the user's gain and stages before any file is read.
         options.model_params.em_gain = self.detector.em_gain;
         options.model_params.stages = self.detector.stages;
+        options.subaps = self.subap_geometry.geometry()?;
+        options.centroiders = self.centroiders.specs()?;
+        options
+            .model_input_paths
+            .extend(self.subap_geometry.subap_mask.iter().cloned());
         options.validate()?;
         options.model_params = self.detector.params()?;
         Ok(options)

@@ -41,12 +41,25 @@ const PATTERN_STREAM: u64 = 0x5c05;
 pub struct PerPixelSigma {
     sigma_e: Vec<f64>,
     name: String,
+    /// The camera's median sigma (e-) when this is a window of a larger map.
+    median_e: Option<f64>,
 }
 
 impl PerPixelSigma {
     /// A given n x n sigma map (e-), row-major.
     pub fn new(sigma_e: Vec<f64>, name: String) -> Self {
-        PerPixelSigma { sigma_e, name }
+        PerPixelSigma {
+            sigma_e,
+            name,
+            median_e: None,
+        }
+    }
+
+    /// The same sigmas, with the median (e-) of the whole camera they were cut from (the
+    /// reference of noise-map masking; by default the median of these sigmas).
+    pub fn with_median_e(mut self, median_e: f64) -> Self {
+        self.median_e = Some(median_e);
+        self
     }
 
     /// Seeded pattern number `pattern` of `subap_px`^2 sigmas drawn from `pdf`.
@@ -91,7 +104,8 @@ impl Readout for PerPixelSigma {
     }
 
     fn median_sigma_e(&self) -> f64 {
-        crate::stats::median(&self.sigma_e)
+        self.median_e
+            .unwrap_or_else(|| crate::stats::median(&self.sigma_e))
     }
 }
 

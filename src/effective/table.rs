@@ -259,16 +259,17 @@ mod tests {
         // `iters` is the count the value rests on, not the configuration's starting one.
         assert_eq!(
             csv,
-            "model,subap_px,spot,sampling,signal_photons,qe,iters,seed,sigma_eff_e,\
-             sigma_eff_se_e,target_se_e,r_px,r_se_px,b_opt_e,status\n\
-             scmos-map,8,airy:2,integrated,50,1,40000,1,,,,0.5,0.25,2,unreachable\n"
+            "model,centroider,subap_px,spot,sampling,signal_photons,qe,iters,seed,sigma_eff_e,\
+             sigma_eff_se_e,target_se_e,r_px,r_se_px,b_opt_e,centroider_param,\
+             centroider_param_opt,status\n\
+             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,0.5,0.25,2,,,unreachable\n"
         );
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&written[1]).unwrap()).unwrap();
         assert!(json[0]["sigma_eff_e"].is_null() && json[0]["target_se_e"].is_null());
         assert_eq!(json[0]["status"], "unreachable");
         assert_eq!(json[0]["iters"], 40_000);
-        assert_eq!(json[0].as_object().unwrap().len(), 15);
+        assert_eq!(json[0].as_object().unwrap().len(), 18);
     }
 
     #[test]

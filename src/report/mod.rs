@@ -5,6 +5,7 @@
 //! the files written); progress and warnings go to a [`crate::progress::Observer`]. The output
 //! directory is written only when the whole report succeeded.
 
+mod centroiders;
 pub mod charts;
 mod compare;
 mod emccd;
@@ -16,6 +17,7 @@ mod point;
 mod real_noise;
 mod result;
 mod scmos;
+mod subaps;
 
 #[cfg(test)]
 mod tests;
@@ -41,7 +43,7 @@ use crate::Result;
 use std::path::PathBuf;
 
 /// Files a report may write into its directory (glob patterns).
-const OUTPUT_NAMES: [&str; 28] = [
+const OUTPUT_NAMES: [&str; 34] = [
     "offset_adu.fits",
     "rms_adu.fits",
     "rms_e.fits",
@@ -65,6 +67,12 @@ const OUTPUT_NAMES: [&str; 28] = [
     "r_vs_signal.png",
     "r_vs_signal.svg",
     "ptc.png",
+    "centroiders.csv",
+    "centroiders.json",
+    "centroiders.png",
+    "centroiders_vs_emccd.csv",
+    "centroiders_vs_emccd.json",
+    "centroiders_vs_emccd.png",
     POINTS_NAMES[0],
     POINTS_NAMES[1],
     "emgain.png",
@@ -84,17 +92,32 @@ pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportRes
         .chain(&options.model_input_paths)
         .cloned()
         .collect();
+    // With a lenslet geometry, the per-sub-aperture map's files too.
+    let names: Vec<&str> = OUTPUT_NAMES
+        .iter()
+        .chain(
+            options
+                .subaps
+                .iter()
+                .flat_map(|_| &crate::subaps::OUTPUT_NAMES),
+        )
+        .copied()
+        .collect();
     let dir = OutputDir::prepare(
         &options.out_dir,
         DirPlan {
             command: "report",
             force: options.force,
             inputs: &inputs,
-            names: &OUTPUT_NAMES,
+            names: &names,
         },
     )?;
     let stack = FrameStack::open(&options.darks_paths)?;
     stack.require_frames(2, "a read-noise map")?;
+    // The geometry must fit the frames (known from the headers) before the work.
+    if let Some(g) = &options.subaps {
+        g.layout(stack.shape.0, stack.shape.1)?;
+    }
     let mut result = match options.detector {
         DetectorKind::Scmos => scmos::run(options, &grid, &stack, &dir, observer)?,
         DetectorKind::Emccd => emccd::run(options, &grid, &stack, &dir)?,

@@ -68,6 +68,13 @@ pub struct ReportOptions {
     pub out_dir: PathBuf,
     /// Write into an existing `out_dir` that holds other files (never replacing them).
     pub force: bool,
+    /// Lenslet geometry of the per-sub-aperture map (sCMOS): with it the report adds the
+    /// effective read noise of every sub-aperture of its measured map at the operating point's
+    /// spot and signal; None: no such section.
+    pub subaps: Option<crate::subaps::Geometry>,
+    /// Centroiders compared in the sCMOS report's centroider section (`cog` is always the
+    /// reference); the first one also reads the per-sub-aperture map.
+    pub centroiders: Vec<crate::centroid::CentroiderSpec>,
 }
 
 impl Default for ReportOptions {
@@ -93,6 +100,10 @@ impl Default for ReportOptions {
             model_input_paths: Vec::new(),
             out_dir: PathBuf::new(),
             force: false,
+            subaps: None,
+            centroiders: crate::centroid::ALL_KINDS
+                .map(crate::centroid::CentroiderSpec::of)
+                .to_vec(),
         }
     }
 }
@@ -141,6 +152,15 @@ impl ReportOptions {
             grid.config(op.subap_px, op.spot, op.signal_photons, qe)
                 .validate()
                 .map_err(|e| op.blame(e))?;
+        }
+        if let Some(g) = &self.subaps {
+            g.grid.validate()?;
+            if self.detector == DetectorKind::Emccd {
+                return Err(Error::invalid(
+                    "subap_grid",
+                    "the per-sub-aperture map reads an sCMOS noise map: an EMCCD report has none",
+                ));
+            }
         }
         let p = &self.model_params;
         EmRegister::check(p.em_gain, p.stages, "em_gain")?;

@@ -30,7 +30,7 @@ pub fn article(n: u64) -> &'static str {
 }
 
 /// A number with `decimals`, or a dash when it is not finite (never "NaN").
-fn num(v: f64, decimals: usize) -> String {
+pub(super) fn num(v: f64, decimals: usize) -> String {
     if v.is_finite() {
         format!("{v:.decimals$}")
     } else {
@@ -74,7 +74,7 @@ dl.legend{{display:grid;grid-template-columns:max-content 1fr;gap:.2em 1em;font-
 }
 
 /// A figure: the image `src` with plain-text `alt`, and its `caption` (HTML).
-fn figure(h: &mut String, src: &str, alt: &str, caption: &str) {
+pub(super) fn figure(h: &mut String, src: &str, alt: &str, caption: &str) {
     let _ = write!(
         h,
         "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{caption}</figcaption></figure>",
@@ -84,7 +84,7 @@ fn figure(h: &mut String, src: &str, alt: &str, caption: &str) {
 }
 
 /// A key number: its label and value (both HTML).
-fn key(h: &mut String, label: &str, value: &str) {
+pub(super) fn key(h: &mut String, label: &str, value: &str) {
     let _ = write!(h, "<div class=\"key\">{label}<b>{value}</b></div>");
 }
 
@@ -285,6 +285,10 @@ pub fn index_html(p: &ScmosPage) -> String {
     );
     charts(&mut h, p);
     real_noise_section(&mut h, &s.real_noise, &at.describe());
+    super::centroiders::section_html(&mut h, &s.centroiders, &op.at);
+    if let Some(subaps) = &s.subaps {
+        super::subaps::section_html(&mut h, subaps);
+    }
     effective_table(&mut h, p.effective);
     fit_table(&mut h, p.fit);
     let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with its BLAKE3 checksum), darks_summary.json.</p></body></html>",

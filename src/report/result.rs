@@ -134,6 +134,13 @@ pub struct ReportSummary {
     /// The camera's noise beyond Gaussian pixels (row, column and telegraph noise, its own
     /// dark frames) and what it adds to the effective read noise at the operating point.
     pub real_noise: RealNoise,
+    /// The per-sub-aperture map (with a lenslet geometry): its options, counts by status and
+    /// the spread of sigma_eff; absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub subaps: Option<crate::subaps::SubapsSummary>,
+    /// The camera read through each centroider: sigma_eff per method, the best one, the gap
+    /// each recovers, and the comparison with an EMCCD with each side's best centroider.
+    pub centroiders: super::centroiders::Centroiders,
 }
 
 /// The headline numbers of an sCMOS report: the effective read noise at the operating point.

@@ -1,6 +1,7 @@
 //! The sCMOS report: dark maps, conversion gain, the fitted per-pixel noise distribution, the
 //! effective read noise over the grid (fitted pdf and measured map), and the comparison.
 
+use super::centroiders::{centroider_section, Inputs as CentroiderInputs, CENTROIDER_FILES};
 use super::charts::effective_heatmaps;
 use super::compare::{
     compare_models, scmos_groups, scmos_labels, write_comparison, COMPARISON_FILES,
@@ -163,6 +164,29 @@ pub(crate) fn run(
         write_atomic(&dir.path(name), render(&effective, format)?.as_bytes())?;
         files.push(name.into());
     }
+    let subaps = match (&o.subaps, params.map.as_deref()) {
+        (Some(geometry), Some(map)) => {
+            let (summary, names) =
+                super::subaps::subaps_section(o, grid, geometry, map, dir, observer)?;
+            files.extend(names);
+            Some(summary)
+        }
+        _ => None,
+    };
+    let centroiders = centroider_section(
+        &CentroiderInputs {
+            grid,
+            op: &op,
+            params: &params,
+            centroiders: &o.centroiders,
+            qe: (o.qe, o.qe_emccd),
+            median_rms_e: fit.data.median_e,
+            precision: &o.precision_in_use(),
+        },
+        &dir.path(""),
+        observer,
+    )?;
+    files.extend(CENTROIDER_FILES.map(String::from));
     let comparison = compare_models(grid, &op, &params, &scmos_groups(o.qe, o.qe_emccd))?;
     let error_bars = write_comparison(&comparison, dir, &scmos_labels(&params))?;
     files.extend(COMPARISON_FILES.map(String::from));
@@ -197,6 +221,8 @@ pub(crate) fn run(
         sampling: grid.sampling.label().into(),
         quick: o.quick,
         real_noise,
+        subaps,
+        centroiders,
     };
     write_json(&dir.path("summary.json"), &summary)?;
     let page = index_html(&ScmosPage {

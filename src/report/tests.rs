@@ -344,6 +344,13 @@ fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String 
             dark_frames: None,
             rows: vec![],
         },
+        subaps: None,
+        centroiders: super::centroiders::Centroiders {
+            median_rms_e: 1.0,
+            best_for_map: None,
+            rows: vec![],
+            versus_emccd: vec![],
+        },
     };
     let heatmaps = vec![
         PathBuf::from("out/effective_noise_S20.png"),

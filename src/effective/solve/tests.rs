@@ -175,3 +175,41 @@ fn the_adaptive_solve_does_not_depend_on_the_thread_count() {
     assert_eq!(a.sigma_eff_se_e.to_bits(), b.sigma_eff_se_e.to_bits());
     assert_eq!(a.status, b.status);
 }
+
+#[test]
+fn centroiders_of_a_uniform_camera_match_cog_and_masking_rescues_a_noisy_map() {
+    // A uniform 1.2 e- camera: masked-cog masks nothing (every sigma is the median), so its
+    // sigma_eff is cog's; tcog's threshold k sigma is cog's level b = k sigma on a coarser
+    // grid, within 3 SE of 1.2 e-. A camera with 1 e- pixels and one in eight at 8 e-: masking
+    // above 3 x the median removes the noisy pixels, so its sigma_eff falls far below cog's.
+    use crate::centroid::CentroiderSpec;
+    use crate::detector::PerPixelSigma;
+    let mut cfg = SimConfig::paper(6);
+    cfg.iters = 4000;
+    let precision = absolute(0.05, 40_000);
+    let uniform = ScmosConstant::new(1.2, "uniform".into());
+    let solve = |det: &dyn Readout, c: &str| {
+        let spec = CentroiderSpec::parse(c).unwrap();
+        effective_sigma_with(&cfg, det, spec, &precision, &Silent).unwrap()
+    };
+    let cog = solve(&uniform, "cog");
+    let masked = solve(&uniform, "masked-cog");
+    assert_eq!(masked.sigma_eff_e.to_bits(), cog.sigma_eff_e.to_bits());
+    for e in [&cog, &solve(&uniform, "tcog")] {
+        assert!(
+            (e.sigma_eff_e - 1.2).abs() < 3.0 * e.sigma_eff_se_e,
+            "{e:?}"
+        );
+    }
+    let sigma: Vec<f64> = (0..36)
+        .map(|p| if p % 8 == 3 { 8.0 } else { 1.0 })
+        .collect();
+    let noisy = PerPixelSigma::new(sigma, "noisy".into());
+    let (plain, masked) = (solve(&noisy, "cog"), solve(&noisy, "masked-cog:3"));
+    assert_eq!(masked.param_opt, Some(3.0));
+    assert!(
+        masked.sigma_eff_e + 4.0 * masked.sigma_eff_se_e.hypot(plain.sigma_eff_se_e)
+            < plain.sigma_eff_e,
+        "masked {masked:?} vs cog {plain:?}"
+    );
+}
