@@ -1,14 +1,19 @@
 //! Effective read noise: the constant sigma whose Monte-Carlo error R equals a detector's, to a
-//! stated precision (`precision`, `solve`, inverting R(sigma) in `invert`), how each value was settled (`status`), and its
-//! table over a grid of configurations (`table`).
+//! stated precision (`precision`, `solve`, inverting R(sigma) in `invert`), how each value was
+//! settled (`status`), and its table over a grid of configurations (`table`). The same solver
+//! finds the effective QE factor of the paper's simple EMCCD model (`qe`): both match R
+//! against a one-parameter family of reference readouts (`family`).
 
+mod family;
 mod invert;
 mod precision;
+mod qe;
 mod solve;
 mod status;
 mod table;
 
 pub use precision::Precision;
+pub use qe::{effective_qe, QeFactor, QePrecision, QeStatus};
 pub use solve::{effective_sigma, planned_work, Effective};
 pub use status::Status;
 pub use table::{effective_table, write_tables, EffectiveRecord, TABLE_NAMES};
