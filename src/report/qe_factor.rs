@@ -151,6 +151,21 @@ pub struct QeSummary {
     pub highest: Option<QeAt>,
     /// The factor at the operating point, when it is one of the grid's configurations.
     pub at_operating_point: Option<QeAt>,
+    /// Per signal (ascending): where 0.5 holds.
+    pub by_signal: Vec<HoldsAt>,
+}
+
+/// How many `ok` factors at one signal agree with 0.5 within 2 SE.
+#[derive(Debug, Clone, serde::Serialize)]
+pub struct HoldsAt {
+    /// Signal (photons per sub-aperture).
+    pub signal_photons: f64,
+    /// `ok` factors at this signal.
+    pub ok: usize,
+    /// ...of which within 2 SE of 0.5.
+    pub paper_holds: usize,
+    /// The mean `ok` factor at this signal (unitless; null without one).
+    pub mean_qe_factor: Option<f64>,
 }
 
 impl QeSummary {
@@ -178,6 +193,7 @@ impl QeSummary {
             lowest: ok.iter().min_by(by_q).map(|r| QeAt::of(r)),
             highest: ok.iter().max_by(by_q).map(|r| QeAt::of(r)),
             at_operating_point: records.iter().find(|r| config(r)).map(QeAt::of),
+            by_signal: by_signal(&ok),
         }
     }
 
@@ -222,6 +238,23 @@ impl QeSummary {
                 q(&self.highest)
             );
         }
+        let per_signal: Vec<String> = self
+            .by_signal
+            .iter()
+            .filter(|b| b.ok > 0)
+            .map(|b| {
+                format!(
+                    "S = {}: {} of {} (mean q {})",
+                    b.signal_photons,
+                    b.paper_holds,
+                    b.ok,
+                    num(b.mean_qe_factor.unwrap_or(f64::NAN), 3)
+                )
+            })
+            .collect();
+        if self.paper_fails > 0 && per_signal.len() > 1 {
+            let _ = write!(s, " Where it holds, by signal: {}.", per_signal.join("; "));
+        }
         if self.ok < self.configurations {
             let _ = write!(
                 s,
@@ -231,6 +264,26 @@ impl QeSummary {
         }
         s
     }
+}
+
+/// Per signal (ascending) of the `ok` records: how many hold, and their mean factor.
+fn by_signal(ok: &[&QeRecord]) -> Vec<HoldsAt> {
+    let mut signals: Vec<f64> = ok.iter().map(|r| r.config.signal_photons).collect();
+    signals.sort_by(f64::total_cmp);
+    signals.dedup();
+    signals
+        .into_iter()
+        .map(|s| {
+            let at: Vec<&&QeRecord> = ok.iter().filter(|r| r.config.signal_photons == s).collect();
+            let mean = at.iter().map(|r| r.qe.qe_factor).sum::<f64>() / at.len() as f64;
+            HoldsAt {
+                signal_photons: s,
+                ok: at.len(),
+                paper_holds: at.iter().filter(|r| holds(r)).count(),
+                mean_qe_factor: mean.is_finite().then_some(mean),
+            }
+        })
+        .collect()
 }
 
 /// Whether an `ok` factor agrees with 0.5 within [`HOLDS_WITHIN_SE`] standard errors.

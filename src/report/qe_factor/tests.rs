@@ -64,12 +64,20 @@ fn the_summary_counts_where_the_papers_factor_holds_within_two_se() {
     let at = s.at_operating_point.as_ref().unwrap();
     assert_eq!((at.qe_factor, at.status), (Some(0.515), QeStatus::Ok));
     assert_eq!(s.simple_read_noise_e, 50.0 / 300.0);
+    let signals: Vec<(f64, usize, usize)> = s
+        .by_signal
+        .iter()
+        .map(|b| (b.signal_photons, b.ok, b.paper_holds))
+        .collect();
+    assert_eq!(signals, [(20.0, 1, 0), (50.0, 1, 1), (500.0, 1, 0)]);
     let text = s.sentence();
     for part in [
         "holds (within 2 SE) in 1 of the 3 configurations",
         "and not in 2: in 1 of them the factor is below 0.5",
         "from 0.450 ± 0.010 (8×8 px, airy:2, S = 20) to 0.560 ± 0.020 (8×8 px, airy:2, S = 500)",
         "3 configurations have no ok factor",
+        "Where it holds, by signal: S = 20: 0 of 1 (mean q 0.450); S = 50: 1 of 1 (mean q \
+         0.515); S = 500: 0 of 1 (mean q 0.560).",
     ] {
         assert!(text.contains(part), "{part}: {text}");
     }
