@@ -127,6 +127,43 @@ fn emccd_report_recovers_the_bundled_cameras_em_gain() {
     // Four models (this EMCCD, the paper's pdf, median, mean) at each signal.
     assert_eq!(result.comparison.len(), 4 * QUICK_SIGNALS_PHOTONS.len());
     assert_files_exist(&result, &["emgain.png", "r_vs_signal.csv", "index.html"]);
+    // The simple model's effective QE factor: one record per configuration of the quick grid,
+    // with the simple model's read noise the fitted one over the fitted gain; the operating
+    // point's (8x8 px, airy:2, 50 photons) in the summary; table and chart written.
+    let qe = &s.effective_qe;
+    let grid = QUICK_SUBAPS_PX.len() * QUICK_AIRY_DIAMETERS_PX.len() * QUICK_SIGNALS_PHOTONS.len();
+    assert_eq!(
+        (qe.configurations, s.effective_qe_records.len()),
+        (grid, grid)
+    );
+    assert_eq!(qe.paper_holds + qe.paper_fails, qe.ok);
+    assert_eq!(qe.simple_read_noise_e, s.read_noise_output_e / gain);
+    let at = qe
+        .at_operating_point
+        .as_ref()
+        .expect("the default point is in the quick grid");
+    assert_eq!(
+        (at.subap_px, at.spot.as_str(), at.signal_photons),
+        (8, "airy:2", 50.0)
+    );
+    for r in &s.effective_qe_records {
+        if r.qe.status == detnoise::effective::QeStatus::Ok {
+            assert!(r.qe.qe_factor > 0.0 && r.qe.qe_factor <= 1.0 && r.qe.qe_factor_se > 0.0);
+        }
+    }
+    assert_files_exist(
+        &result,
+        &[
+            "effective_qe.csv",
+            "effective_qe.json",
+            "effective_qe_airy-2.png",
+        ],
+    );
+    let page = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(page.contains("The simple model's effective QE factor") && !page.contains("NaN"));
+    let written: Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(written["effective_qe"]["configurations"], grid);
 }
 
 #[test]

@@ -199,10 +199,14 @@ pub struct DetectorArgs {
     #[arg(long, default_value_t = 2015, value_parser = whole::<u64>(0, u64::MAX, ""))]
     pub pattern_seed: u64,
     /// `emccd-pp` threshold rule (a reconstruction of Basden et al. 2003): poisson-prior
-    /// (boundaries n(n+1)/lambda in units of g) or equal-density (fixed, ~0.203, 0.719, 1.896 g ...).
-    #[arg(long, value_parser = ["poisson-prior", "equal-density"], default_value = "poisson-prior")]
+    /// (boundaries n(n+1)/lambda in units of g, lambda the sub-aperture mean or --pp-lambda),
+    /// pixel-prior (the same with each pixel's own mean level in the centred noiseless spot, in
+    /// photo-electrons: per-pixel thresholds and correction) or equal-density (fixed, ~0.203,
+    /// 0.719, 1.896 g ...).
+    #[arg(long, value_parser = ["poisson-prior", "equal-density", "pixel-prior"], default_value = "poisson-prior")]
     pub pp_rule: String,
-    /// `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean.
+    /// `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean
+    /// (not with --pp-rule pixel-prior, whose levels are the pixels' own).
     #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "photo-electrons per pixel"))]
     pub pp_lambda: Option<f64>,
     /// Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or the path
@@ -316,11 +320,8 @@ impl DetectorArgs {
             pdf: self.rms_pdf()?,
             pattern_seed: self.pattern_seed,
             map: self.noise_map()?,
-            pp_rule: if self.pp_rule == "equal-density" {
-                crate::detector::pp::PpRule::EqualDensity
-            } else {
-                crate::detector::pp::PpRule::PoissonPrior
-            },
+            pp_rule: crate::detector::pp::PpRule::parse(&self.pp_rule)
+                .expect("clap accepts only the rules' labels"),
             pp_lambda: self.pp_lambda,
             rts_table: self.rts_table()?,
             row_noise_e: self.row_noise_e,

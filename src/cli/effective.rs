@@ -4,7 +4,8 @@ use super::args::{real, whole, CentroiderArgs, DetectorArgs, SweepArgs};
 use super::progress::Terminal;
 use crate::detector::ModelSpec;
 use crate::effective::{
-    effective_table_with, write_tables, EffectiveRecord, Precision, Status, TABLE_NAMES,
+    effective_table_with, write_tables, EffectiveRecord, Precision, QePrecision, Status,
+    QE_TABLE_NAMES, TABLE_NAMES,
 };
 use crate::montecarlo::SimConfig;
 use crate::output::{DirPlan, OutputDir};
@@ -82,6 +83,17 @@ pub struct EffectiveArgs {
     /// Precision target of each value and the iteration cap.
     #[command(flatten)]
     pub precision: PrecisionArgs,
+    /// Instead of the effective read noise, solve for the QE factor q of the paper's simple
+    /// model (emccd-simple:q: Poisson of q x the flux, read noise --emccd-read-noise /
+    /// --em-gain) whose R equals the --model's (EMCCD models only; the paper's q is 0.5).
+    /// Writes effective_qe.csv, effective_qe.json and one chart per spot
+    /// (effective_qe_airy-2.png and .svg for airy:2) instead of the effective-noise files.
+    #[arg(long, long_help = simple_qe_long_help())]
+    pub simple_qe: bool,
+    /// Target standard error of each QE factor with --simple-qe, unitless (0 = off); a factor
+    /// is also `ok` when its SE is at most --target-rel times it, and --max-iters caps it.
+    #[arg(long, default_value_t = QePrecision::DEFAULT_TARGET_SE, value_parser = real(Included(0.0), Unbounded, "(QE factor)"))]
+    pub qe_target_se: f64,
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
@@ -101,24 +113,39 @@ pub struct EffectiveArgs {
     pub force: bool,
 }
 
-/// Files `effective` writes into its directory (glob patterns).
-pub const OUTPUT_NAMES: [&str; 4] = [
+/// Files `effective` writes into its directory (glob patterns): the effective-noise files, or
+/// with `--simple-qe` the QE-factor files.
+pub const OUTPUT_NAMES: [&str; 8] = [
     TABLE_NAMES[0],
     TABLE_NAMES[1],
     "effective_noise_S*.png",
     "effective_noise_S*.svg",
+    QE_TABLE_NAMES[0],
+    QE_TABLE_NAMES[1],
+    "effective_qe_*.png",
+    "effective_qe_*.svg",
 ];
 
 impl EffectiveArgs {
     /// Check every option (model, detector, sweep lists) before any file is read.
     pub fn validate(&self) -> Result<()> {
         let spec = ModelSpec::parse(&self.model)?;
+        if self.simple_qe && !spec.is_emccd() {
+            return Err(crate::Error::invalid(
+                "--simple-qe",
+                format!(
+                    "the QE factor of the simple EMCCD model is solved for EMCCD models; {} is \
+                     an sCMOS model",
+                    spec.name()
+                ),
+            ));
+        }
         self.detector.validate(std::slice::from_ref(&spec))?;
         self.centroiders.specs()?;
         self.sweep.validate()?;
-        self.precision
-            .precision(self.sweep.iters)
-            .validate(self.sweep.iters)
+        let precision = self.precision.precision(self.sweep.iters);
+        precision.validate(self.sweep.iters)?;
+        QePrecision::with(&precision, self.qe_target_se).validate(self.sweep.iters)
     }
 }
 
@@ -144,6 +171,13 @@ pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
     let params = args.detector.params()?;
     let configs = args.sweep.configs()?;
     let precision = args.precision.precision(args.sweep.iters);
+    if args.simple_qe {
+        let precision = QePrecision::with(&precision, args.qe_target_se);
+        qe::run(&configs, &specs, &params, &precision, &dir)?;
+        let path = dir.commit()?;
+        eprintln!("wrote {}", path.display());
+        return Ok(());
+    }
     let centroiders = args.centroiders.specs()?;
     let records = effective_table_with(
         &configs,
@@ -211,6 +245,27 @@ pub fn terminal_table(records: &[EffectiveRecord]) -> String {
         );
     }
     out
+}
+
+mod qe;
+pub use qe::qe_terminal_table;
+
+/// The long help of `--simple-qe`: what it solves, its files, and every status.
+fn simple_qe_long_help() -> String {
+    let mut h = String::from(
+        "Instead of the effective read noise, solve for the QE factor q of the paper's simple \
+         EMCCD model (emccd-simple:q: Poisson of q x the flux plus read noise --emccd-read-noise \
+         / --em-gain, e-) whose centroid error R equals the --model's, per configuration, with \
+         its standard error from paired differences on common random numbers (the paper's q is \
+         0.5). EMCCD models only. Writes effective_qe.csv and effective_qe.json (qe_factor, \
+         qe_factor_se, paper_z = (q - 0.5) / SE, status) and one chart of q against signal per \
+         spot (effective_qe_airy-2.png and .svg for airy:2) instead of the effective-noise \
+         files.\n\nStatuses of the QE factor (the `status` column):",
+    );
+    for s in crate::effective::QeStatus::ALL {
+        let _ = write!(h, "\n  {:<18} {}", s.label(), s.meaning());
+    }
+    h
 }
 
 #[cfg(test)]

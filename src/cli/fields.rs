@@ -80,6 +80,8 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("target_se_e", "--target-se-e"),
     ("target_rel", "--target-rel"),
     ("max_iters", "--max-iters"),
+    // Effective QE factor of the simple EMCCD model (crate::effective::QePrecision, issue 14).
+    ("qe_target_se", "--qe-target-se"),
     // report (crate::report::ReportOptions)
     ("darks_paths", "--darks"),
     ("flats_paths", "--flats"),

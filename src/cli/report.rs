@@ -24,7 +24,8 @@ use crate::report::DetectorKind;
 )))]
 pub struct ReportArgs {
     /// The camera type: scmos (effective read noise from the per-pixel noise) or emccd (EM gain
-    /// fit with the exact register, then the comparison with the fitted gain and read noise).
+    /// fit with the exact register, then the comparison with the fitted gain and read noise,
+    /// and the simple model's effective QE factor over the grid).
     #[arg(long = "detector", id = "detector_kind", value_enum, default_value_t = DetectorKind::Scmos)]
     pub kind: DetectorKind,
     /// Dark frames: files, a directory or a glob (FITS, TIFF, OpenEXR).
@@ -108,7 +109,10 @@ pub const SIMULATION_OPTIONS_HELP: &str = "\
 How a report uses the simulation options:
   --subap, --spot, --signal
       The grid. sCMOS: the effective read noise of every sub-aperture x spot x signal
-      (effective_noise.csv/.json, one heatmap per signal). Both detectors: the comparison
+      (effective_noise.csv/.json, one heatmap per signal). EMCCD: the QE factor of the
+      paper's simple model (emccd-simple:q) that reproduces this camera's R, for every
+      sub-aperture x spot x signal (effective_qe.csv/.json, a chart at the operating point's
+      spot; --target-rel and --max-iters apply, the absolute target is 0.01). Both detectors: the comparison
       (r_vs_signal.*) runs every signal at the sub-aperture and spot of --operating-point
       (default 8,airy:2,50: the configuration of the headline numbers; its signal is added to
       the comparison, and the point simulated beside the grid, when the grid lacks them).

@@ -10,8 +10,9 @@ use crate::Result;
 /// A readout model named on the command line.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ModelSpec {
-    /// Half the flux, Poisson, + Normal(0, 0.1 e-).
-    EmccdSimple,
+    /// A fraction q of the flux (None: the paper's half), Poisson, + Normal(0, read noise /
+    /// EM gain).
+    EmccdSimple(Option<f64>),
     /// Exact 520-stage register + Normal(0, 50 e-), divided by the gain.
     EmccdStochastic,
     /// `emccd-stochastic` then Poisson-probability thresholding; `true` = photometrically corrected.
@@ -76,7 +77,7 @@ impl ModelSpec {
     /// The model's registry name, without its argument (`scmos-fixed` for `scmos-fixed:3`).
     pub fn name(&self) -> &'static str {
         match self {
-            ModelSpec::EmccdSimple => "emccd-simple",
+            ModelSpec::EmccdSimple(_) => "emccd-simple",
             ModelSpec::EmccdStochastic => "emccd-stochastic",
             ModelSpec::EmccdPp(true) => "emccd-pp",
             ModelSpec::EmccdPp(false) => "emccd-pp-uncorrected",

@@ -10,6 +10,7 @@ fn examples(entry: &ModelEntry) -> Vec<String> {
     match entry.arg {
         Some("SIGMA_E") => names.push(format!("{}:1.5", entry.name)),
         Some("PATTERN") => names.push(format!("{}:4", entry.name)),
+        Some("QE_FACTOR") => names.push(format!("{}:0.4", entry.name)),
         Some(other) => panic!("add an example argument for {other}"),
         None => {}
     }
@@ -91,7 +92,7 @@ fn names_and_help_list_every_entry() {
     // The names as they were written by hand before the registry.
     assert_eq!(
         MODEL_NAMES,
-        "emccd-simple, emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
+        "emccd-simple[:QE_FACTOR], emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
 scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map, \
 scmos-rts, scmos-correlated, scmos-frames"
     );

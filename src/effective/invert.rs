@@ -1,12 +1,12 @@
-//! Inverting R(sigma) of the constant-sigma models at the detector's R: the interpolated sigma,
-//! the slope of R there, and the weight of each constant's R in the answer (for the paired
-//! standard error).
+//! Inverting R along a reference family's grid at the detector's R: the interpolated abscissa
+//! x (a constant sigma, or minus a QE factor: see `family`), the slope of R there, and the
+//! weight of each reference's R in the answer (for the paired standard error).
 //!
 //! Inside the bracket, a quadratic through the bracket's two points and the nearer neighbour
 //! removes most of the bias that linear interpolation has where R curves (0.3 % of sigma over
 //! a 10 % bracket); where that quadratic is not monotone over the bracket, or no neighbour is
-//! usable, the interpolation is linear. Either way sigma solves sum_i w_i(sigma) R_i = R_det
-//! with weights w_i summing to 1, so a change dR_det - sum_i w_i dR_i moves it by that over the
+//! usable, the interpolation is linear. Either way x solves sum_i w_i(x) R_i = R_det with
+//! weights w_i summing to 1, so a change dR_det - sum_i w_i dR_i moves it by that over the
 //! slope.
 
 use crate::special::bisect;
@@ -14,24 +14,24 @@ use crate::special::bisect;
 /// Why a grid does not bracket the detector's R.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(super) enum Outside {
-    /// The detector's R is below R at the smallest sigma.
+    /// The detector's R is below R at the smallest abscissa.
     Below,
-    /// The detector's R is above R at the largest sigma.
+    /// The detector's R is above R at the largest abscissa.
     Above,
 }
 
-/// The constant sigma whose R equals the detector's.
+/// The abscissa whose reference has the detector's R.
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Inversion {
-    /// The interpolated sigma (e-).
-    pub sigma: f64,
-    /// Slope of the interpolated R in sigma there (px per e-; 0 where R is flat).
+    /// The interpolated abscissa (e- for a constant sigma).
+    pub x: f64,
+    /// Slope of the interpolated R in x there (px per unit of x; 0 where R is flat).
     pub slope: f64,
-    /// `(constant index, weight)`: the interpolated R at sigma is sum weight x R_constant.
+    /// `(reference index, weight)`: the interpolated R at x is sum weight x R_reference.
     pub weights: Vec<(usize, f64)>,
 }
 
-/// Invert R of the constants (`r_const`, px, at the ascending sigmas `grid`, e-) at the
+/// Invert R of the references (`r_const`, px, at the ascending abscissae `grid`) at the
 /// detector's `r_det` (px).
 pub(super) fn invert(r_det: f64, r_const: &[f64], grid: &[f64]) -> Result<Inversion, Outside> {
     // Monte-Carlo noise can make neighbouring R values cross; a running maximum keeps the
@@ -54,16 +54,16 @@ pub(super) fn invert(r_det: f64, r_const: &[f64], grid: &[f64]) -> Result<Invers
     let k = (1..r.len()).find(|&k| r[k] >= r_det).expect("bracketed");
     let (g0, g1) = (grid[k - 1], grid[k]);
     if r[k] <= r[k - 1] {
-        // Flat: any sigma of the bracket fits; the midpoint, with an infinite SE.
+        // Flat: any x of the bracket fits; the midpoint, with an infinite SE.
         return Ok(Inversion {
-            sigma: 0.5 * (g0 + g1),
+            x: 0.5 * (g0 + g1),
             slope: 0.0,
             weights: vec![(source[k - 1], 0.5), (source[k], 0.5)],
         });
     }
     let t = (r_det - r[k - 1]) / (r[k] - r[k - 1]);
     let linear = Inversion {
-        sigma: g0 + t * (g1 - g0),
+        x: g0 + t * (g1 - g0),
         slope: (r[k] - r[k - 1]) / (g1 - g0),
         weights: vec![(source[k - 1], 1.0 - t), (source[k], t)],
     };
@@ -72,7 +72,7 @@ pub(super) fn invert(r_det: f64, r_const: &[f64], grid: &[f64]) -> Result<Invers
     let below = (k >= 2 && own(k - 2) && own(k - 1)).then(|| k - 2);
     let above = (k + 1 < r.len() && own(k + 1) && own(k - 1)).then_some(k + 1);
     let third = match (below, above) {
-        (Some(b), Some(a)) if grid[a] - linear.sigma < linear.sigma - grid[b] => Some(a),
+        (Some(b), Some(a)) if grid[a] - linear.x < linear.x - grid[b] => Some(a),
         (Some(b), _) => Some(b),
         (None, a) => a,
     };
@@ -85,15 +85,11 @@ pub(super) fn invert(r_det: f64, r_const: &[f64], grid: &[f64]) -> Result<Invers
     if !(q.derivative(g0) > 0.0 && q.derivative(g1) > 0.0) {
         return Ok(linear);
     }
-    let sigma = bisect(|x| r_det - q.value(x), g0, g1);
+    let x = bisect(|x| r_det - q.value(x), g0, g1);
     Ok(Inversion {
-        sigma,
-        slope: q.derivative(sigma),
-        weights: idx
-            .iter()
-            .zip(q.basis(sigma))
-            .map(|(&i, w)| (i, w))
-            .collect(),
+        x,
+        slope: q.derivative(x),
+        weights: idx.iter().zip(q.basis(x)).map(|(&i, w)| (i, w)).collect(),
     })
 }
 
@@ -149,7 +145,7 @@ mod tests {
         let r: Vec<f64> = grid.iter().map(|&s| f(s)).collect();
         for want in [0.86, 0.9, 1.0, 1.1, 1.17] {
             let inv = invert(f(want), &r, &grid).unwrap();
-            assert!((inv.sigma - want).abs() < 1e-12, "{inv:?}");
+            assert!((inv.x - want).abs() < 1e-12, "{inv:?}");
             assert!((inv.slope - (0.02 + 0.02 * want)).abs() < 1e-12);
             let sum: f64 = inv.weights.iter().map(|w| w.1).sum();
             let at: f64 = inv.weights.iter().map(|&(i, w)| w * r[i]).sum();
@@ -175,9 +171,9 @@ mod tests {
         // there, and the answer between points 2 and 3 weighs constants 1 and 3, linearly.
         let inv = invert(0.35, &[0.1, 0.3, 0.25, 0.4], &grid).unwrap();
         assert_eq!(inv.weights.iter().map(|w| w.0).collect::<Vec<_>>(), [1, 3]);
-        assert!((inv.sigma - 2.5).abs() < 1e-12);
+        assert!((inv.x - 2.5).abs() < 1e-12);
         // Flat bracket: midpoint, zero slope.
         let inv = invert(0.1, &[0.1, 0.1, 0.3, 0.4], &grid).unwrap();
-        assert_eq!((inv.sigma, inv.slope), (0.5, 0.0));
+        assert_eq!((inv.x, inv.slope), (0.5, 0.0));
     }
 }

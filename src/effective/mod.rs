@@ -1,14 +1,22 @@
 //! Effective read noise: the constant sigma whose Monte-Carlo error R equals a detector's, to a
-//! stated precision (`precision`, `solve`, inverting R(sigma) in `invert`), how each value was settled (`status`), and its
-//! table over a grid of configurations (`table`).
+//! stated precision (`precision`, `solve`, inverting R(sigma) in `invert`), how each value was
+//! settled (`status`), and its table over a grid of configurations (`table`). The same solver
+//! finds the effective QE factor of the paper's simple EMCCD model (`qe`): both match R
+//! against a one-parameter family of reference readouts (`family`), and its table is
+//! `qe_table`.
 
+mod family;
 mod invert;
 mod precision;
+mod qe;
+mod qe_table;
 mod solve;
 mod status;
 mod table;
 
 pub use precision::Precision;
+pub use qe::{effective_qe, QeFactor, QePrecision, QeStatus};
+pub use qe_table::{effective_qe_table, write_qe_tables, QeRecord, QE_TABLE_NAMES};
 pub use solve::{effective_sigma, effective_sigma_with, planned_work, Effective};
 pub use status::Status;
 pub use table::{

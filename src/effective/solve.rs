@@ -1,34 +1,29 @@
-//! The solver: the constant sigma whose Monte-Carlo error R equals a detector's, to a stated
-//! precision.
+//! The solver: the reference readout (a constant sigma, or the simple EMCCD model's QE factor:
+//! see `family`) whose Monte-Carlo error R equals a detector's, to a stated precision.
 //!
-//! R grows monotonically with a constant sigma. A short pilot run on a wide geometric grid
-//! (with sigma = 0, the noiseless readout, at its foot) locates the answer; the final runs then
-//! evaluate the detector beside four constant sigmas tightly around the pilot estimate, all on
-//! common random numbers (same spots, photons and Gaussian deviates), and interpolate inside
-//! the bracket. Until the standard error meets the [`Precision`] target, the same experiment is
-//! continued with more iterations (up to the cap). Where the answer leaves that bracket (R too
-//! flat in sigma for the pilot to place it: high signal, shot noise dominates), a wide grid
-//! decides, continued the same way.
+//! R grows monotonically along the family's abscissa. A short pilot run on a wide grid (with
+//! the family's foot, e.g. sigma = 0, the noiseless readout) locates the answer; the final
+//! runs then evaluate the detector beside four references tightly around the pilot estimate,
+//! all on common random numbers (same spots, photons and Gaussian deviates), and interpolate
+//! inside the bracket. Until the standard error meets the [`Precision`] target, the same
+//! experiment is continued with more iterations (up to the cap). Where the answer leaves that
+//! bracket (R too flat for the pilot to place it: high signal, shot noise dominates), a wide
+//! grid decides, continued the same way.
 //!
 //! The standard error is that of the paired difference D = R_det - [(1 - t) R_lo + t R_hi]
 //! (batch means over blocks of iterations, so the strong positive correlation that common
-//! random numbers give the two sides is counted), divided by the slope of R in sigma.
+//! random numbers give the two sides is counted), divided by the slope of R along the grid.
 
+use super::family::{ConstantSigma, Family, FINAL_POINTS, PILOT_POINTS};
 use super::invert::{invert, Inversion, Outside};
 use super::precision::Precision;
 use super::status::Status;
 use crate::centroid::CentroiderSpec;
-use crate::detector::{Readout, ScmosConstant};
+use crate::detector::Readout;
 use crate::montecarlo::{Arm, Experiment, SimConfig, SimResult, Term};
 use crate::progress::Observer;
 use crate::Result;
 
-/// Pilot grid: sigma = 0 (noiseless readout) and 1/4 to 4 times the detector's noise scale.
-const PILOT_FACTORS: [f64; 8] = [0.0, 0.25, 0.397, 0.63, 1.0, 1.587, 2.52, 4.0];
-/// Final grid around the pilot estimate.
-const FINAL_FACTORS: [f64; 4] = [0.85, 0.95, 1.05, 1.18];
-/// Fallback grid when R is too flat in sigma for the narrow bracket: 0 and 0.1 to 16 times the scale.
-const WIDE_FACTORS: [f64; 12] = [0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0, 6.0, 16.0];
 /// Fraction of the starting iterations used by the pilot run...
 const PILOT_FRACTION: f64 = 0.1;
 /// ...and its least number of frames (never more than the starting iterations).
@@ -65,6 +60,42 @@ pub struct Effective {
     pub status: Status,
 }
 
+/// How a solve over a family ended.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Outcome {
+    /// Bracketed, and the standard error meets the target.
+    Ok,
+    /// Bracketed, but the cap was reached first.
+    Imprecise,
+    /// The detector does at least as well as the family's foot: the value is the foot's.
+    AtFoot,
+    /// The detector does worse than every reference of the wide grid: no value.
+    Beyond,
+    /// The detector has no eligible background level: no value.
+    NoEligibleLevel,
+}
+
+/// A solve over a family, in the family's values.
+#[derive(Debug, Clone)]
+pub(super) struct Solved {
+    /// The value (the family's parameter); NaN without one.
+    pub value: f64,
+    /// Its standard error; NaN without a value.
+    pub se: f64,
+    /// The standard error the value had to reach; None without a target or a value.
+    pub target: Option<f64>,
+    /// Iterations of the final runs.
+    pub iters: u64,
+    /// The detector's result.
+    pub det: SimResult,
+    /// The references' parameters of the final run, in the order of the abscissa.
+    pub grid: Vec<f64>,
+    /// R of each reference (px).
+    pub r_ref_px: Vec<f64>,
+    /// How it ended.
+    pub outcome: Outcome,
+}
+
 /// Pixels of one frame of `cfg`: a model-frame costs about this many pixel operations.
 fn pixels(cfg: &SimConfig) -> u64 {
     (cfg.subap_px * cfg.subap_px) as u64
@@ -76,13 +107,14 @@ fn pilot_iters(cfg: &SimConfig) -> u64 {
         .min(cfg.iters)
 }
 
-/// Work (pixel-frames: iterations x models x pixels) that solving `cfg` is sure to spend: the
-/// pilot and the first final run. [`effective_sigma`] grows its observer's stage by any work it
-/// adds (fallback grid, extra iterations), so a stage begun with the sum of these ends with
-/// exactly its total advanced.
+/// Work (pixel-frames: iterations x models x pixels) that solving `cfg` is sure to spend (for
+/// the effective read noise and the effective QE factor alike): the pilot and the first final
+/// run. [`effective_sigma`] grows its observer's stage by any work it adds (fallback grid,
+/// extra iterations), so a stage begun with the sum of these ends with exactly its total
+/// advanced.
 pub fn planned_work(cfg: &SimConfig) -> u64 {
-    let pilot = pilot_iters(cfg) * (1 + PILOT_FACTORS.len() as u64);
-    let first = cfg.iters * (1 + FINAL_FACTORS.len() as u64);
+    let pilot = pilot_iters(cfg) * (1 + PILOT_POINTS as u64);
+    let first = cfg.iters * (1 + FINAL_POINTS as u64);
     (pilot + first) * pixels(cfg)
 }
 
@@ -115,34 +147,70 @@ pub fn effective_sigma_with(
     precision: &Precision,
     observer: &dyn Observer,
 ) -> Result<Effective> {
+    let family = ConstantSigma {
+        scale_e: detector.noise_scale_e().max(1e-3),
+    };
+    let s = solve(cfg, (detector, centroider), &family, precision, observer)?;
+    Ok(Effective {
+        sigma_eff_e: s.value,
+        sigma_eff_se_e: s.se,
+        target_se_e: s.target,
+        iters: s.iters,
+        r_px: s.det.r_px,
+        r_se_px: s.det.r_se_px,
+        b_opt_e: s.det.b_opt_e,
+        param_name: s.det.param_name,
+        param_opt: s.det.param_opt,
+        sigma_grid_e: s.grid,
+        r_const_px: s.r_ref_px,
+        status: match s.outcome {
+            Outcome::Ok => Status::Ok,
+            Outcome::Imprecise => Status::Imprecise,
+            Outcome::AtFoot => Status::LowerBound,
+            Outcome::Beyond => Status::Unreachable,
+            Outcome::NoEligibleLevel => Status::NoEligibleLevel,
+        },
+    })
+}
+
+/// Solve for the reference of `family` whose R equals `detector`'s in `cfg`, to `precision`
+/// (in the family's values), the detector read through its centroider (the references through
+/// `cog`); `observer` as for [`effective_sigma`].
+pub(super) fn solve(
+    cfg: &SimConfig,
+    (detector, centroider): (&dyn Readout, CentroiderSpec),
+    family: &dyn Family,
+    precision: &Precision,
+    observer: &dyn Observer,
+) -> Result<Solved> {
     cfg.validate()?;
     precision.validate(cfg.iters)?;
     centroider.validate()?;
-    let scale = detector.noise_scale_e().max(1e-3);
     let s = Solver {
         cfg,
         detector,
         centroider,
+        family,
         precision,
         observer,
     };
-    let guess = s.pilot(scale)?;
+    let guess = s.pilot()?;
     let mut budget = Budget {
-        prepaid: cfg.iters * (1 + FINAL_FACTORS.len() as u64) * pixels(cfg),
+        prepaid: cfg.iters * (1 + FINAL_POINTS as u64) * pixels(cfg),
     };
     let mut start = cfg.iters;
-    if guess > 0.0 {
-        let grid = scaled(&FINAL_FACTORS, guess);
-        let constants = constants(&grid);
-        let models = with_detector(detector, &constants);
+    if !family.at_foot(guess) {
+        let grid = family.around(guess);
+        let references = references(family, &grid);
+        let models = with_detector(detector, &references);
         match s.refine(&models, &grid, start, &mut budget)? {
             Refined::Settled(e) => return Ok(e),
             Refined::Outside(_, exp) => start = exp.iters(),
         }
     }
-    let grid = scaled(&WIDE_FACTORS, scale.max(guess));
-    let constants = constants(&grid);
-    let models = with_detector(detector, &constants);
+    let grid = family.wide(guess);
+    let references = references(family, &grid);
+    let models = with_detector(detector, &references);
     Ok(match s.refine(&models, &grid, start, &mut budget)? {
         Refined::Settled(e) => e,
         Refined::Outside(side, exp) => s.bound(side, &exp, &grid),
@@ -154,6 +222,7 @@ struct Solver<'a> {
     cfg: &'a SimConfig,
     detector: &'a dyn Readout,
     centroider: CentroiderSpec,
+    family: &'a dyn Family,
     precision: &'a Precision,
     observer: &'a dyn Observer,
 }
@@ -177,40 +246,35 @@ impl Budget {
 /// The outcome of the runs on one grid.
 enum Refined<'m> {
     /// A value (or a status) was settled.
-    Settled(Effective),
+    Settled(Solved),
     /// The detector's R left the grid; the experiment as it stood.
     Outside(Outside, Box<Experiment<'m>>),
 }
 
-fn scaled(factors: &[f64], s: f64) -> Vec<f64> {
-    factors.iter().map(|f| f * s).collect()
+/// The family's references at the abscissae `grid`.
+fn references(family: &dyn Family, grid: &[f64]) -> Vec<Box<dyn Readout>> {
+    grid.iter().map(|&x| family.reference(x)).collect()
 }
 
-fn constants(grid: &[f64]) -> Vec<ScmosConstant> {
-    grid.iter()
-        .map(|s| ScmosConstant::new(*s, format!("scmos-constant:{s}")))
-        .collect()
-}
-
-/// The models of a run: the detector first, then the constants.
+/// The models of a run: the detector first, then the references.
 fn with_detector<'m>(
     detector: &'m dyn Readout,
-    constants: &'m [ScmosConstant],
+    references: &'m [Box<dyn Readout>],
 ) -> Vec<&'m dyn Readout> {
     std::iter::once(detector)
-        .chain(constants.iter().map(|c| c as &dyn Readout))
+        .chain(references.iter().map(|c| c.as_ref()))
         .collect()
 }
 
-/// The detector's result and the constants', from an experiment's results.
+/// The detector's result and the references', from an experiment's results.
 fn split(mut results: Vec<SimResult>) -> (SimResult, Vec<SimResult>) {
     let det = results.remove(0);
     (det, results)
 }
 
 impl Solver<'_> {
-    /// An experiment of `models` (the detector first, then constants): the detector read
-    /// through the chosen centroider, the constants through `cog`.
+    /// An experiment of `models` (the detector first, then the references): the detector read
+    /// through the chosen centroider, the references through `cog`.
     fn experiment<'m>(
         &self,
         cfg: &SimConfig,
@@ -229,29 +293,29 @@ impl Solver<'_> {
         Experiment::with_arms(cfg, models, &arms)
     }
 
-    /// The pilot's estimate of sigma_eff (e-): 0 below its grid, its top above it. The pilot
-    /// uses other streams than the final runs, so its noise does not bias the final grid.
-    fn pilot(&self, scale: f64) -> Result<f64> {
+    /// The pilot's estimate (an abscissa): the foot below its grid, its top above it. The
+    /// pilot uses other streams than the final runs, so its noise does not bias the final grid.
+    fn pilot(&self) -> Result<f64> {
         let cfg = SimConfig {
             iters: pilot_iters(self.cfg),
             seed: self.cfg.seed ^ 0x0091_1107,
             ..self.cfg.clone()
         };
-        let grid = scaled(&PILOT_FACTORS, scale);
-        let constants = constants(&grid);
-        let models = with_detector(self.detector, &constants);
+        let grid = self.family.pilot();
+        let references = references(self.family, &grid);
+        let models = with_detector(self.detector, &references);
         let mut exp = self.experiment(&cfg, &models)?;
         let weight = models.len() as u64 * pixels(&cfg);
         exp.extend_to(cfg.iters, self.observer, weight)?;
-        let (det, consts) = split(exp.results());
-        Ok(match invert(det.r_px, &r_values(&consts), &grid) {
-            Ok(inv) => inv.sigma,
-            Err(Outside::Below) => 0.0,
+        let (det, refs) = split(exp.results());
+        Ok(match invert(det.r_px, &r_values(&refs), &grid) {
+            Ok(inv) => inv.x,
+            Err(Outside::Below) => grid[0],
             Err(Outside::Above) => grid[grid.len() - 1],
         })
     }
 
-    /// Run `models` (the detector, then constants at `grid`) from `start` iterations, and
+    /// Run `models` (the detector, then references at `grid`) from `start` iterations, and
     /// continue the experiment until the value meets the target or the cap is reached.
     fn refine<'m>(
         &self,
@@ -267,81 +331,79 @@ impl Solver<'_> {
             budget.spend((to - exp.iters()) * weight, self.observer);
             exp.extend_to(to, self.observer, weight)?;
             let runs = split(exp.results());
-            let (det, consts) = (&runs.0, &runs.1);
+            let (det, refs) = (&runs.0, &runs.1);
             if det.no_eligible_level {
                 let none = (f64::NAN, f64::NAN);
-                let e = self.assemble(&exp, &runs, grid, none, Status::NoEligibleLevel);
+                let e = self.assemble(&exp, &runs, grid, none, Outcome::NoEligibleLevel);
                 return Ok(Refined::Settled(e));
             }
-            let inv = match invert(det.r_px, &r_values(consts), grid) {
+            let inv = match invert(det.r_px, &r_values(refs), grid) {
                 Ok(inv) => inv,
                 Err(side) => return Ok(Refined::Outside(side, Box::new(exp))),
             };
-            let (sigma, se) = (inv.sigma, paired_se(&exp, det, consts, &inv));
-            let status = if self.precision.met(sigma, se) {
-                Status::Ok
+            let value = self.family.value(inv.x);
+            let se = paired_se(&exp, det, refs, &inv);
+            let outcome = if self.precision.met(value, se) {
+                Outcome::Ok
             } else if exp.iters() >= self.precision.max_iters {
-                Status::Imprecise
+                Outcome::Imprecise
             } else {
                 let target = self
                     .precision
-                    .target_for(sigma)
+                    .target_for(value)
                     .expect("a target was missed");
                 to = self.precision.next_iters(exp.iters(), se, target);
                 continue;
             };
-            let e = self.assemble(&exp, &runs, grid, (sigma, se), status);
+            let e = self.assemble(&exp, &runs, grid, (value, se), outcome);
             return Ok(Refined::Settled(e));
         }
     }
 
-    /// The result when the detector's R lies outside R of the whole wide `grid` (`grid[0]` =
-    /// 0): a lower bound of 0 below it, unreachable above it.
-    fn bound(&self, side: Outside, exp: &Experiment, grid: &[f64]) -> Effective {
+    /// The result when the detector's R lies outside R of the whole wide `grid` (`grid[0]` the
+    /// foot): the foot's value below it, none above it.
+    fn bound(&self, side: Outside, exp: &Experiment, grid: &[f64]) -> Solved {
         let runs = split(exp.results());
-        let (det, consts) = (&runs.0, &runs.1);
+        let (det, refs) = (&runs.0, &runs.1);
         match side {
             Outside::Below => {
-                // The SE of a value at the foot of the grid: R_det - R(0) over the first slope.
-                let at_zero = Inversion {
-                    sigma: 0.0,
-                    slope: (consts[1].r_px - consts[0].r_px) / (grid[1] - grid[0]),
+                // The SE of a value at the foot of the grid: R_det - R(foot) over the first slope.
+                let at_foot = Inversion {
+                    x: grid[0],
+                    slope: (refs[1].r_px - refs[0].r_px) / (grid[1] - grid[0]),
                     weights: vec![(0, 1.0)],
                 };
-                let se = paired_se(exp, det, consts, &at_zero);
-                self.assemble(exp, &runs, grid, (0.0, se), Status::LowerBound)
+                let se = paired_se(exp, det, refs, &at_foot);
+                let value = self.family.value(grid[0]);
+                self.assemble(exp, &runs, grid, (value, se), Outcome::AtFoot)
             }
             Outside::Above => {
                 let none = (f64::NAN, f64::NAN);
-                self.assemble(exp, &runs, grid, none, Status::Unreachable)
+                self.assemble(exp, &runs, grid, none, Outcome::Beyond)
             }
         }
     }
 
-    /// A result from the experiment on `grid`, its results `(detector, constants)` and the
-    /// solved (sigma, SE) in e-.
+    /// A result from the experiment on `grid`, its results `(detector, references)` and the
+    /// solved (value, SE).
     fn assemble(
         &self,
         exp: &Experiment,
-        (det, consts): &(SimResult, Vec<SimResult>),
+        (det, refs): &(SimResult, Vec<SimResult>),
         grid: &[f64],
-        (sigma, se): (f64, f64),
-        status: Status,
-    ) -> Effective {
-        let has_value = !matches!(status, Status::Unreachable | Status::NoEligibleLevel);
-        Effective {
-            sigma_eff_e: sigma,
-            sigma_eff_se_e: se,
-            target_se_e: self.precision.target_for(sigma).filter(|_| has_value),
+        (value, se): (f64, f64),
+        outcome: Outcome,
+    ) -> Solved {
+        let has_value = !matches!(outcome, Outcome::Beyond | Outcome::NoEligibleLevel);
+        Solved {
+            value,
+            se,
+            target: self.precision.target_for(value).filter(|_| has_value),
             iters: exp.iters(),
-            r_px: det.r_px,
-            r_se_px: det.r_se_px,
-            b_opt_e: det.b_opt_e,
-            param_name: det.param_name,
-            param_opt: det.param_opt,
-            sigma_grid_e: grid.to_vec(),
-            r_const_px: consts.iter().map(|c| c.r_px).collect(),
-            status,
+            det: det.clone(),
+            grid: grid.iter().map(|&x| self.family.value(x)).collect(),
+            r_ref_px: refs.iter().map(|c| c.r_px).collect(),
+            outcome,
         }
     }
 }
@@ -351,9 +413,9 @@ fn r_values(results: &[SimResult]) -> Vec<f64> {
     results.iter().map(|r| r.r_px).collect()
 }
 
-/// Standard error of sigma (e-) from the paired difference D = R_det - sum w_i R_i (each at
-/// its own best level) over the slope; infinite where R is flat.
-fn paired_se(exp: &Experiment, det: &SimResult, consts: &[SimResult], inv: &Inversion) -> f64 {
+/// Standard error of the solved abscissa from the paired difference D = R_det - sum w_i R_i
+/// (each at its own best level) over the slope; infinite where R is flat.
+fn paired_se(exp: &Experiment, det: &SimResult, refs: &[SimResult], inv: &Inversion) -> f64 {
     if inv.slope <= 0.0 {
         return f64::INFINITY;
     }
@@ -363,14 +425,10 @@ fn paired_se(exp: &Experiment, det: &SimResult, consts: &[SimResult], inv: &Inve
         coef,
     };
     let terms: Vec<Term> = std::iter::once(term(0, det, 1.0))
-        .chain(
-            inv.weights
-                .iter()
-                .map(|&(i, w)| term(i + 1, &consts[i], -w)),
-        )
+        .chain(inv.weights.iter().map(|&(i, w)| term(i + 1, &refs[i], -w)))
         .collect();
     exp.paired_se(&terms) / inv.slope
 }
 
 #[cfg(test)]
-mod tests;
+pub(super) mod tests;

@@ -1,5 +1,6 @@
-//! The EMCCD report: the EM-gain fit on the frames' histogram (exact register), then R against
-//! signal for an EMCCD with the fitted gain and read noise beside sCMOS models.
+//! The EMCCD report: the EM-gain fit on the frames' histogram (exact register), R against
+//! signal for an EMCCD with the fitted gain and read noise beside sCMOS models, and the simple
+//! model's effective QE factor over the grid (`qe_factor`).
 
 use super::compare::{
     compare_models, emccd_groups, emccd_labels, write_comparison, COMPARISON_FILES,
@@ -8,14 +9,17 @@ use super::grid::Grid;
 use super::options::{GainSource, ReportOptions};
 use super::page::emccd_html;
 use super::point::ChosenPoint;
+use super::qe_factor::{chart_stem, html_section, save_chart, QeSummary};
 use super::result::{EmccdSummary, ReportInput, ReportResult, Summary};
 use crate::calib::summary::{inputs, Checksum};
-use crate::detector::EmRegister;
+use crate::detector::{EmRegister, ModelSpec};
+use crate::effective::{effective_qe_table, write_qe_tables, QePrecision, QE_TABLE_NAMES};
 use crate::fit::emgain::require_em_signature;
 use crate::fit::emgain::{accumulate as emgain_histogram, chart as emgain_chart};
 use crate::fit::emgain::{fit_emgain, EmGainOptions, EmShape};
 use crate::io::FrameStack;
 use crate::output::{write_atomic, write_json, OutputDir};
+use crate::progress::Observer;
 use crate::{Error, Result};
 use std::path::PathBuf;
 
@@ -25,6 +29,7 @@ pub(crate) fn run(
     grid: &Grid,
     stack: &FrameStack,
     dir: &OutputDir,
+    observer: &dyn Observer,
 ) -> Result<ReportResult> {
     let GainSource::Given(conv) = o.gain_source()? else {
         return Err(Error::invalid(
@@ -62,6 +67,21 @@ pub(crate) fn run(
     // The comparison runs at the point's sub-aperture and spot over the grid's signals and the
     // point's, whether or not the point is one of the grid's configurations.
     let operating_point = ChosenPoint::new(&op, o.operating_point.is_some(), grid.contains(&op));
+    // The simple model's effective QE factor over the grid, at the EMCCD's QE, with the
+    // effective noise's relative target and cap.
+    let precision = QePrecision::with(&o.precision_in_use(), QePrecision::DEFAULT_TARGET_SE);
+    let qe_records = effective_qe_table(
+        &grid.configs(o.qe_emccd),
+        &[ModelSpec::EmccdStochastic],
+        &params,
+        &precision,
+        observer,
+    )?;
+    write_qe_tables(&qe_records, &dir.path(""))?;
+    let qe_charts = save_chart(&qe_records, &op.spot, dir)?;
+    let qe_summary = QeSummary::new(&qe_records, (op.subap_px, op.spot, op.signal_photons));
+    let qe_chart_png = (!qe_charts.is_empty()).then(|| format!("{}.png", chart_stem(&op.spot)));
+    let qe_html = html_section(&qe_records, &qe_summary, qe_chart_png.as_deref());
     let summary = EmccdSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         inputs: ReportInput::all("darks", inputs(stack, Checksum::Blake3)?).collect(),
@@ -74,17 +94,24 @@ pub(crate) fn run(
         iters: grid.iters,
         seed: grid.seed,
         quick: o.quick,
+        effective_qe: qe_summary,
+        effective_qe_records: qe_records,
     };
     write_json(&dir.path("summary.json"), &summary)?;
     write_atomic(
         &dir.path("index.html"),
-        emccd_html(&summary, &comparison, &error_bars).as_bytes(),
+        emccd_html(&summary, &comparison, &error_bars, &qe_html).as_bytes(),
     )?;
+    let qe_files = qe_charts
+        .iter()
+        .filter_map(|p| p.file_name().map(PathBuf::from));
     let files = ["emgain.png"]
         .into_iter()
         .chain(COMPARISON_FILES)
+        .chain(QE_TABLE_NAMES)
         .chain(["summary.json", "index.html"])
         .map(PathBuf::from)
+        .chain(qe_files)
         .collect();
     Ok(ReportResult {
         summary: Summary::Emccd(Box::new(summary)),

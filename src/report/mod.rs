@@ -14,6 +14,7 @@ pub mod heatmaps;
 mod options;
 pub mod page;
 mod point;
+pub mod qe_factor;
 mod real_noise;
 mod result;
 mod scmos;
@@ -43,7 +44,7 @@ use crate::Result;
 use std::path::PathBuf;
 
 /// Files a report may write into its directory (glob patterns).
-const OUTPUT_NAMES: [&str; 34] = [
+const OUTPUT_NAMES: [&str; 38] = [
     "offset_adu.fits",
     "rms_adu.fits",
     "rms_e.fits",
@@ -76,6 +77,11 @@ const OUTPUT_NAMES: [&str; 34] = [
     POINTS_NAMES[0],
     POINTS_NAMES[1],
     "emgain.png",
+    // The EMCCD report's effective QE factor of the simple model (qe_factor).
+    "effective_qe.csv",
+    "effective_qe.json",
+    "effective_qe_*.png",
+    "effective_qe_*.svg",
     "summary.json",
     "index.html",
 ];
@@ -120,7 +126,7 @@ pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportRes
     }
     let mut result = match options.detector {
         DetectorKind::Scmos => scmos::run(options, &grid, &stack, &dir, observer)?,
-        DetectorKind::Emccd => emccd::run(options, &grid, &stack, &dir)?,
+        DetectorKind::Emccd => emccd::run(options, &grid, &stack, &dir, observer)?,
     };
     let out_dir = dir.commit()?;
     for f in &mut result.files {

@@ -115,8 +115,14 @@ fn unreachable_advice(h: &mut String, out_dir: &Path) {
 }
 
 /// The EMCCD report page: the EM-gain fit, then the comparison with sCMOS models;
-/// `error_bars` is what the comparison chart's caption says of its error bars.
-pub fn emccd_html(s: &EmccdSummary, comparison: &[Compared], error_bars: &str) -> String {
+/// `error_bars` is what the comparison chart's caption says of its error bars, `qe_section` the
+/// simple model's effective QE factor (HTML, [`super::qe_factor::html_section`]).
+pub fn emccd_html(
+    s: &EmccdSummary,
+    comparison: &[Compared],
+    error_bars: &str,
+    qe_section: &str,
+) -> String {
     let f = &s.emgain;
     let op = &s.operating_point;
     let mut h = page_head();
@@ -157,7 +163,8 @@ pub fn emccd_html(s: &EmccdSummary, comparison: &[Compared], error_bars: &str) -
     h.push_str("<h2>Charts</h2>");
     figure(&mut h, "emgain.png", "EM-gain fit: histogram of all pixel samples with the fitted model", "Histogram of all pixel-samples (log counts) with the fitted Poisson-register-Gaussian model and its zero- and one-or-more-electron parts.");
     figure(&mut h, "r_vs_signal.png", "R against signal: this EMCCD against sCMOS models", &format!("Mean radial centroid error R against signal, {}×{} px, {}: this EMCCD (fitted gain and read noise) against sCMOS models. Lower is better. {}", op.subap_px, op.subap_px, esc(&op.spot), esc(error_bars)));
-    h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, the operating point, inputs with BLAKE3 checksums), r_vs_signal.csv/.svg, emgain.png.</p></body></html>\n");
+    h.push_str(qe_section);
+    h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, the operating point, the effective QE factor's key numbers, inputs with BLAKE3 checksums), r_vs_signal.csv/.svg, emgain.png, effective_qe.csv/.json (the QE factor of every configuration) and its chart.</p></body></html>\n");
     h
 }
 

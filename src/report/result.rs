@@ -2,11 +2,12 @@
 //! computed, and the files it wrote.
 
 use super::point::ChosenPoint;
+use super::qe_factor::QeSummary;
 pub use super::real_noise::{RealNoise, RealNoiseRow};
 use crate::calib::ptc::PtcResult;
 use crate::calib::summary::InputFile;
 use crate::detector::ModelSpec;
-use crate::effective::{EffectiveRecord, Status};
+use crate::effective::{EffectiveRecord, QeRecord, Status};
 use crate::fit::emgain::EmGainFit;
 use crate::fit::pdf_fit::PdfFitReport;
 use crate::montecarlo::SimRecord;
@@ -190,4 +191,11 @@ pub struct EmccdSummary {
     pub seed: u64,
     /// True for the reduced `quick` grid.
     pub quick: bool,
+    /// The simple model's effective QE factor over the grid: counts, extremes, where the
+    /// paper's 0.5 holds, and the operating point's.
+    pub effective_qe: QeSummary,
+    /// The effective QE factor of every configuration (written to `effective_qe.csv`/`.json`,
+    /// not to `summary.json`).
+    #[serde(skip)]
+    pub effective_qe_records: Vec<QeRecord>,
 }

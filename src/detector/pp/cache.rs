@@ -33,7 +33,7 @@ impl PpCache {
         // Rule B does not depend on the light level: one entry serves all.
         let key = match self.config.rule {
             PpRule::EqualDensity => 0,
-            PpRule::PoissonPrior => lambda_ref.to_bits(),
+            PpRule::PoissonPrior | PpRule::PixelPrior => lambda_ref.to_bits(),
         };
         if let Some(c) = self.lock().get(&key) {
             return Ok(Arc::clone(c));

@@ -16,6 +16,33 @@ pub enum PpRule {
     PoissonPrior,
     /// Rule B: fixed boundaries where the output densities of light levels `n` and `n + 1` are equal.
     EqualDensity,
+    /// Rule A per pixel: each pixel's own prior, its mean light level in the noiseless spot
+    /// (the mean spot image a closed-loop controller knows), so each pixel has its own
+    /// boundaries and photometric correction.
+    PixelPrior,
+}
+
+impl PpRule {
+    /// Every rule, in the order of the `--pp-rule` values.
+    pub const ALL: [PpRule; 3] = [
+        PpRule::PoissonPrior,
+        PpRule::EqualDensity,
+        PpRule::PixelPrior,
+    ];
+
+    /// The rule's name on the command line and in tables.
+    pub fn label(self) -> &'static str {
+        match self {
+            PpRule::PoissonPrior => "poisson-prior",
+            PpRule::EqualDensity => "equal-density",
+            PpRule::PixelPrior => "pixel-prior",
+        }
+    }
+
+    /// The rule named `label` (see [`PpRule::label`]).
+    pub fn parse(label: &str) -> Option<PpRule> {
+        Self::ALL.into_iter().find(|r| r.label() == label)
+    }
 }
 
 /// How the 0|1 boundary is placed.
@@ -98,12 +125,13 @@ impl PpConfig {
     }
 
     /// The thresholds for reference light level `lambda_ref` (photo-electrons per pixel, >= 0;
-    /// ignored by Rule B).
+    /// ignored by Rule B; a pixel's own level for the pixel prior).
     pub fn thresholds(&self, lambda_ref: f64) -> Result<PpThresholds> {
         self.validate()?;
         let u_max = output_span_over_g(self.lambda_max);
         let mut t = match self.rule {
-            PpRule::PoissonPrior => {
+            // The pixel prior is Rule A at each pixel's own level.
+            PpRule::PoissonPrior | PpRule::PixelPrior => {
                 check_lambda(lambda_ref, "pp_lambda")?;
                 // A dark frame (lambda 0) gets the thresholds of a very faint one: practically
                 // everything counts 0, which is the MAP answer.

@@ -10,6 +10,9 @@
 //!   `p(x | n)`, which is `x / g = n (n + 1) / lambda` for `n >= 1`. The 0|1 boundary is where the
 //!   zero-electron Gaussian read-noise peak and the one-electron exponentially modified Gaussian are
 //!   equally likely under the same prior ([`zero_one_threshold_e`]), or a fixed `k * sigma`.
+//! * Per-pixel prior ([`PpRule::PixelPrior`]): Rule A with each pixel's own mean light level
+//!   in the noiseless centred spot (the mean spot image an AO system knows) as `lambda`, so each
+//!   pixel has its own boundaries and photometric correction ([`PixelPrior`]).
 //! * Rule B ([`PpRule::EqualDensity`]): the literal reading, fixed boundaries where the output
 //!   densities of Poisson light levels `n` and `n + 1` are equal (about 0.203, 0.719, 1.896,
 //!   2.936 g for g = 500, read noise 50 e-). It hardly reduces noise; it is kept as a documented
@@ -46,13 +49,15 @@
 //! Layout: [`PpConfig`] (rule, gain, read noise) makes [`PpThresholds`] (`thresholds`, from the
 //! output densities in `density`) and a [`PhotometricCorrection`] (`correction`, from the exact
 //! survival functions in `survival`), joined in a [`PpCounter`]; [`PpCache`] keeps counters per
-//! reference light level. The readout itself is [`crate::detector::EmccdPp`].
+//! reference light level, [`PixelPrior`] one counter per pixel of a mean image. The readout
+//! itself is [`crate::detector::EmccdPp`].
 
 mod cache;
 mod config;
 mod correction;
 mod counter;
 mod density;
+mod pixel;
 mod survival;
 mod thresholds;
 
@@ -60,6 +65,7 @@ pub use cache::PpCache;
 pub use config::{PpConfig, PpRule, ZeroOneRule};
 pub use correction::PhotometricCorrection;
 pub use counter::PpCounter;
+pub use pixel::{PixelCounters, PixelPrior};
 pub use survival::{p_exceed, survival_by_n};
 pub use thresholds::{rule_a_threshold_over_g, zero_one_threshold_e, PpThresholds};
 

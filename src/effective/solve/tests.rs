@@ -1,5 +1,5 @@
 use super::*;
-use crate::detector::ScmosRandom;
+use crate::detector::{ScmosConstant, ScmosRandom};
 use crate::progress::Silent;
 use std::sync::Arc;
 
@@ -91,7 +91,7 @@ fn a_detector_without_an_eligible_level_gets_no_value() {
 
 /// Two-sided 0.1 % bounds of chi-square with `k` degrees of freedom (Wilson-Hilferty: within
 /// 1 % of the exact quantiles from k = 20).
-fn chi_square_bounds(k: f64) -> (f64, f64) {
+pub(in crate::effective) fn chi_square_bounds(k: f64) -> (f64, f64) {
     const Z: f64 = 3.2905; // the 0.05 % tail of the standard normal
     let s = (2.0 / (9.0 * k)).sqrt();
     let q = |z: f64| k * (1.0 - 2.0 / (9.0 * k) + z * s).powi(3);
