@@ -3,6 +3,7 @@ pixels, _photons photons per sub-aperture before QE)."""
 
 import os
 import sys
+from pathlib import Path
 from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
@@ -291,9 +292,9 @@ class Report:
     @property
     def pdf_fit(self) -> Optional[PdfFit]: ...
     @property
-    def out_dir(self) -> str: ...
+    def out_dir(self) -> Path: ...
     @property
-    def files(self) -> List[str]: ...
+    def files(self) -> List[Path]: ...
     def to_dict(self) -> Dict[str, Any]: ...
 
 def report(

@@ -47,7 +47,11 @@ pub fn to_py(e: Error) -> PyErr {
         // An input that is not a file but an argument (`map_e` given as an array) is a bad
         // value, not a bad file.
         Error::Input { path, message } if path.to_string_lossy().starts_with('`') => {
-            PyValueError::new_err(format!("invalid {}: {}", path.display(), keywords_in(&message)))
+            PyValueError::new_err(format!(
+                "invalid {}: {}",
+                path.display(),
+                keywords_in(&message)
+            ))
         }
         e @ Error::Input { .. } => PyOSError::new_err(e.to_string()),
         Error::Io { path, source } => {

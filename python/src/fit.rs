@@ -267,7 +267,10 @@ pub fn fit_emgain_py(
         serial_cic,
         max_value_adu,
         bin_width_adu,
-        reference_stack: reference_stack.map(paths_of).transpose()?.unwrap_or_default(),
+        reference_stack: reference_stack
+            .map(paths_of)
+            .transpose()?
+            .unwrap_or_default(),
         reference_offset,
         ..EmgainRun::default()
     };

@@ -24,9 +24,15 @@ fn _detnoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("MODEL_NAMES", detnoise::detector::MODEL_NAMES)?;
-    m.add("MODELS_HELP", errors::keywords_in(&detnoise::detector::models_help()))?;
+    m.add(
+        "MODELS_HELP",
+        errors::keywords_in(&detnoise::detector::models_help()),
+    )?;
     m.add("MODEL_PARAMS", params::KEYWORDS.to_vec())?;
-    m.add("DetnoiseWarning", py.get_type::<observer::DetnoiseWarning>())?;
+    m.add(
+        "DetnoiseWarning",
+        py.get_type::<observer::DetnoiseWarning>(),
+    )?;
     m.add_class::<readout::PyReadout>()?;
     m.add_class::<calib::StackIterator>()?;
     m.add_class::<calib::PyDarkMaps>()?;

@@ -92,9 +92,10 @@ impl<'a, 'py> Given<'a, 'py> {
     {
         match self.get(key)? {
             None => Ok(None),
-            Some(v) => v.extract::<T>().map(Some).map_err(|_| {
-                invalid(key, format!("{}: not a number of the right kind", repr(&v)))
-            }),
+            Some(v) => v
+                .extract::<T>()
+                .map(Some)
+                .map_err(|_| invalid(key, format!("{}: not a number of the right kind", repr(&v)))),
         }
     }
 
@@ -142,14 +143,15 @@ impl<'a, 'py> Given<'a, 'py> {
         let model = ModelParams {
             em_gain,
             stages,
-            emccd_read_noise_e: non_negative("emccd_read_noise_e")?
-                .unwrap_or(d.emccd_read_noise_e),
+            emccd_read_noise_e: non_negative("emccd_read_noise_e")?.unwrap_or(d.emccd_read_noise_e),
             gaussian_switch_e: self.number::<u32>("gaussian_switch_e")?,
             cascade_register: self.choice("register", &["exact", "cascade"])?.as_deref()
                 == Some("cascade"),
             sigma_e: non_negative("sigma_e")?.unwrap_or(d.sigma_e),
             pdf: self.pdf()?.unwrap_or(d.pdf),
-            pattern_seed: self.number::<u64>("pattern_seed")?.unwrap_or(d.pattern_seed),
+            pattern_seed: self
+                .number::<u64>("pattern_seed")?
+                .unwrap_or(d.pattern_seed),
             map: self.map()?.map(Arc::new),
             pp_rule,
             pp_lambda: positive("pp_lambda", "> 0 photo-electrons per pixel")?,
@@ -177,7 +179,10 @@ impl<'a, 'py> Given<'a, 'py> {
 
     /// `pdf`: `"paper"`, a `PdfFit` (with `pdf_model`), or the path of a pdf_fit.json.
     fn pdf(&self) -> PyResult<Option<Arc<dyn detnoise::pdf::RmsPdf>>> {
-        let model = self.get("pdf_model")?.map(|m| m.extract::<String>()).transpose()?;
+        let model = self
+            .get("pdf_model")?
+            .map(|m| m.extract::<String>())
+            .transpose()?;
         let Some(pdf) = self.get("pdf")? else {
             return match model {
                 Some(_) => Err(invalid(
@@ -202,7 +207,10 @@ impl<'a, 'py> Given<'a, 'py> {
         let path: PathBuf = pdf.extract().map_err(|_| {
             invalid(
                 "pdf",
-                format!("{}: must be \"paper\", a PdfFit or a pdf_fit.json path", repr(&pdf)),
+                format!(
+                    "{}: must be \"paper\", a PdfFit or a pdf_fit.json path",
+                    repr(&pdf)
+                ),
             )
         })?;
         detnoise::fit::load_pdf_fit(&path, model.as_deref())
@@ -253,5 +261,7 @@ impl<'a, 'py> Given<'a, 'py> {
 
 /// `repr(v)` for messages.
 fn repr(v: &Bound<'_, PyAny>) -> String {
-    v.repr().map(|r| r.to_string()).unwrap_or_else(|_| "?".into())
+    v.repr()
+        .map(|r| r.to_string())
+        .unwrap_or_else(|_| "?".into())
 }

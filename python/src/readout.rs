@@ -82,7 +82,7 @@ impl Job<'_> {
         if self.photon_noise {
             let mut rng = stream(self.seed, item, PHOTONS);
             for (p, (k, &lambda)) in photo_e.iter_mut().zip(input).enumerate() {
-                if !(lambda >= 0.0 && lambda <= MAX_EXPECTED_E) {
+                if !(0.0..=MAX_EXPECTED_E).contains(&lambda) {
                     return Err((p, lambda));
                 }
                 *k = poisson(lambda, &mut rng);
@@ -184,7 +184,10 @@ impl PyReadout {
             }
         };
         if n == 0 || k as u64 > u32::MAX as u64 {
-            return Err(invalid("image_e", format!("shape {shape:?}: nothing to read")));
+            return Err(invalid(
+                "image_e",
+                format!("shape {shape:?}: nothing to read"),
+            ));
         }
         let (scale, offset_scalar, offset_array) = self.output_unit(unit, offset_adu)?;
         let mean = mean_e.map(float_array).transpose()?;
@@ -227,7 +230,8 @@ impl PyReadout {
                     .try_for_each_init(
                         || (vec![0u32; npix], vec![0.0; npix]),
                         |scratch, (i, (o, x))| {
-                            job.read(i, x, o, scratch).map_err(|(p, v)| (i * npix + p, v))
+                            job.read(i, x, o, scratch)
+                                .map_err(|(p, v)| (i * npix + p, v))
                         },
                     )
             });

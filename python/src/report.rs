@@ -73,7 +73,11 @@ impl Report {
         d.set_item("comparison", self.comparison(py)?)?;
         d.set_item(
             "pdf_fit",
-            self.result.pdf_fit.as_ref().map(|f| to_py(py, f)).transpose()?,
+            self.result
+                .pdf_fit
+                .as_ref()
+                .map(|f| to_py(py, f))
+                .transpose()?,
         )?;
         d.set_item("out_dir", self.out_dir())?;
         d.set_item("files", self.files())?;

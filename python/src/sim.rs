@@ -26,7 +26,10 @@ pub fn specs_of(models: &Bound<'_, PyAny>) -> PyResult<Vec<ModelSpec>> {
     if specs.is_empty() {
         return Err(invalid(
             "model",
-            format!("no model given (known: {})", detnoise::detector::MODEL_NAMES),
+            format!(
+                "no model given (known: {})",
+                detnoise::detector::MODEL_NAMES
+            ),
         ));
     }
     Ok(specs)
@@ -141,7 +144,11 @@ pub fn simulate<'py>(
         position_half_range_px,
         max_empty_frac,
     )?;
-    let defaults = (16usize.into_pyobject(py)?, "airy:2".into_pyobject(py)?, 50.0f64.into_pyobject(py)?);
+    let defaults = (
+        16usize.into_pyobject(py)?,
+        "airy:2".into_pyobject(py)?,
+        50.0f64.into_pyobject(py)?,
+    );
     let configs = Sweep {
         subap_px: subap_px.unwrap_or(defaults.0.as_any()),
         spot: spot.unwrap_or(defaults.1.as_any()),
