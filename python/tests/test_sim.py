@@ -52,6 +52,13 @@ def test_records_make_a_dataframe():
     assert list(frame["model"]) == ["scmos-median"] and frame["r_px"].iloc[0] > 0
 
 
+def test_library_warnings_arrive_as_python_warnings_naming_the_keyword():
+    # A grid that stops far below the optimum background of a 3 e- camera (several e-).
+    with pytest.warns(detnoise.DetnoiseWarning, match="widen `bg_grid`"):
+        records = detnoise.simulate("scmos-constant:3", subap_px=4, iters=200, bg_grid="0:0.1:0.05")
+    assert records[0]["b_at_grid_edge"] is True
+
+
 def test_progress_reaches_every_stages_total():
     calls = []
     detnoise.simulate(
