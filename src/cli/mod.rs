@@ -94,7 +94,18 @@ fn with_model_list(cmd: clap::Command) -> clap::Command {
 
 /// Parse the command line, run it, and return the process exit code.
 pub fn main() -> i32 {
-    let cli = match Cli::from_arg_matches(&command().get_matches()) {
+    main_from(std::env::args_os())
+}
+
+/// Parse `args` (the program name first, as in `std::env::args_os`), run the command, and
+/// return the process exit code: the entry of the binary and of the Python package's
+/// `detnoise` command. A parse error or `--help` prints and ends the process, as clap does.
+pub fn main_from<I, T>(args: I) -> i32
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::from_arg_matches(&command().get_matches_from(args)) {
         Ok(cli) => cli,
         Err(e) => e.exit(),
     };

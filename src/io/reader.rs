@@ -6,12 +6,25 @@ use super::file::open_file;
 use super::frame::{FileFrames, FrameData, FrameOrigin};
 use super::stack::FrameStack;
 use crate::error::Result;
+use std::borrow::Cow;
 
 impl FrameStack {
     /// A sequential reader over all frames.
     pub fn reader(&self) -> StackReader<'_> {
+        StackReader::over(Cow::Borrowed(self))
+    }
+
+    /// A sequential reader that owns the stack (for a caller that keeps the reader alone,
+    /// e.g. a Python iterator over the frames).
+    pub fn into_reader(self) -> StackReader<'static> {
+        StackReader::over(Cow::Owned(self))
+    }
+}
+
+impl<'a> StackReader<'a> {
+    fn over(stack: Cow<'a, FrameStack>) -> Self {
         StackReader {
-            stack: self,
+            stack,
             file_index: 0,
             local: 0,
             global: 0,
@@ -22,7 +35,7 @@ impl FrameStack {
 
 /// Sequential reader over the frames of a [`FrameStack`]; holds at most one open file.
 pub struct StackReader<'a> {
-    stack: &'a FrameStack,
+    stack: Cow<'a, FrameStack>,
     file_index: usize,
     local: usize,
     global: usize,
@@ -30,6 +43,11 @@ pub struct StackReader<'a> {
 }
 
 impl StackReader<'_> {
+    /// The stack being read.
+    pub fn stack(&self) -> &FrameStack {
+        &self.stack
+    }
+
     /// Read the next frame into `slot`, as stored integer bytes when the file allows it
     /// (reusing the slot's buffers), else as values. Returns where the frame came from, or
     /// None at the end.

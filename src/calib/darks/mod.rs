@@ -36,7 +36,7 @@ pub use kurtosis::{kurtosis_se, KurtosisSummary, KURTOSIS_SIGMAS};
 pub use lines::LineVariances;
 pub use maps::{dark_maps, dark_maps_hashed, DarkMaps};
 pub use options::{Clip, DarkOptions};
-pub use outputs::{write_outputs, DarkSummary, OUTPUT_NAMES};
+pub use outputs::{summarise, write_outputs, DarkSummary, OUTPUT_NAMES};
 pub use rts::{
     RtsFits, RtsPixel, RtsSummary, EXAMPLE_FRAMES, EXAMPLE_PIXELS, MAX_RTS_PIXELS, MAX_RTS_SAMPLES,
 };

@@ -122,23 +122,18 @@ fn keywords(maps: &DarkMaps, stack: &FrameStack, opts: &DarkOptions) -> Vec<Keyw
     k
 }
 
-/// Write the outputs of a dark calibration to `out`, the summary as `summary_name` (all computed
-/// before the first write). `gain` (e- per adu) adds rms_e.fits and the e- figures.
-pub fn write_outputs(
-    out: &Path,
+/// The summary of a dark calibration (the content of summary.json, the summary named
+/// `summary_name` in its list of outputs), without writing anything. `gain` (e- per adu) adds
+/// the e- figures.
+pub fn summarise(
     stack: &FrameStack,
     maps: &DarkMaps,
     opts: &DarkOptions,
     gain: Option<f64>,
     inputs: Vec<InputFile>,
     summary_name: &str,
-) -> Result<DarkSummary> {
-    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+) -> DarkSummary {
     let rms_e = gain.map(|g| maps.rms_adu.to_electrons(g));
-    let (hist_values, hist_unit) = match &rms_e {
-        Some(m) => (&m.data, "read noise (e-)"),
-        None => (&maps.rms_adu.data, "read noise (adu)"),
-    };
     let unflagged: Vec<f64> = maps
         .rms_adu
         .data
@@ -161,7 +156,7 @@ pub fn write_outputs(
     }
     outputs.extend(NOISE_FILES);
     let cols = stack.shape.1;
-    let summary = DarkSummary {
+    DarkSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         command: "darks",
         options: opts.clone(),
@@ -182,6 +177,26 @@ pub fn write_outputs(
         }),
         rts: maps.rts.summary(cols, gain),
         outputs: outputs.iter().map(|s| s.to_string()).collect(),
+    }
+}
+
+/// Write the outputs of a dark calibration to `out`, the summary as `summary_name` (all computed
+/// before the first write). `gain` (e- per adu) adds rms_e.fits and the e- figures.
+pub fn write_outputs(
+    out: &Path,
+    stack: &FrameStack,
+    maps: &DarkMaps,
+    opts: &DarkOptions,
+    gain: Option<f64>,
+    inputs: Vec<InputFile>,
+    summary_name: &str,
+) -> Result<DarkSummary> {
+    std::fs::create_dir_all(out).map_err(|e| Error::io(out, e))?;
+    let summary = summarise(stack, maps, opts, gain, inputs, summary_name);
+    let rms_e = gain.map(|g| maps.rms_adu.to_electrons(g));
+    let (hist_values, hist_unit) = match &rms_e {
+        Some(m) => (&m.data, "read noise (e-)"),
+        None => (&maps.rms_adu.data, "read noise (adu)"),
     };
     // The chart goes first: if it fails, nothing has been written.
     rms_histogram(hist_values, hist_unit, maps.stats.frames).save(out.join("rms_hist.png"))?;
@@ -227,6 +242,7 @@ pub fn write_outputs(
         "",
         &kk,
     )?;
+    let cols = stack.shape.1;
     let rows = maps.rts.rows(cols, gain);
     write_rts_csv(&out.join("rts.csv"), &rows)?;
     write_rts_fits(&out.join("rts.fits"), &rows)?;

@@ -38,7 +38,7 @@ pub use histogram::ValueHistogram;
 pub use model::{excess_noise_factor_sq, model_curve, CurveBin};
 pub use options::{EmGainOptions, EmShape};
 pub use result::{gain_from_mean_ratio, EmCrossChecks, EmGainFit, EmStart};
-pub use run::{run, EmgainReport, EmgainRun, EmgainRunResult, RatioCheck};
+pub use run::{fit_report, run, EmgainReport, EmgainRun, EmgainRunResult, RatioCheck};
 pub use signature::{require_em_signature, EmSignature, Verdict};
 pub use stack::accumulate;
 pub use start::{start_values, MIN_SAMPLES, MIN_SIGNAL_SAMPLES};

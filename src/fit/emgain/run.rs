@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use super::chart::chart;
 use super::fit::fit_emgain_of_stack;
+use super::histogram::ValueHistogram;
 use super::options::{EmGainOptions, EmShape};
 use super::result::{gain_from_mean_ratio, EmGainFit};
 use super::signature::require_em_signature;
@@ -183,6 +184,19 @@ pub fn run(job: &EmgainRun) -> Result<EmgainRunResult> {
             names: &["emgain.json", "emgain.png"],
         },
     )?;
+    let (report, hist) = fit_report(job)?;
+    chart(&hist, &report.fit, &dir.path("emgain.png"))?;
+    crate::output::write_json(&dir.path("emgain.json"), &report)?;
+    Ok(EmgainRunResult {
+        report,
+        out: dir.commit()?,
+    })
+}
+
+/// The EM-gain fit of `job` without writing anything (its `out` and `force` are not used):
+/// the content of emgain.json, and the histogram fitted (for [`chart`]).
+pub fn fit_report(job: &EmgainRun) -> Result<(EmgainReport, ValueHistogram)> {
+    job.validate()?;
     let conv = match (&job.gain_map, job.gain_e_per_adu) {
         (Some(p), _) => Some(median_gain(p)?),
         (None, g) => g,
@@ -240,7 +254,6 @@ pub fn run(job: &EmgainRun) -> Result<EmgainRunResult> {
             em_gain_ratio: gain_from_mean_ratio(signal, rmean - rbias),
         })
     };
-    chart(&hist, &fit, &dir.path("emgain.png"))?;
     let report = EmgainReport {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         stack: paths(&stack),
@@ -250,11 +263,7 @@ pub fn run(job: &EmgainRun) -> Result<EmgainRunResult> {
         fit,
         ratio_check,
     };
-    crate::output::write_json(&dir.path("emgain.json"), &report)?;
-    Ok(EmgainRunResult {
-        report,
-        out: dir.commit()?,
-    })
+    Ok((report, hist))
 }
 
 impl EmgainReport {

@@ -1,0 +1,324 @@
+"""Type stubs of detnoise: units are in the names (_e electrons, _adu camera counts, _px
+pixels, _photons photons per sub-aperture before QE)."""
+
+import os
+import sys
+from pathlib import Path
+from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+if sys.version_info >= (3, 11):
+    from typing import TypedDict, Unpack
+else:
+    from typing_extensions import TypedDict, Unpack
+
+__version__: str
+#: Every model name `Readout`, `simulate` and `effective` accept, with its argument syntax.
+MODEL_NAMES: str
+#: One line per model: syntax, what it simulates, and the parameters it reads.
+MODELS_HELP: str
+#: The keywords of the readout-model parameters (`ModelParams`).
+MODEL_PARAMS: List[str]
+
+_Path = Union[str, "os.PathLike[str]"]
+_Paths = Union[_Path, Sequence[_Path]]
+_Array = npt.ArrayLike
+#: progress(stage, done, total, unit): called at most every 0.1 s and at each stage's start
+#: and end; True shows a tqdm bar (a line on standard error without tqdm).
+_Progress = Union[None, bool, Callable[[str, int, int, str], Any]]
+_Record = Dict[str, Any]
+
+class DetnoiseWarning(UserWarning):
+    """Something a run wants the user to know that did not stop it."""
+
+class ModelParams(TypedDict, total=False):
+    """Readout-model parameters; each model reads only those it needs (see MODELS_HELP)."""
+
+    #: EMCCD mean EM gain, output e- per input e-, 1 to 10,000 (500).
+    em_gain: float
+    #: Stages of the EM register, 1 to 2000, at least log2(em_gain) (520).
+    stages: int
+    #: EMCCD read noise before division by the gain, e- rms (50).
+    emccd_read_noise_e: float
+    #: emccd-distribution draws N(n g, n g^2) above this many input e- (None: exact Gamma).
+    gaussian_switch_e: Optional[int]
+    #: EM register sampler: "exact" (tabulated) or "cascade" (per-stage binomials, slow).
+    register: str
+    #: Read noise of a bare `scmos-constant`, e- rms (1).
+    sigma_e: float
+    #: Per-pixel rms distribution: "paper", a PdfFit, or the path of a pdf_fit.json.
+    pdf: Union[str, "PdfFit", _Path]
+    #: Model to take from `pdf` (default its best).
+    pdf_model: Optional[str]
+    #: Seed of the fixed sCMOS noise patterns (2015).
+    pattern_seed: int
+    #: Measured read-noise map, e- rms: a 2-D array or a FITS/TIFF/EXR file (scmos-map).
+    map_e: Union[_Array, _Path]
+    #: emccd-pp threshold rule: "poisson-prior" or "equal-density".
+    pp_rule: str
+    #: emccd-pp reference light level, photo-electrons per pixel (None: the sub-aperture mean).
+    pp_lambda: Optional[float]
+    #: Telegraph pixels for scmos-rts: the rts.csv written by `darks` with a gain.
+    rts_table: _Path
+    #: Row-noise amplitude of scmos-correlated, e- rms.
+    row_noise_e: float
+    #: Column-noise amplitude of scmos-correlated, e- rms.
+    column_noise_e: float
+    #: Dark frames for scmos-frames (files, a directory or a glob; needs gain_e_per_adu).
+    dark_frames: _Paths
+    #: Memory bound of the dark frames kept, MiB (512).
+    dark_frames_max_mib: float
+    #: Conversion gain, e- per adu (dark frames; `Readout.read(unit="adu")`).
+    gain_e_per_adu: float
+
+class Readout:
+    """A readout model of the registry as a noise generator, e.g.
+    ``Readout("scmos-map", map_e=rms_e)`` or ``Readout("emccd-stochastic", em_gain=1000)``.
+
+    Each sub-aperture of a read is one work item with its own seeded random streams, read in
+    parallel without the GIL: results do not depend on the thread count. Sub-aperture i of
+    the camera's frame f uses item f * 2**32 + i of the camera's `seed`.
+    """
+
+    def __init__(self, model: str, *, seed: int = 0, **params: Unpack[ModelParams]) -> None: ...
+    def read(
+        self,
+        image_e: _Array,
+        *,
+        seed: Optional[int] = None,
+        photon_noise: bool = True,
+        unit: str = "e",
+        offset_adu: Union[None, float, _Array] = None,
+        mean_e: Optional[_Array] = None,
+    ) -> npt.NDArray[np.float64]:
+        """Read a frame (n, n) or a stack of sub-apertures (k, n, n).
+
+        With ``photon_noise`` (default) the values are expected photo-electrons per pixel
+        (>= 0) and shot noise is drawn; without, they are photo-electron counts (whole
+        numbers >= 0). Returns a new float64 array of the same shape: e- referred to the
+        input (an EMCCD's output divided by its mean gain), or with ``unit="adu"``
+        value / gain_e_per_adu + offset_adu (not quantised). ``seed``: read as frame 0 of a
+        camera of that seed (the frame counter is left alone); None: the camera's next frame.
+        ``mean_e``: the controller's mean image, e- per pixel, (n, n) or the input's shape,
+        for models with a per-pixel prior (default the input).
+        """
+    @property
+    def model_name(self) -> str:
+        """The model as given, e.g. "scmos-fixed:3"."""
+    @property
+    def sensor(self) -> str:
+        """"scmos" or "emccd"."""
+    @property
+    def seed(self) -> int:
+        """Seed of the frames read without an explicit seed."""
+    @property
+    def frame(self) -> int:
+        """The next frame a read without a seed reads (settable)."""
+    @frame.setter
+    def frame(self, value: int) -> None: ...
+    def noise_scale_e(self, subap_px: int) -> float:
+        """Typical per-pixel read noise, e-, for subap_px x subap_px images."""
+
+class StackIterator(Iterator[npt.NDArray[np.float64]]):
+    """The frames of a stack, one 2-D float64 array (rows, columns) per frame."""
+
+    def __next__(self) -> npt.NDArray[np.float64]: ...
+    def __len__(self) -> int: ...
+    @property
+    def shape(self) -> Tuple[int, int]:
+        """Frame shape (rows, columns)."""
+
+def read_stack(paths: _Paths) -> StackIterator:
+    """The frames of FITS/TIFF/OpenEXR files, directories or glob patterns, in stack order,
+    as 2-D float64 arrays of the stored values (adu)."""
+
+class DarkMaps:
+    """The maps of a dark stack, as `detnoise darks` writes them."""
+
+    @property
+    def offset_adu(self) -> npt.NDArray[np.float64]:
+        """Per-pixel offset (mean level), adu."""
+    @property
+    def rms_adu(self) -> npt.NDArray[np.float64]:
+        """Per-pixel read noise (sample standard deviation), adu."""
+    @property
+    def rms_e(self) -> Optional[npt.NDArray[np.float64]]:
+        """Per-pixel read noise, e- (with a gain), else None."""
+    @property
+    def flags(self) -> npt.NDArray[np.int32]:
+        """Flag bits per pixel (hot, dead, RTS, ...; see summary["flags"])."""
+    @property
+    def excess_kurtosis(self) -> npt.NDArray[np.float64]:
+        """Per-pixel excess kurtosis G2 (0 for Gaussian noise)."""
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The content of summary.json (its `outputs` empty)."""
+    def to_dict(self) -> Dict[str, Any]: ...
+
+def dark_maps(
+    paths: _Paths,
+    *,
+    gain_e_per_adu: Optional[float] = None,
+    clip: int = 0,
+    sigma_clip: Optional[float] = None,
+    common_mode: bool = False,
+    hot_sigma: float = 5.0,
+    dead_fraction: float = 0.1,
+    rts_sigma: float = 5.0,
+    checksum: Optional[str] = "blake3",
+    accept_illuminated: bool = False,
+    progress: _Progress = None,
+) -> DarkMaps:
+    """Offset, read-noise (adu; e- with gain_e_per_adu, e- per adu) and flag maps of a dark
+    stack, as `detnoise darks` computes them. clip: reject the N highest and lowest samples
+    per pixel; sigma_clip: reject samples beyond K standard deviations; hot_sigma (robust
+    sigmas), dead_fraction (of the median rms), rts_sigma (standard errors): flag thresholds."""
+
+class PdfFit:
+    """A fit of the per-pixel read-noise pdf; pass it as ``pdf=`` to simulate with it."""
+
+    @property
+    def best_model(self) -> str: ...
+    @property
+    def models(self) -> List[str]: ...
+    @property
+    def n_values(self) -> int: ...
+    @property
+    def upper_cut_e(self) -> float: ...
+    def params(self, model: Optional[str] = None) -> Dict[str, float]:
+        """Parameters of `model` (default the best); names carry their unit."""
+    def param_se(self, model: Optional[str] = None) -> Dict[str, Optional[float]]:
+        """Standard errors of the parameters (None where undefined)."""
+    def to_dict(self) -> Dict[str, Any]:
+        """The content of pdf_fit.json."""
+    def summary_text(self) -> str: ...
+
+def fit_pdf(
+    rms_e: _Array,
+    *,
+    flags: Optional[_Array] = None,
+    models: Optional[Sequence[str]] = None,
+    upper_cut_e: Optional[float] = None,
+) -> PdfFit:
+    """Fit models of the per-pixel read-noise pdf (paper-scaled, paper-family,
+    lognormal+tail, empirical) to a read-noise map in e- rms, flagged pixels left out."""
+
+class EmGainFit:
+    """An EM-gain fit of EMCCD frames, with standard errors."""
+
+    em_gain: float
+    em_gain_se: float
+    em_gain_units: str
+    bias_adu: float
+    bias_adu_se: float
+    read_noise_adu: float
+    read_noise_adu_se: float
+    lambda_e: float
+    lambda_e_se: float
+    def to_dict(self) -> Dict[str, Any]:
+        """The content of emgain.json."""
+    def summary_text(self) -> str: ...
+
+def fit_emgain(
+    paths: _Paths,
+    *,
+    gain_e_per_adu: Optional[float] = None,
+    gain_map: Optional[_Path] = None,
+    offset: Optional[_Path] = None,
+    read_noise: Optional[_Path] = None,
+    stages: Optional[int] = None,
+    serial_cic: bool = False,
+    max_value_adu: Optional[float] = None,
+    bin_width_adu: Optional[float] = None,
+    reference_stack: Optional[_Paths] = None,
+    reference_offset: Optional[_Path] = None,
+) -> EmGainFit:
+    """Fit bias, read noise, EM gain and light level to EMCCD frames, as `detnoise emgain`."""
+
+def simulate(
+    models: Union[str, Sequence[str], None] = None,
+    *,
+    subap_px: Union[int, Sequence[int], None] = None,
+    spot: Union[str, Sequence[str], None] = None,
+    signal_photons: Union[float, Sequence[float], None] = None,
+    qe: float = 1.0,
+    iters: int = 10_000,
+    seed: int = 1,
+    sampling: str = "integrated",
+    bg_grid: str = "auto",
+    position_half_range_px: float = 0.5,
+    max_empty_frac: float = 0.01,
+    progress: _Progress = None,
+    **params: Unpack[ModelParams],
+) -> List[_Record]:
+    """The sub-aperture Monte-Carlo (`detnoise simulate`): one record per configuration and
+    model with R (r_px) and its SE (r_se_px), px. Defaults: the command line's models,
+    16 px, airy:2, 50 photons."""
+
+def effective(
+    model: str = "scmos-random",
+    *,
+    subap_px: Union[int, Sequence[int], None] = None,
+    spot: Union[str, Sequence[str], None] = None,
+    signal_photons: Union[float, Sequence[float], None] = None,
+    qe: float = 1.0,
+    iters: int = 10_000,
+    seed: int = 1,
+    sampling: str = "integrated",
+    bg_grid: str = "auto",
+    position_half_range_px: float = 0.5,
+    max_empty_frac: float = 0.01,
+    target_se_e: float = 0.05,
+    target_rel: float = 0.025,
+    max_iters: Optional[int] = None,
+    progress: _Progress = None,
+    **params: Unpack[ModelParams],
+) -> List[_Record]:
+    """Effective Gaussian read noise (`detnoise effective`): one record per configuration with
+    sigma_eff_e, sigma_eff_se_e (e-; None without a value) and a status word."""
+
+class Report:
+    """A report's results; its files are in `out_dir`."""
+
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """The content of summary.json."""
+    @property
+    def effective(self) -> List[_Record]: ...
+    @property
+    def comparison(self) -> List[_Record]: ...
+    @property
+    def pdf_fit(self) -> Optional[PdfFit]: ...
+    @property
+    def out_dir(self) -> Path: ...
+    @property
+    def files(self) -> List[Path]: ...
+    def to_dict(self) -> Dict[str, Any]: ...
+
+def report(
+    darks: _Paths,
+    *,
+    out: _Path,
+    flats: Optional[Sequence[_Path]] = None,
+    detector: str = "scmos",
+    force: bool = False,
+    quick: bool = False,
+    subap_px: Union[int, Sequence[int], None] = None,
+    spot: Union[str, Sequence[str], None] = None,
+    signal_photons: Union[float, Sequence[float], None] = None,
+    operating_point: Optional[str] = None,
+    iters: int = 10_000,
+    target_se_e: float = 0.05,
+    target_rel: float = 0.025,
+    max_iters: Optional[int] = None,
+    seed: int = 1,
+    sampling: str = "integrated",
+    qe: float = 1.0,
+    qe_emccd: float = 1.0,
+    accept_illuminated: bool = False,
+    progress: _Progress = None,
+    **params: Unpack[ModelParams],
+) -> Report:
+    """The end-to-end report (`detnoise report`), written into `out`."""

@@ -1,0 +1,51 @@
+//! The Python extension module `detnoise._detnoise`: numpy in and out over the detnoise
+//! library (see the pure-Python package `python/detnoise/` for the public names and the
+//! `.pyi` stubs). One job per file: `readout` (the camera as a noise generator), `calib`
+//! (frames and dark maps), `fit` (the pdf and EM-gain fits), `sim` (simulate, effective),
+//! `report`, `cli` (the `detnoise` command); `params` (readout-model keywords), `observer`
+//! (progress, warnings, Ctrl-C), `errors` and `convert` are shared.
+
+mod calib;
+mod cli;
+mod convert;
+mod errors;
+mod fit;
+mod observer;
+mod params;
+mod readout;
+mod report;
+mod sim;
+
+use pyo3::prelude::*;
+
+/// The extension module.
+#[pymodule]
+fn _detnoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    let py = m.py();
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("MODEL_NAMES", detnoise::detector::MODEL_NAMES)?;
+    m.add(
+        "MODELS_HELP",
+        errors::keywords_in(&detnoise::detector::models_help()),
+    )?;
+    m.add("MODEL_PARAMS", params::KEYWORDS.to_vec())?;
+    m.add(
+        "DetnoiseWarning",
+        py.get_type::<observer::DetnoiseWarning>(),
+    )?;
+    m.add_class::<readout::PyReadout>()?;
+    m.add_class::<calib::StackIterator>()?;
+    m.add_class::<calib::PyDarkMaps>()?;
+    m.add_class::<fit::PdfFit>()?;
+    m.add_class::<fit::PyEmGainFit>()?;
+    m.add_class::<report::Report>()?;
+    m.add_function(wrap_pyfunction!(calib::read_stack, m)?)?;
+    m.add_function(wrap_pyfunction!(calib::dark_maps_py, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit_pdf_py, m)?)?;
+    m.add_function(wrap_pyfunction!(fit::fit_emgain_py, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::simulate, m)?)?;
+    m.add_function(wrap_pyfunction!(sim::effective, m)?)?;
+    m.add_function(wrap_pyfunction!(report::report, m)?)?;
+    m.add_function(wrap_pyfunction!(cli::run_cli, m)?)?;
+    Ok(())
+}
