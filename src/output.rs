@@ -12,7 +12,7 @@ pub mod temps;
 pub use atomic::{write_atomic, write_atomic_with, write_json};
 pub use dir::{DirPlan, OutputDir};
 pub use file::{check_file, FileOut, StagedFiles};
-pub use table::{render, TableFormat};
+pub use table::{render, write_csv_json, TableFormat};
 
 /// Escape `&`, `<` and `>` for HTML text.
 pub fn html_escape(s: &str) -> String {

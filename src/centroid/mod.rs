@@ -80,15 +80,7 @@ mod sweep_tests {
                     sweep.accumulate(&img, truth, &mut acc);
                     for (w, b) in want.iter_mut().zip(&levels) {
                         let v: Vec<f64> = img.iter().map(|x| (x - b).max(0.0)).collect();
-                        let d = match cog(&v, n) {
-                            Some((x, y)) => (x - truth.0).hypot(y - truth.1),
-                            None => {
-                                w.2 += 1;
-                                truth.0.hypot(truth.1)
-                            }
-                        };
-                        w.0 += d;
-                        w.1 += d * d;
+                        super::tests::add_error(w, cog(&v, n), truth);
                     }
                 }
                 for (k, (got, w)) in acc.finish().iter().zip(&want).enumerate() {

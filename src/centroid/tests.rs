@@ -95,6 +95,20 @@ fn direct(
     cog(&v, n).map(|(x, y)| (x * gain.0, y * gain.1))
 }
 
+/// Add to `w` (sum of distances, of their squares, empty frames) the error of `estimate`
+/// against `truth`: an empty frame's estimate is the centre.
+pub(super) fn add_error(w: &mut (f64, f64, u64), estimate: Option<(f64, f64)>, truth: (f64, f64)) {
+    let d = match estimate {
+        Some((x, y)) => (x - truth.0).hypot(y - truth.1),
+        None => {
+            w.2 += 1;
+            truth.0.hypot(truth.1)
+        }
+    };
+    w.0 += d;
+    w.1 += d * d;
+}
+
 /// wcog's gains, per width, from a built centroider's internals.
 fn gains_of(c: &dyn Centroider, n: usize) -> Vec<(f64, f64)> {
     // The gains are not exposed: recover them from one frame whose centroid is known. A single
@@ -161,15 +175,7 @@ fn every_centroider_matches_its_definition_at_every_setting() {
                 };
                 worker.accumulate(&f, &mut acc);
                 for (w, s) in want.iter_mut().zip(&settings) {
-                    let d = match direct(kind, s, &f, median, gains[s.part]) {
-                        Some((x, y)) => (x - truth.0).hypot(y - truth.1),
-                        None => {
-                            w.2 += 1;
-                            truth.0.hypot(truth.1)
-                        }
-                    };
-                    w.0 += d;
-                    w.1 += d * d;
+                    add_error(w, direct(kind, s, &f, median, gains[s.part]), truth);
                 }
             }
             for (k, (got, w)) in acc.finish().iter().zip(&want).enumerate() {

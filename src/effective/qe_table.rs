@@ -5,7 +5,6 @@ use super::qe::{effective_qe, QeFactor, QePrecision};
 use super::solve::planned_work;
 use crate::detector::{EmccdSimple, ModelParams, ModelSpec};
 use crate::montecarlo::{config_columns, SimConfig};
-use crate::output::{render, write_atomic, TableFormat};
 use crate::progress::Observer;
 use crate::{Error, Result};
 use serde::ser::{Serialize, SerializeStruct, Serializer};
@@ -126,14 +125,7 @@ fn solve_all(
 /// Write the table into `dir` as [`QE_TABLE_NAMES`] (CSV and JSON, each atomically); returns
 /// their paths.
 pub fn write_qe_tables(records: &[QeRecord], dir: &Path) -> Result<Vec<PathBuf>> {
-    let formats = [TableFormat::Csv, TableFormat::Json];
-    let mut written = Vec::new();
-    for (name, format) in QE_TABLE_NAMES.iter().zip(formats) {
-        let path = dir.join(name);
-        write_atomic(&path, render(records, format)?.as_bytes())?;
-        written.push(path);
-    }
-    Ok(written)
+    crate::output::write_csv_json(records, dir, QE_TABLE_NAMES)
 }
 
 #[cfg(test)]

@@ -6,7 +6,6 @@ use super::solve::{effective_sigma_with, planned_work, Effective};
 use crate::centroid::CentroiderSpec;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::montecarlo::{config_columns, SimConfig};
-use crate::output::{render, write_atomic, TableFormat};
 use crate::progress::Observer;
 use crate::Result;
 use serde::ser::{Serialize, SerializeStruct, Serializer};
@@ -145,14 +144,7 @@ fn solve_all(
 /// Write the table into `dir` as [`TABLE_NAMES`] (CSV and JSON, each atomically); returns
 /// their paths.
 pub fn write_tables(records: &[EffectiveRecord], dir: &Path) -> Result<Vec<PathBuf>> {
-    let formats = [TableFormat::Csv, TableFormat::Json];
-    let mut written = Vec::new();
-    for (name, format) in TABLE_NAMES.iter().zip(formats) {
-        let path = dir.join(name);
-        write_atomic(&path, render(records, format)?.as_bytes())?;
-        written.push(path);
-    }
-    Ok(written)
+    crate::output::write_csv_json(records, dir, TABLE_NAMES)
 }
 
 #[cfg(test)]

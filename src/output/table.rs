@@ -16,6 +16,22 @@ pub enum TableFormat {
     Json,
 }
 
+/// Write `records` into `dir` as CSV under `names[0]` and JSON under `names[1]`, each
+/// atomically; returns the two paths.
+pub fn write_csv_json<T: Serialize>(
+    records: &[T],
+    dir: &std::path::Path,
+    names: [&str; 2],
+) -> Result<Vec<std::path::PathBuf>> {
+    let mut written = Vec::new();
+    for (name, format) in names.iter().zip([TableFormat::Csv, TableFormat::Json]) {
+        let path = dir.join(name);
+        super::write_atomic(&path, render(records, format)?.as_bytes())?;
+        written.push(path);
+    }
+    Ok(written)
+}
+
 /// Render records in `format`. CSV and table keep the scalar fields; JSON keeps everything.
 pub fn render<T: Serialize>(records: &[T], format: TableFormat) -> Result<String> {
     let values: Vec<Value> = records

@@ -307,21 +307,13 @@ fn versus(i: &Inputs, specs: &[CentroiderSpec]) -> Result<Vec<VersusRow>> {
 
 /// The tables (CSV, JSON) and the two charts.
 fn write_files(c: &Centroiders, dir: &Path) -> Result<()> {
-    use crate::output::{render, write_atomic, TableFormat};
-    for (name, rows) in [
-        ("centroiders.csv", render(&c.rows, TableFormat::Csv)?),
-        ("centroiders.json", render(&c.rows, TableFormat::Json)?),
-        (
-            "centroiders_vs_emccd.csv",
-            render(&c.versus_emccd, TableFormat::Csv)?,
-        ),
-        (
-            "centroiders_vs_emccd.json",
-            render(&c.versus_emccd, TableFormat::Json)?,
-        ),
-    ] {
-        write_atomic(&dir.join(name), rows.as_bytes())?;
-    }
+    use crate::output::write_csv_json;
+    write_csv_json(&c.rows, dir, ["centroiders.csv", "centroiders.json"])?;
+    write_csv_json(
+        &c.versus_emccd,
+        dir,
+        ["centroiders_vs_emccd.csv", "centroiders_vs_emccd.json"],
+    )?;
     sigma_chart(c).save(dir.join("centroiders.png"))?;
     versus_chart(c).save(dir.join("centroiders_vs_emccd.png"))
 }

@@ -20,12 +20,12 @@ use crate::calib::ptc::POINTS_NAMES;
 use crate::calib::ptc::{photon_transfer, write_points, DarkReference, PtcOptions, PtcResult};
 use crate::calib::summary::{inputs, Checksum, InputFile};
 use crate::detector::{ModelParams, ModelSpec};
-use crate::effective::{effective_table, Effective, EffectiveRecord, Precision};
+use crate::effective::{effective_table, Effective, EffectiveRecord, Precision, TABLE_NAMES};
 use crate::fit::pdf_fit::chart as pdf_fit_chart;
 use crate::fit::pdf_fit::{fit_pdf, PdfFitOptions};
 use crate::io::FrameStack;
 use crate::montecarlo::SimConfig;
-use crate::output::{render, write_atomic, write_json, OutputDir, TableFormat};
+use crate::output::{write_atomic, write_csv_json, write_json, OutputDir};
 use crate::progress::Observer;
 use crate::{Error, Result};
 use std::path::PathBuf;
@@ -132,16 +132,9 @@ pub(crate) fn run(
             observer,
         )?,
     };
-    for (name, format) in [
-        ("real_noise.csv", TableFormat::Csv),
-        ("real_noise.json", TableFormat::Json),
-    ] {
-        write_atomic(
-            &dir.path(name),
-            render(&real_noise.rows, format)?.as_bytes(),
-        )?;
-        files.push(name.into());
-    }
+    let names = ["real_noise.csv", "real_noise.json"];
+    write_csv_json(&real_noise.rows, &dir.path(""), names)?;
+    files.extend(names.map(String::from));
     if !dark_summary.rts.example_pixels.is_empty() {
         rts_series_chart(
             &maps.rts,
@@ -157,13 +150,8 @@ pub(crate) fn run(
     files.extend(heatmaps.iter().map(|p| file_name(p)));
     let scale = NoiseScale::from_ok(&fitted);
     let effective: Vec<EffectiveRecord> = fitted.into_iter().chain(measured).collect();
-    for (name, format) in [
-        ("effective_noise.csv", TableFormat::Csv),
-        ("effective_noise.json", TableFormat::Json),
-    ] {
-        write_atomic(&dir.path(name), render(&effective, format)?.as_bytes())?;
-        files.push(name.into());
-    }
+    write_csv_json(&effective, &dir.path(""), TABLE_NAMES)?;
+    files.extend(TABLE_NAMES.map(String::from));
     let subaps = match (&o.subaps, params.map.as_deref()) {
         (Some(geometry), Some(map)) => {
             let (summary, names) =

@@ -8,7 +8,6 @@ use serde::Serialize;
 
 use super::transfer::PtcResult;
 use crate::error::Result;
-use crate::output::{render, write_atomic, TableFormat};
 
 /// Files [`write_points`] writes: the points as CSV and as JSON.
 pub const POINTS_NAMES: [&str; 2] = ["ptc_points.csv", "ptc_points.json"];
@@ -68,15 +67,5 @@ pub fn points(r: &PtcResult) -> Vec<PtcPoint> {
 
 /// Write the points of `r` into `dir` as [`POINTS_NAMES`] (each atomically); returns the paths.
 pub fn write_points(r: &PtcResult, dir: &Path) -> Result<Vec<PathBuf>> {
-    let table = points(r);
-    let mut written = Vec::new();
-    for (name, format) in POINTS_NAMES
-        .iter()
-        .zip([TableFormat::Csv, TableFormat::Json])
-    {
-        let path = dir.join(name);
-        write_atomic(&path, render(&table, format)?.as_bytes())?;
-        written.push(path);
-    }
-    Ok(written)
+    crate::output::write_csv_json(&points(r), dir, POINTS_NAMES)
 }
