@@ -204,7 +204,7 @@ pub(super) fn solve(
         let references = references(family, &grid);
         let models = with_detector(detector, &references);
         match s.refine(&models, &grid, start, &mut budget)? {
-            Refined::Settled(e) => return Ok(e),
+            Refined::Settled(e) => return Ok(*e),
             Refined::Outside(_, exp) => start = exp.iters(),
         }
     }
@@ -212,7 +212,7 @@ pub(super) fn solve(
     let references = references(family, &grid);
     let models = with_detector(detector, &references);
     Ok(match s.refine(&models, &grid, start, &mut budget)? {
-        Refined::Settled(e) => e,
+        Refined::Settled(e) => *e,
         Refined::Outside(side, exp) => s.bound(side, &exp, &grid),
     })
 }
@@ -246,7 +246,7 @@ impl Budget {
 /// The outcome of the runs on one grid.
 enum Refined<'m> {
     /// A value (or a status) was settled.
-    Settled(Solved),
+    Settled(Box<Solved>),
     /// The detector's R left the grid; the experiment as it stood.
     Outside(Outside, Box<Experiment<'m>>),
 }
@@ -335,7 +335,7 @@ impl Solver<'_> {
             if det.no_eligible_level {
                 let none = (f64::NAN, f64::NAN);
                 let e = self.assemble(&exp, &runs, grid, none, Outcome::NoEligibleLevel);
-                return Ok(Refined::Settled(e));
+                return Ok(Refined::Settled(Box::new(e)));
             }
             let inv = match invert(det.r_px, &r_values(refs), grid) {
                 Ok(inv) => inv,
@@ -356,7 +356,7 @@ impl Solver<'_> {
                 continue;
             };
             let e = self.assemble(&exp, &runs, grid, (value, se), outcome);
-            return Ok(Refined::Settled(e));
+            return Ok(Refined::Settled(Box::new(e)));
         }
     }
 
