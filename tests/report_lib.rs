@@ -103,6 +103,37 @@ fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
     let written: Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(written["median_rms_e"].as_f64(), Some(s.median_rms_e));
+
+    // The centroider section: every centroider for the map and the pdf at the operating point,
+    // then the map at the grid's other sizes; cog is the gap's reference; on this camera
+    // (noisy tail) tcog recovers a resolved part of the gap to the median, and the comparison
+    // with the EMCCD has one row per signal.
+    let c = &s.centroiders;
+    let kinds = detnoise::centroid::ALL_KINDS.len();
+    assert_eq!(c.rows.len(), kinds * (2 + QUICK_SUBAPS_PX.len() - 1));
+    assert_eq!(c.median_rms_e, s.median_rms_e);
+    let at_op = |model: &str, name: &str| {
+        c.rows
+            .iter()
+            .find(|r| r.model == model && r.centroider == name && r.subap_px == 8)
+            .unwrap()
+    };
+    assert_eq!(at_op("scmos-map", "cog").gap_status, "reference");
+    let tcog = at_op("scmos-map", "tcog");
+    assert_eq!(tcog.gap_status, "ok", "{tcog:?}");
+    let (g, g_se) = (tcog.gap_recovered.unwrap(), tcog.gap_recovered_se.unwrap());
+    assert!(g > 2.0 * g_se, "{tcog:?}");
+    assert!(c.best_for_map.is_some());
+    assert_eq!(c.versus_emccd.len(), QUICK_SIGNALS_PHOTONS.len());
+    assert_files_exist(
+        &result,
+        &[
+            "centroiders.csv",
+            "centroiders.png",
+            "centroiders_vs_emccd.png",
+        ],
+    );
+    assert!(page.contains("What the wavefront sensor can do about it"));
 }
 
 #[test]

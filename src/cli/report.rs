@@ -93,6 +93,11 @@ pub struct ReportArgs {
     /// reference); the first reads the per-sub-aperture map of --subap-grid.
     #[command(flatten)]
     pub centroiders: super::args::CentroiderArgs,
+    /// Run the measured map through every centroider over the whole grid (every sub-aperture,
+    /// spot and signal: about as long again as the effective-noise table per centroider)
+    /// instead of over the sub-aperture sizes at the operating point's spot and signal.
+    #[arg(long)]
+    pub centroider_full_grid: bool,
     /// Output directory, written only when the whole report succeeded; an existing directory is
     /// replaced only if detnoise wrote it.
     #[arg(long)]
@@ -136,9 +141,10 @@ How a report uses the simulation options:
   --map
       Not used (a file given is still read): an sCMOS report simulates its own measured map,
       an EMCCD report no map.
-  --centroider, --mask-above
+  --centroider, --mask-above, --centroider-full-grid
       sCMOS report: the centroiders of the centroider section (the measured map and the fitted
-      pdf at the operating point, the map over the grid's sub-aperture sizes, and the EMCCD
+      pdf at the operating point, the map over the grid's sub-aperture sizes, or the whole grid
+      with --centroider-full-grid, and the EMCCD
       comparison with each side's best); cog is always run as the reference, and every other
       table and chart of the report uses cog. The first centroider also reads --subap-grid's
       per-sub-aperture map. EMCCD report: not used.
@@ -208,6 +214,7 @@ impl ReportArgs {
         options.model_params.stages = self.detector.stages;
         options.subaps = self.subap_geometry.geometry()?;
         options.centroiders = self.centroiders.specs()?;
+        options.centroider_full_grid = self.centroider_full_grid;
         options
             .model_input_paths
             .extend(self.subap_geometry.subap_mask.iter().cloned());

@@ -128,6 +128,9 @@ pub(crate) struct Inputs<'a> {
     pub median_rms_e: f64,
     /// Precision of each sigma_eff.
     pub precision: &'a Precision,
+    /// Run the map through every centroider over the whole grid (every spot and signal), not
+    /// only over its sub-aperture sizes at the operating point's spot and signal.
+    pub full_grid: bool,
 }
 
 /// Compute the section and write its files into `dir`.
@@ -162,13 +165,25 @@ pub(crate) fn centroider_section(
         i.precision,
         observer,
     )?);
-    let others: Vec<_> = i
-        .grid
-        .subaps_px
-        .iter()
-        .filter(|&&n| n != op.subap_px)
-        .map(|&n| at(n))
-        .collect();
+    let others: Vec<_> = if i.full_grid {
+        let here = at(op.subap_px);
+        let same = |c: &crate::montecarlo::SimConfig| {
+            (c.subap_px, c.spot, c.signal_photons)
+                == (here.subap_px, here.spot, here.signal_photons)
+        };
+        i.grid
+            .configs(i.qe.0)
+            .into_iter()
+            .filter(|c| !same(c))
+            .collect()
+    } else {
+        i.grid
+            .subaps_px
+            .iter()
+            .filter(|&&n| n != op.subap_px)
+            .map(|&n| at(n))
+            .collect()
+    };
     if !others.is_empty() {
         records.extend(effective_table_with(
             &others,
@@ -180,9 +195,16 @@ pub(crate) fn centroider_section(
         )?);
     }
     let rows = with_gaps(&records, i.median_rms_e);
+    // The operating point's spot and signal (the first row is the map there).
+    let records_op = rows[0].clone();
     let best_for_map = rows
         .iter()
-        .filter(|r| r.model == "scmos-map" && r.subap_px == op.subap_px && r.status == Status::Ok)
+        .filter(|r| {
+            r.model == "scmos-map"
+                && r.subap_px == op.subap_px
+                && same_spot_signal(r, &records_op)
+                && r.status == Status::Ok
+        })
         .min_by(|a, b| {
             a.sigma_eff_e
                 .unwrap_or(f64::INFINITY)
@@ -211,11 +233,11 @@ fn with_gaps(records: &[EffectiveRecord], median: f64) -> Vec<CentroiderRow> {
         .iter()
         .map(|r| {
             let e = &r.effective;
-            let cog = records.iter().find(|c| {
-                c.centroider == "cog"
-                    && c.model == r.model
-                    && c.config.subap_px == r.config.subap_px
-            });
+            let key =
+                |x: &EffectiveRecord| (x.config.subap_px, x.config.spot, x.config.signal_photons);
+            let cog = records
+                .iter()
+                .find(|c| c.centroider == "cog" && c.model == r.model && key(c) == key(r));
             let (gap, gap_se, gap_status) =
                 match (r.centroider.as_str(), cog.and_then(value), value(r)) {
                     ("cog", _, _) => (None, None, "reference"),
@@ -246,6 +268,11 @@ fn with_gaps(records: &[EffectiveRecord], median: f64) -> Vec<CentroiderRow> {
             }
         })
         .collect()
+}
+
+/// True when `r` is at `other`'s spot and signal.
+fn same_spot_signal(r: &CentroiderRow, other: &CentroiderRow) -> bool {
+    r.spot == other.spot && r.signal_photons == other.signal_photons
 }
 
 /// The measured map and the EMCCD of the comparison, each read through every centroider over
@@ -326,7 +353,9 @@ fn sigma_chart(c: &Centroiders) -> LineChart {
         "sigma_eff (e-): the uniform camera with the same R under plain cog",
     );
     let mut names: Vec<&str> = Vec::new();
-    for r in c.rows.iter().filter(|r| r.model == "scmos-map") {
+    let op = &c.rows[0];
+    let on_axis = |r: &&CentroiderRow| r.model == "scmos-map" && same_spot_signal(r, op);
+    for r in c.rows.iter().filter(on_axis) {
         if !names.contains(&r.centroider.as_str()) {
             names.push(&r.centroider);
         }
@@ -337,9 +366,8 @@ fn sigma_chart(c: &Centroiders) -> LineChart {
             let mut pts: Vec<(f64, f64, f64)> = c
                 .rows
                 .iter()
-                .filter(|r| {
-                    r.model == "scmos-map" && r.centroider == *name && r.status == Status::Ok
-                })
+                .filter(on_axis)
+                .filter(|r| r.centroider == *name && r.status == Status::Ok)
                 .filter_map(|r| Some((r.subap_px as f64, r.sigma_eff_e?, r.sigma_eff_se_e?)))
                 .collect();
             pts.sort_by(|a, b| a.0.total_cmp(&b.0));
@@ -421,7 +449,12 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         (Some(v), None) => num(v, d),
         _ => "–".into(),
     };
-    for r in c.rows.iter().filter(|r| r.subap_px == at.subap_px) {
+    let op = &c.rows[0];
+    for r in c
+        .rows
+        .iter()
+        .filter(|r| r.subap_px == at.subap_px && same_spot_signal(r, op))
+    {
         let param = match (r.centroider_param, r.centroider_param_opt) {
             (Some(n), Some(v)) => format!("{n} = {}", num(v, 2)),
             _ => "–".into(),

@@ -75,6 +75,10 @@ pub struct ReportOptions {
     /// Centroiders compared in the sCMOS report's centroider section (`cog` is always the
     /// reference); the first one also reads the per-sub-aperture map.
     pub centroiders: Vec<crate::centroid::CentroiderSpec>,
+    /// Run the measured map through every centroider over the whole grid (every spot and
+    /// signal); otherwise over the grid's sub-aperture sizes at the operating point's spot and
+    /// signal only.
+    pub centroider_full_grid: bool,
 }
 
 impl Default for ReportOptions {
@@ -104,6 +108,7 @@ impl Default for ReportOptions {
             centroiders: crate::centroid::ALL_KINDS
                 .map(crate::centroid::CentroiderSpec::of)
                 .to_vec(),
+            centroider_full_grid: false,
         }
     }
 }

@@ -170,6 +170,7 @@ pub(crate) fn run(
             qe: (o.qe, o.qe_emccd),
             median_rms_e: fit.data.median_e,
             precision: &o.precision_in_use(),
+            full_grid: o.centroider_full_grid,
         },
         &dir.path(""),
         observer,
