@@ -353,8 +353,10 @@ fn sigma_chart(c: &Centroiders) -> LineChart {
         "sigma_eff (e-): the uniform camera with the same R under plain cog",
     );
     let mut names: Vec<&str> = Vec::new();
-    let op = &c.rows[0];
-    let on_axis = |r: &&CentroiderRow| r.model == "scmos-map" && same_spot_signal(r, op);
+    // The first row is the map at the operating point (none in an empty section).
+    let op = c.rows.first();
+    let on_axis =
+        |r: &&CentroiderRow| r.model == "scmos-map" && op.is_some_and(|op| same_spot_signal(r, op));
     for r in c.rows.iter().filter(on_axis) {
         if !names.contains(&r.centroider.as_str()) {
             names.push(&r.centroider);
@@ -449,11 +451,11 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         (Some(v), None) => num(v, d),
         _ => "–".into(),
     };
-    let op = &c.rows[0];
+    let op = c.rows.first();
     for r in c
         .rows
         .iter()
-        .filter(|r| r.subap_px == at.subap_px && same_spot_signal(r, op))
+        .filter(|r| r.subap_px == at.subap_px && op.is_some_and(|op| same_spot_signal(r, op)))
     {
         let param = match (r.centroider_param, r.centroider_param_opt) {
             (Some(n), Some(v)) => format!("{n} = {}", num(v, 2)),
