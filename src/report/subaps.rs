@@ -49,8 +49,9 @@ pub(crate) fn section_html(h: &mut String, s: &SubapsSummary) {
         h,
         "<h2>Effective read noise per sub-aperture</h2><p>Each of the {} sub-apertures of the \
          lenslet grid ({}×{} px, pitch {} px, first at x {} px, y {} px; grid {}×{}{}{}) reads \
-         through its own window of this camera's measured noise map, at {}, {} photons (the \
-         operating point's spot and signal), every sub-aperture on the same random numbers: the \
+         through its own window of this camera's measured noise map, centroided with {}, at {}, \
+         {} photons (the operating point's spot and signal), every sub-aperture on the same \
+         random numbers: the \
          differences between them are the map's. This is the per-sub-aperture noise a \
          tomographic reconstructor's noise covariance wants.</p><div class=\"keys\">",
         b.subaps,
@@ -71,6 +72,7 @@ pub(crate) fn section_html(h: &mut String, s: &SubapsSummary) {
         } else {
             String::new()
         },
+        esc(&b.centroider),
         esc(&b.spot),
         b.signal_photons,
     );

@@ -326,6 +326,11 @@ fn fits_keys(h: &PartHeader) -> Vec<Keyword> {
             "background levels, e-",
         ),
         key(
+            "CENTROID",
+            KeyValue::Str(b.centroider.clone()),
+            "centroider of every sub-aperture",
+        ),
+        key(
             "MAPB3",
             KeyValue::Str(b.map_blake3.clone()),
             "BLAKE3 of the map values",
