@@ -11,9 +11,10 @@ use super::point::OperatingPoint;
 use crate::centroid::CentroiderSpec;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::effective::{effective_table_with, EffectiveRecord, Precision, Status};
-use crate::montecarlo::{sweep_with, SimRecord};
+use crate::montecarlo::{sweep_with, SimConfig, SimRecord};
 use crate::plot::{LineChart, Series};
 use crate::progress::{Observer, Silent};
+use crate::spot::Spot;
 use crate::Result;
 use std::path::Path;
 
@@ -128,6 +129,9 @@ pub(crate) struct Inputs<'a> {
     pub median_rms_e: f64,
     /// Precision of each sigma_eff.
     pub precision: &'a Precision,
+    /// The report's effective table (fitted pdf and measured map through `cog`): the section
+    /// takes `cog`'s values from it rather than solving them again.
+    pub solved: &'a [EffectiveRecord],
     /// Run the map through every centroider over the whole grid (every spot and signal), not
     /// only over its sub-aperture sizes at the operating point's spot and signal.
     pub full_grid: bool,
@@ -147,34 +151,20 @@ pub(crate) fn centroider_section(
     );
     let op = i.op;
     let at = |n: usize| i.grid.config(n, op.spot, op.signal_photons, i.qe.0);
-    let map = [ModelSpec::ScmosMap];
-    let pdf = [ModelSpec::ScmosRandom];
-    let mut records = effective_table_with(
+    let mut records = group(ModelSpec::ScmosMap, &[at(op.subap_px)], &specs, i, observer)?;
+    records.extend(group(
+        ModelSpec::ScmosRandom,
         &[at(op.subap_px)],
-        &map,
         &specs,
-        i.params,
-        i.precision,
-        observer,
-    )?;
-    records.extend(effective_table_with(
-        &[at(op.subap_px)],
-        &pdf,
-        &specs,
-        i.params,
-        i.precision,
+        i,
         observer,
     )?);
     let others: Vec<_> = if i.full_grid {
         let here = at(op.subap_px);
-        let same = |c: &crate::montecarlo::SimConfig| {
-            (c.subap_px, c.spot, c.signal_photons)
-                == (here.subap_px, here.spot, here.signal_photons)
-        };
         i.grid
             .configs(i.qe.0)
             .into_iter()
-            .filter(|c| !same(c))
+            .filter(|c| key(c) != key(&here))
             .collect()
     } else {
         i.grid
@@ -184,16 +174,7 @@ pub(crate) fn centroider_section(
             .map(|&n| at(n))
             .collect()
     };
-    if !others.is_empty() {
-        records.extend(effective_table_with(
-            &others,
-            &map,
-            &specs,
-            i.params,
-            i.precision,
-            observer,
-        )?);
-    }
+    records.extend(group(ModelSpec::ScmosMap, &others, &specs, i, observer)?);
     let rows = with_gaps(&records, i.median_rms_e);
     // The operating point's spot and signal (the first row is the map there).
     let records_op = rows[0].clone();
@@ -222,6 +203,57 @@ pub(crate) fn centroider_section(
     Ok(section)
 }
 
+/// What identifies a configuration of the section: sub-aperture, spot and signal.
+fn key(c: &SimConfig) -> (usize, Spot, f64) {
+    (c.subap_px, c.spot, c.signal_photons)
+}
+
+/// `model` at `configs` read through each of `specs` (`cog` first), records in centroider then
+/// configuration order. `cog`'s values are the report's effective table's where it has them
+/// (the same solves: same configuration, seed and precision), so they are not solved twice.
+fn group(
+    model: ModelSpec,
+    configs: &[SimConfig],
+    specs: &[CentroiderSpec],
+    i: &Inputs,
+    observer: &dyn Observer,
+) -> Result<Vec<EffectiveRecord>> {
+    let name = model.name();
+    let models = [model];
+    let known = |c: &SimConfig| {
+        i.solved
+            .iter()
+            .find(|r| r.model.starts_with(name) && key(&r.config) == key(c))
+    };
+    let missing: Vec<SimConfig> = configs
+        .iter()
+        .filter(|c| known(c).is_none())
+        .cloned()
+        .collect();
+    let solve = |configs: &[SimConfig], specs: &[CentroiderSpec]| {
+        if configs.is_empty() || specs.is_empty() {
+            return Ok(Vec::new());
+        }
+        effective_table_with(configs, &models, specs, i.params, i.precision, observer)
+    };
+    let mut cog_solved = solve(&missing, &specs[..1])?.into_iter();
+    let mut out = Vec::with_capacity(configs.len() * specs.len());
+    for c in configs {
+        let record = match known(c) {
+            Some(r) => EffectiveRecord {
+                model: name.to_string(),
+                ..r.clone()
+            },
+            None => cog_solved
+                .next()
+                .expect("one solve per missing configuration"),
+        };
+        out.push(record);
+    }
+    out.extend(solve(configs, &specs[1..])?);
+    Ok(out)
+}
+
 /// Rows with the gap each centroider recovers against `cog` of the same model and size.
 fn with_gaps(records: &[EffectiveRecord], median: f64) -> Vec<CentroiderRow> {
     let value = |r: &EffectiveRecord| {
@@ -233,11 +265,9 @@ fn with_gaps(records: &[EffectiveRecord], median: f64) -> Vec<CentroiderRow> {
         .iter()
         .map(|r| {
             let e = &r.effective;
-            let key =
-                |x: &EffectiveRecord| (x.config.subap_px, x.config.spot, x.config.signal_photons);
-            let cog = records
-                .iter()
-                .find(|c| c.centroider == "cog" && c.model == r.model && key(c) == key(r));
+            let cog = records.iter().find(|c| {
+                c.centroider == "cog" && c.model == r.model && key(&c.config) == key(&r.config)
+            });
             let (gap, gap_se, gap_status) =
                 match (r.centroider.as_str(), cog.and_then(value), value(r)) {
                     ("cog", _, _) => (None, None, "reference"),

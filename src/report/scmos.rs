@@ -171,6 +171,7 @@ pub(crate) fn run(
             median_rms_e: fit.data.median_e,
             precision: &o.precision_in_use(),
             full_grid: o.centroider_full_grid,
+            solved: &effective,
         },
         &dir.path(""),
         observer,
