@@ -199,7 +199,12 @@ pub(super) fn solve(
         prepaid: cfg.iters * (1 + FINAL_POINTS as u64) * pixels(cfg),
     };
     let mut start = cfg.iters;
-    if !family.at_foot(guess) {
+    // A pilot estimate at either end of its grid brackets nothing: below the foot there is
+    // nothing to bracket, and above the top the value may lie anywhere up the wide grid (a
+    // bracket around the top of the pilot grid was tried, and missed, in 40 of the 40 such
+    // solves of the default report), so the wide grid is run at once.
+    let pilot_top = family.pilot().last().copied().unwrap_or(f64::INFINITY);
+    if !family.at_foot(guess) && guess < pilot_top {
         let grid = family.around(guess);
         let references = references(family, &grid);
         let models = with_detector(detector, &references);

@@ -89,6 +89,46 @@ fn a_detector_without_an_eligible_level_gets_no_value() {
     assert_eq!((e.target_se_e, e.iters), (None, 600));
 }
 
+/// A constant-sigma camera that under-states its noise scale (its typical sigma), so the
+/// pilot grid, scaled by that, lies far below its effective read noise.
+struct UnderStated(ScmosConstant);
+
+impl Readout for UnderStated {
+    fn name(&self) -> String {
+        "under-stated".into()
+    }
+    fn read(
+        &self,
+        input: &crate::detector::FrameInput,
+        aux: &mut crate::rng::SimRng,
+        out: &mut [f64],
+    ) {
+        self.0.read(input, aux, out)
+    }
+    fn noise_scale_e(&self) -> f64 {
+        0.25
+    }
+}
+
+#[test]
+fn a_pilot_above_its_grid_goes_to_the_wide_grid_at_once() {
+    // Noise scale 0.25 e-: the pilot grid ends at 1 e-, far below the camera's 1.7 e-, so the
+    // pilot's estimate is the top of its grid. The wide grid (0 to 16 x 1 e-) is run at once,
+    // without a bracket around 1 e-, and brackets 1.7 e- between 1.4 and 2 e-: the value
+    // comes back within 3 SE (the quadratic across that bracket is within 1 % of sigma).
+    let mut cfg = SimConfig::paper(6);
+    cfg.iters = 3000;
+    let det = UnderStated(ScmosConstant::new(1.7, "det".into()));
+    let e = effective_sigma(&cfg, &det, &absolute(0.05, 40_000), &Silent).unwrap();
+    assert_eq!(e.status, Status::Ok, "{e:?}");
+    let wide: Vec<f64> = [0.0, 0.1, 0.2, 0.35, 0.5, 0.7, 1.0, 1.4, 2.0, 3.0, 6.0, 16.0].into();
+    assert_eq!(e.sigma_grid_e, wide);
+    assert!(
+        (e.sigma_eff_e - 1.7).abs() < 3.0 * e.sigma_eff_se_e + 0.01 * 1.7,
+        "{e:?}"
+    );
+}
+
 /// Two-sided 0.1 % bounds of chi-square with `k` degrees of freedom (Wilson-Hilferty: within
 /// 1 % of the exact quantiles from k = 20).
 pub(in crate::effective) fn chi_square_bounds(k: f64) -> (f64, f64) {
