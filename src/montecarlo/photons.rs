@@ -8,7 +8,7 @@
 //! O(pixels) with an exponential each; the cheaper one is chosen from the mean total.
 
 use crate::rng::SimRng;
-use crate::stats::poisson;
+use crate::stats::{poisson, poisson_each};
 use rand::RngExt;
 
 /// Mean photo-electrons per pixel up to which photons are placed (above, drawn per pixel):
@@ -57,9 +57,7 @@ impl ShotNoise {
         if total <= PLACE_UP_TO_PER_PIXEL * expected.len() as f64 {
             self.place(expected, total, rng, out);
         } else {
-            for (k, &lambda) in out.iter_mut().zip(expected) {
-                *k = poisson(lambda, rng);
-            }
+            poisson_each(expected, rng, out);
         }
     }
 

@@ -10,4 +10,4 @@ mod samplers;
 
 pub use moments::{correlation, finite_mean, mean_var, robust_slope};
 pub use order::{median, percentile, percentile_sorted, robust_sigma};
-pub use samplers::{binomial_half, poisson};
+pub use samplers::{binomial_half, exp_neg, poisson, poisson_each};
