@@ -8,7 +8,11 @@ use super::sums::LevelSums;
 /// pixel's terms multiplied by its weight w; count and offsets by its threshold scale s too).
 /// Two halves of four lanes with the same layout, so a pixel's terms, the running sums and a
 /// level's (S, Sx, Sy) = first half - level x second half are each one vector operation.
-type Bin = [f64; 8];
+/// Aligned on a cache line, so that no half straddles two lines (a split load or store costs
+/// several times a whole one).
+#[derive(Debug, Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct Bin([f64; 8]);
 
 /// A pixel's terms in one half of a [`Bin`]: (1, column offset, row offset, 0) times `f`.
 #[inline(always)]
@@ -119,7 +123,7 @@ impl BackgroundSweep {
         BackgroundSweep {
             index: LevelIndex::new(&levels),
             // Buckets 0..=count, then 8 spare ones for pixels below every level.
-            bins: vec![[0.0; 8]; count + 9],
+            bins: vec![Bin::default(); count + 9],
             mass: vec![0.0; count],
             moment_sq: vec![0.0; count],
             dist: vec![0.0; count],
@@ -255,13 +259,13 @@ impl BackgroundSweep {
                 // SAFETY: k <= levels (count_below), so slot < junk + 8 = bins.len().
                 let b = unsafe { self.bins.get_unchecked_mut(slot) };
                 let (a, c) = (half(w * v, x, y), half(w * s, x, y));
-                for (t, d) in b.iter_mut().zip(a.into_iter().chain(c)) {
+                for (t, d) in b.0.iter_mut().zip(a.into_iter().chain(c)) {
                     *t += d;
                 }
                 top = top.max(k);
             }
         }
-        self.bins[junk..].fill([0.0; 8]);
+        self.bins[junk..].fill(Bin::default());
         top
     }
 
@@ -269,12 +273,12 @@ impl BackgroundSweep {
     /// moments multiplied by the gains.
     #[inline(always)]
     fn level_sums(&mut self, top: usize, (gx, gy): (f64, f64)) {
-        let mut run: Bin = [0.0; 8];
+        let mut run = [0.0; 8];
         let gain = [1.0, gx, gy, 0.0];
         for l in (0..top).rev() {
             // Level l sees the pixels of buckets above it.
             let bin = std::mem::take(&mut self.bins[l + 1]);
-            for (r, b) in run.iter_mut().zip(bin) {
+            for (r, b) in run.iter_mut().zip(bin.0) {
                 *r += b;
             }
             let lv = self.levels[l];

@@ -17,7 +17,7 @@ use crate::centroid::{
 };
 use crate::detector::{draw_normals, FrameInput, Readout};
 use crate::progress::Observer;
-use crate::rng::stream;
+use crate::rng::ItemStreams;
 use crate::spot::SpotRenderer;
 use crate::{Error, Result};
 use rand::RngExt;
@@ -333,7 +333,8 @@ impl<'m> Experiment<'m> {
         let h = cfg.position_half_range_px;
         let mut block_start = iters.start;
         for it in iters.clone() {
-            let mut pos = stream(cfg.seed, it, POSITION);
+            let streams = ItemStreams::new(cfg.seed, it);
+            let mut pos = streams.stream(POSITION);
             let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
             self.renderer.render(x0, y0, &mut expected);
             let rendered: f64 = expected.iter().sum();
@@ -346,11 +347,11 @@ impl<'m> Experiment<'m> {
             };
             expected.iter_mut().for_each(|v| *v *= scale);
             let truth = cog(&expected, n).unwrap_or((0.0, 0.0));
-            let mut ph = stream(cfg.seed, it, PHOTONS);
+            let mut ph = streams.stream(PHOTONS);
             shot.draw(&expected, mean_photo_e, &mut ph, &mut photons);
             // Every model reads with the same normal deviates and starts from the same auxiliary
             // stream (common random numbers): drawn once, the stream's state copied.
-            draw_normals(&mut stream(cfg.seed, it, NOISE), &mut normals);
+            draw_normals(&mut streams.stream(NOISE), &mut normals);
             let input = FrameInput {
                 subap_px: n,
                 expected_e: &expected,
@@ -358,7 +359,7 @@ impl<'m> Experiment<'m> {
                 photo_e: &photons,
                 normals: &normals,
             };
-            let aux0 = stream(cfg.seed, it, AUX);
+            let aux0 = streams.stream(AUX);
             for (m, model) in models.iter().enumerate() {
                 let known: &[f64] = if needs_map[m] {
                     model.read_known(&input, &mut aux0.clone(), &mut image, &mut sigma);

@@ -33,8 +33,11 @@ pub fn poisson(lambda: f64, rng: &mut SimRng) -> u32 {
     k
 }
 
-/// Means drawn together by [`poisson_each`] (vector lanes).
+/// Means searched together by [`poisson_each`] (vector lanes).
 const LANES: usize = 8;
+/// Means whose deviates and exponentials [`poisson_each`] prepares at once (a multiple of
+/// [`LANES`], at most 64: one bit each in a mask).
+const BLOCK: usize = 64;
 
 /// Independent Poisson counts with means `lambdas` into `out` (same length); a mean <= 0
 /// gives 0 and draws nothing.
@@ -68,33 +71,49 @@ unsafe fn poisson_each_avx2(lambdas: &[f64], rng: &mut SimRng, out: &mut [u32]) 
 
 #[inline(always)]
 fn poisson_each_inline(lambdas: &[f64], rng: &mut SimRng, out: &mut [u32]) {
-    for (means, counts) in lambdas.chunks(LANES).zip(out.chunks_mut(LANES)) {
-        // Lanes left at mean 0 and deviate 0 count 0: means <= 0, and those drawn directly.
-        let (mut lambda, mut u) = ([0.0; LANES], [0.0; LANES]);
-        let mut direct = [None; LANES];
-        for (i, &m) in means.iter().enumerate() {
+    for (means, counts) in lambdas.chunks(BLOCK).zip(out.chunks_mut(BLOCK)) {
+        // Lanes left at mean 0 and deviate 0 count 0: means <= 0, and those drawn directly
+        // (bit i of `direct`).
+        let (mut lambda, mut u) = ([0.0; BLOCK], [0.0; BLOCK]);
+        let mut direct = 0u64;
+        for (i, (&m, c)) in means.iter().zip(counts.iter_mut()).enumerate() {
             if m > 0.0 && m < POISSON_INVERSION_MAX {
                 lambda[i] = m;
                 u[i] = rng.random();
             } else if m > 0.0 || m.is_nan() {
-                direct[i] = Some(poisson(m, rng));
+                *c = poisson(m, rng);
+                direct |= 1 << i;
             }
         }
-        let k = invert_lanes(&lambda, &u);
-        for (i, c) in counts.iter_mut().enumerate() {
-            *c = direct[i].unwrap_or(k[i]);
+        // Every exponential of the block in one loop: independent lanes, so the polynomial's
+        // latency overlaps.
+        let used = means.len().div_ceil(LANES) * LANES;
+        let mut p0 = [0.0; BLOCK];
+        for (p, &l) in p0[..used].iter_mut().zip(&lambda[..used]) {
+            *p = exp_neg(l);
+        }
+        for start in (0..used).step_by(LANES) {
+            let lanes = start..start + LANES;
+            let k = invert_lanes(
+                lambda[lanes.clone()].try_into().expect("LANES"),
+                u[lanes.clone()].try_into().expect("LANES"),
+                p0[lanes].try_into().expect("LANES"),
+            );
+            for (i, &k) in k.iter().enumerate().take(means.len().saturating_sub(start)) {
+                if direct & (1 << (start + i)) == 0 {
+                    counts[start + i] = k;
+                }
+            }
         }
     }
 }
 
-/// The smallest k with CDF(k) >= u per lane (Poisson(lambda), 0 <= lambda < 30; at most 1000,
-/// the bound of [`poisson`] for u within round-off of 1). A lane of mean 0 and deviate 0 gives 0.
+/// The smallest k with CDF(k) >= u per lane (Poisson(lambda), 0 <= lambda < 30, p0 =
+/// exp(-lambda); at most 1000, the bound of [`poisson`] for u within round-off of 1). A lane of
+/// mean 0 and deviate 0 gives 0.
 #[inline(always)]
-fn invert_lanes(lambda: &[f64; LANES], u: &[f64; LANES]) -> [u32; LANES] {
-    let mut p = [0.0; LANES];
-    for i in 0..LANES {
-        p[i] = exp_neg(lambda[i]);
-    }
+fn invert_lanes(lambda: [f64; LANES], u: [f64; LANES], p0: [f64; LANES]) -> [u32; LANES] {
+    let mut p = p0;
     let mut cdf = p;
     let mut k = [0u32; LANES];
     for step in 1..=1000u32 {
@@ -147,8 +166,10 @@ pub fn exp_neg(x: f64) -> f64 {
     for c in INV_FACT[..13].iter().rev() {
         poly = poly * r + c;
     }
-    // 2^n for -1010 < n <= 0, built from its exponent bits.
-    let scale = f64::from_bits(((n as i64 + 1023) as u64) << 52);
+    // 2^n for -1010 < n <= 0, built from its exponent bits: 2^52 + 1023 + n holds the biased
+    // exponent in its low mantissa bits (an integer conversion would not vectorise).
+    let biased = n + (4_503_599_627_370_496.0 + 1023.0);
+    let scale = f64::from_bits(biased.to_bits() << 52);
     poly * scale
 }
 
