@@ -105,6 +105,8 @@ pub struct BackgroundSweep {
     n: usize,
     index: LevelIndex,
     bins: Vec<Bin>,
+    /// Per frame: (row, column, bucket) of the pixels above the first level, in pixel order.
+    lit: Vec<(u16, u16, u32)>,
     /// Per level: the thresholded sum S(b) and squared first moment about the truth.
     mass: Vec<f32>,
     moment_sq: Vec<f32>,
@@ -122,8 +124,9 @@ impl BackgroundSweep {
         let count = levels.len();
         BackgroundSweep {
             index: LevelIndex::new(&levels),
-            // Buckets 0..=count, then 8 spare ones for pixels below every level.
-            bins: vec![Bin::default(); count + 9],
+            // Buckets 0..=count (bucket 0, below every level, stays empty).
+            bins: vec![Bin::default(); count + 1],
+            lit: vec![(0, 0, 0); n * n],
             mass: vec![0.0; count],
             moment_sq: vec![0.0; count],
             dist: vec![0.0; count],
@@ -233,39 +236,46 @@ impl BackgroundSweep {
     /// Put every pixel of `img` in its bucket (positions relative to `truth`, px from the
     /// centre); the highest bucket used, which is the number of levels below the brightest
     /// pixel.
+    ///
+    /// Two passes: first every pixel's bucket (independent look-ups that pipeline), keeping
+    /// the pixels above the first level (at low light about half are not, unpredictably: kept
+    /// without a branch); then their sums, in pixel order. With the buckets known ahead, a
+    /// pixel's load is not held behind the previous pixel's store while its address is
+    /// computed.
     #[inline(always)]
     fn bin_pixels<T: PixelTerms>(&mut self, img: &[f64], terms: &T, truth: (f64, f64)) -> usize {
         let n = self.n;
         let c = (n as f64 - 1.0) / 2.0;
         let (tx, ty) = (truth.0 + c, truth.1 + c);
-        let junk = self.levels.len() + 1;
-        let mut top = 0;
-        debug_assert!(self.bins.len() >= junk + 8);
-        for (i, row) in img.chunks_exact(n).enumerate() {
-            let y = i as f64 - ty;
-            for (j, &v) in row.iter().enumerate() {
-                let (w, s) = (terms.weight(i * n + j), terms.scale(i * n + j));
+        let (mut top, mut kept) = (0, 0);
+        let lit = &mut self.lit[..n * n];
+        for (row, line) in img[..n * n].chunks_exact(n).enumerate() {
+            for (col, &v) in line.iter().enumerate() {
+                let i = row * n + col;
                 // A pixel of weight 0 counts nowhere, like one below every level.
-                let k = if w > 0.0 {
-                    self.index.count_below(v / s)
+                let k = if terms.weight(i) > 0.0 {
+                    self.index.count_below(v / terms.scale(i))
                 } else {
                     0
                 };
-                // A pixel below every level counts nowhere; it is added to one of 8 spare
-                // buckets in turn, without a branch (at low light about half the pixels are
-                // such, unpredictably) and without chaining them all through one bucket.
-                let slot = if k == 0 { junk + (j & 7) } else { k };
-                let x = j as f64 - tx;
-                // SAFETY: k <= levels (count_below), so slot < junk + 8 = bins.len().
-                let b = unsafe { self.bins.get_unchecked_mut(slot) };
-                let (a, c) = (half(w * v, x, y), half(w * s, x, y));
-                for (t, d) in b.0.iter_mut().zip(a.into_iter().chain(c)) {
-                    *t += d;
-                }
+                // SAFETY: kept <= i < n * n = lit.len().
+                *unsafe { lit.get_unchecked_mut(kept) } = (row as u16, col as u16, k as u32);
+                kept += usize::from(k > 0);
                 top = top.max(k);
             }
         }
-        self.bins[junk..].fill(Bin::default());
+        for &(row, col, k) in &lit[..kept] {
+            let (row, col) = (usize::from(row), usize::from(col));
+            let i = row * n + col;
+            let (w, s, v) = (terms.weight(i), terms.scale(i), img[i]);
+            let (x, y) = (col as f64 - tx, row as f64 - ty);
+            // SAFETY: 0 < k <= levels (count_below) < bins.len().
+            let b = unsafe { self.bins.get_unchecked_mut(k as usize) };
+            let (a, c) = (half(w * v, x, y), half(w * s, x, y));
+            for (t, d) in b.0.iter_mut().zip(a.into_iter().chain(c)) {
+                *t += d;
+            }
+        }
         top
     }
 
