@@ -1,12 +1,12 @@
 //! Which background levels lie below a pixel value, in O(1): the sweep's bucket index.
 
-/// Most cells of the lookup grid (32 KiB of `u32`): small enough to stay in the L1/L2 cache.
+/// Most cells of the lookup grid (128 KiB): small enough to stay in the L2 cache.
 const MAX_CELLS: usize = 8192;
 
 /// Counts the levels strictly below a value with a uniform grid of cells over the levels'
 /// range: a cell holds the number of levels in the cells below it and its own first level, so
-/// one load and one comparison answer unless the cell holds several levels (only when levels
-/// are closer than the cell width).
+/// one load and one comparison answer unless the cell holds several levels (only the last
+/// cell, when the range needs more than [`MAX_CELLS`] cells).
 #[derive(Debug, Clone)]
 pub(super) struct LevelIndex {
     levels: Vec<f64>,
@@ -39,7 +39,11 @@ impl LevelIndex {
             .windows(2)
             .map(|w| w[1] - w[0])
             .fold(f64::INFINITY, f64::min);
-        let width = closest.max(range / MAX_CELLS as f64);
+        // Cells as wide as the closest levels, so no cell holds two levels, up to MAX_CELLS of
+        // them; values beyond fall in the last cell, which then holds the rest of the levels
+        // (searched by bisection: bright pixels only). Wider cells over the whole range would
+        // put several of the automatic grid's fine levels in the cells of most dark pixels.
+        let width = closest;
         let (count, inv_width) = if range > 0.0 && width > 0.0 {
             (((range / width) as usize + 1).min(MAX_CELLS), 1.0 / width)
         } else {
@@ -100,7 +104,7 @@ impl LevelIndex {
             return k;
         }
         let end = (cell.below + cell.count) as usize;
-        k + self.levels[k..end].iter().take_while(|l| **l < v).count()
+        k + self.levels[k..end].partition_point(|l| *l < v)
     }
 }
 
@@ -130,6 +134,10 @@ mod tests {
         for levels in [
             auto,
             (0..20_000).map(|k| k as f64 * 0.01).collect(),
+            (0..20)
+                .map(|k| k as f64 * 0.05)
+                .chain([5e3, 1e4, 2e4])
+                .collect(),
             vec![0.0],
             vec![-1.0, 0.0, 1e-9, 2e-9, 3.0, 1e6],
         ] {
