@@ -85,7 +85,7 @@ impl LevelIndex {
     /// Cell of value `v` (values below the first level, and NaN, in cell 0); monotone in `v`,
     /// so a level in a lower cell is below `v` and one in a higher cell above it.
     #[inline]
-    fn cell(&self, v: f64) -> usize {
+    pub(super) fn cell(&self, v: f64) -> usize {
         // `max` sends NaN to 0; the value is then finite and within 0..cells.
         let t = ((v - self.lo) * self.inv_width)
             .max(0.0)
@@ -96,9 +96,16 @@ impl LevelIndex {
     }
 
     /// Number of levels strictly below `v` (0 for NaN).
-    #[inline]
+    #[cfg(test)]
     pub(super) fn count_below(&self, v: f64) -> usize {
-        let cell = self.cells[self.cell(v)];
+        self.count_below_in(self.cell(v), v)
+    }
+
+    /// [`Self::count_below`] with `v`'s cell ([`Self::cell`]) already found: a frame's cells
+    /// are computed in one loop that vectorises.
+    #[inline]
+    pub(super) fn count_below_in(&self, cell: usize, v: f64) -> usize {
+        let cell = self.cells[cell];
         let k = cell.below as usize + usize::from(cell.first < v);
         if cell.count <= 1 {
             return k;

@@ -107,6 +107,8 @@ pub struct BackgroundSweep {
     bins: Vec<Bin>,
     /// Per frame: (row, column, bucket) of the pixels above the first level, in pixel order.
     lit: Vec<(u16, u16, u32)>,
+    /// Per frame: each pixel's cell in the level index.
+    cells: Vec<u32>,
     /// Per level: the thresholded sum S(b) and squared first moment about the truth.
     mass: Vec<f32>,
     moment_sq: Vec<f32>,
@@ -127,6 +129,7 @@ impl BackgroundSweep {
             // Buckets 0..=count (bucket 0, below every level, stays empty).
             bins: vec![Bin::default(); count + 1],
             lit: vec![(0, 0, 0); n * n],
+            cells: vec![0; n * n],
             mass: vec![0.0; count],
             moment_sq: vec![0.0; count],
             dist: vec![0.0; count],
@@ -237,7 +240,8 @@ impl BackgroundSweep {
     /// centre); the highest bucket used, which is the number of levels below the brightest
     /// pixel.
     ///
-    /// Two passes: first every pixel's bucket (independent look-ups that pipeline), keeping
+    /// Two passes: first every pixel's bucket (its cell in the level index for all pixels in a
+    /// loop that vectorises, then independent look-ups that pipeline), keeping
     /// the pixels above the first level (at low light about half are not, unpredictably: kept
     /// without a branch); then their sums, in pixel order. With the buckets known ahead, a
     /// pixel's load is not held behind the previous pixel's store while its address is
@@ -248,13 +252,17 @@ impl BackgroundSweep {
         let c = (n as f64 - 1.0) / 2.0;
         let (tx, ty) = (truth.0 + c, truth.1 + c);
         let (mut top, mut kept) = (0, 0);
-        let lit = &mut self.lit[..n * n];
+        let (lit, cells) = (&mut self.lit[..n * n], &mut self.cells[..n * n]);
+        for (i, (&v, c)) in img[..n * n].iter().zip(cells.iter_mut()).enumerate() {
+            *c = self.index.cell(v / terms.scale(i)) as u32;
+        }
         for (row, line) in img[..n * n].chunks_exact(n).enumerate() {
             for (col, &v) in line.iter().enumerate() {
                 let i = row * n + col;
                 // A pixel of weight 0 counts nowhere, like one below every level.
                 let k = if terms.weight(i) > 0.0 {
-                    self.index.count_below(v / terms.scale(i))
+                    self.index
+                        .count_below_in(cells[i] as usize, v / terms.scale(i))
                 } else {
                     0
                 };

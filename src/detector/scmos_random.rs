@@ -40,8 +40,10 @@ impl Readout for ScmosRandom {
     fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
         // Gaussian deviates come from `noise` as in the constant models, sigmas from `aux`:
         // the two then differ only by the sigmas (common random numbers).
+        let out = &mut out[..input.photo_e.len()];
+        self.pdf.sample_into(aux, out);
         for ((o, &k), &z) in out.iter_mut().zip(input.photo_e).zip(input.normals) {
-            *o = k as f64 + self.pdf.sample(aux) * z;
+            *o = k as f64 + *o * z;
         }
     }
 
@@ -51,14 +53,15 @@ impl Readout for ScmosRandom {
 
     fn read_known(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64], sigma_e: &mut [f64]) {
         // The same draws in the same order as `read`, each sigma kept.
-        for (((o, &k), &z), s) in out
+        let out = &mut out[..input.photo_e.len()];
+        self.pdf.sample_into(aux, &mut sigma_e[..out.len()]);
+        for (((o, &k), &z), &s) in out
             .iter_mut()
             .zip(input.photo_e)
             .zip(input.normals)
-            .zip(sigma_e.iter_mut())
+            .zip(sigma_e.iter())
         {
-            *s = self.pdf.sample(aux);
-            *o = k as f64 + *s * z;
+            *o = k as f64 + s * z;
         }
     }
 

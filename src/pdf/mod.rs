@@ -13,6 +13,11 @@ use crate::rng::SimRng;
 pub trait RmsPdf: Send + Sync + std::fmt::Debug {
     /// Draw one per-pixel rms (e-).
     fn sample(&self, rng: &mut SimRng) -> f64;
+    /// Fill `out` with independent rms draws (e-): the same draws, in the same order, as
+    /// [`RmsPdf::sample`] called for each element.
+    fn sample_into(&self, rng: &mut SimRng, out: &mut [f64]) {
+        out.iter_mut().for_each(|o| *o = self.sample(rng));
+    }
     /// The p-quantile (e-), p in [0, 1].
     fn quantile(&self, p: f64) -> f64;
     /// Cumulative probability P(rms <= x) for x in e-.

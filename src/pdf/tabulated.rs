@@ -165,18 +165,36 @@ fn alias_table(cdf: &[f64]) -> Vec<u64> {
 
 impl RmsPdf for TabulatedPdf {
     fn sample(&self, rng: &mut SimRng) -> f64 {
+        let mut out = [0.0];
+        self.sample_into(rng, &mut out);
+        out[0]
+    }
+
+    fn sample_into(&self, rng: &mut SimRng, out: &mut [f64]) {
+        const BATCH: usize = 64;
         let table = self.alias.get_or_init(|| alias_table(&self.cdf));
-        // bits x cells / 2^64: the integer part picks the cell (each with probability 1/cells
-        // to 2^-64), the fractional part, uniform and independent of it, decides keep or alias.
-        let product = u128::from(rng.random::<u64>()) * table.len() as u128;
-        let i = (product >> 64) as usize;
-        let entry = table[i];
-        let cell = if ((product as u64) >> 32) < (entry >> 32) {
-            i
-        } else {
-            (entry & 0xffff_ffff) as usize
-        };
-        self.lo + (cell as f64 + rng.random::<f64>()) * self.step
+        // The deviates of a batch first (in draw order), then its table entries: the look-ups
+        // (800 KB of table, mostly outside the L1 cache) are then independent and overlap.
+        let (mut product, mut within) = ([0u128; BATCH], [0.0; BATCH]);
+        for chunk in out.chunks_mut(BATCH) {
+            for (p, w) in product.iter_mut().zip(within.iter_mut()).take(chunk.len()) {
+                // bits x cells / 2^64: the integer part picks the cell (each with probability
+                // 1/cells to 2^-64), the fractional part, uniform and independent of it,
+                // decides keep or alias.
+                *p = u128::from(rng.random::<u64>()) * table.len() as u128;
+                *w = rng.random::<f64>();
+            }
+            for ((o, &p), &w) in chunk.iter_mut().zip(&product).zip(&within) {
+                let i = (p >> 64) as usize;
+                let entry = table[i];
+                let cell = if ((p as u64) >> 32) < (entry >> 32) {
+                    i
+                } else {
+                    (entry & 0xffff_ffff) as usize
+                };
+                *o = self.lo + (cell as f64 + w) * self.step;
+            }
+        }
     }
 
     fn quantile(&self, p: f64) -> f64 {
