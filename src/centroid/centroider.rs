@@ -90,4 +90,12 @@ pub trait Centroider: Send + Sync {
 pub trait CentroidWorker {
     /// Add the frame's error at every setting to `acc` (made by [`Centroider::sums`]).
     fn accumulate(&mut self, frame: &CentroidFrame, acc: &mut SettingSums);
+    /// Add the errors of consecutive `frames` (at most [`crate::centroid::LANES`]): the same
+    /// as [`CentroidWorker::accumulate`] for each, but for the order in which the frames'
+    /// errors are summed (a worker may sweep the frames together, one per vector lane).
+    fn accumulate_batch(&mut self, frames: &[CentroidFrame], acc: &mut SettingSums) {
+        for f in frames {
+            self.accumulate(f, acc);
+        }
+    }
 }

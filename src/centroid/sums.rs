@@ -11,6 +11,31 @@ pub struct LevelSums {
     pub(super) tail_sum: Vec<f64>,
     pub(super) tail_sum_sq: Vec<f64>,
     pub(super) tail_count: Vec<u64>,
+    /// Per level, sums of frames added a batch at a time ([`super::BackgroundSweep::
+    /// accumulate_batch`]): one partial sum per lane, added up by `finish`. Empty until a
+    /// batch is added.
+    pub(super) lanes: Vec<LaneSums>,
+}
+
+/// Frames a batch of the sweep holds (one per vector lane).
+pub const LANES: usize = 4;
+
+/// One level's sums of the frames of each lane.
+#[derive(Debug, Clone, Copy, Default)]
+pub(super) struct LaneSums {
+    pub(super) sum: [f64; LANES],
+    pub(super) sum_sq: [f64; LANES],
+    pub(super) empty: [u64; LANES],
+}
+
+impl LaneSums {
+    fn add(&mut self, other: &LaneSums) {
+        for f in 0..LANES {
+            self.sum[f] += other.sum[f];
+            self.sum_sq[f] += other.sum_sq[f];
+            self.empty[f] += other.empty[f];
+        }
+    }
 }
 
 /// Finished per-level statistics: (sum of distances px, sum of squares px^2, empty frames).
@@ -26,7 +51,16 @@ impl LevelSums {
             tail_sum: vec![0.0; levels + 1],
             tail_sum_sq: vec![0.0; levels + 1],
             tail_count: vec![0; levels + 1],
+            lanes: Vec::new(),
         }
+    }
+
+    /// The per-lane sums, allocated (zeroed) on first use.
+    pub(super) fn lanes_mut(&mut self) -> &mut [LaneSums] {
+        if self.lanes.is_empty() {
+            self.lanes = vec![LaneSums::default(); self.sum.len()];
+        }
+        &mut self.lanes
     }
 
     /// Add another set of sums (same levels).
@@ -40,6 +74,11 @@ impl LevelSums {
         add(&mut self.tail_sum, &other.tail_sum);
         add(&mut self.tail_sum_sq, &other.tail_sum_sq);
         add(&mut self.tail_count, &other.tail_count);
+        if !other.lanes.is_empty() {
+            for (a, b) in self.lanes_mut().iter_mut().zip(&other.lanes) {
+                a.add(b);
+            }
+        }
     }
 
     /// Reset every sum to zero (same levels), keeping the allocations.
@@ -50,6 +89,7 @@ impl LevelSums {
         self.tail_sum.fill(0.0);
         self.tail_sum_sq.fill(0.0);
         self.tail_count.fill(0);
+        self.lanes.fill(LaneSums::default());
     }
 
     /// Per-level totals with the empty tails spread over their levels.
@@ -60,7 +100,15 @@ impl LevelSums {
                 ts += self.tail_sum[k];
                 tq += self.tail_sum_sq[k];
                 tc += self.tail_count[k];
-                (self.sum[k] + ts, self.sum_sq[k] + tq, self.empty[k] + tc)
+                let (mut s, mut q, mut e) = (self.sum[k], self.sum_sq[k], self.empty[k]);
+                if let Some(lane) = self.lanes.get(k) {
+                    for f in 0..LANES {
+                        s += lane.sum[f];
+                        q += lane.sum_sq[f];
+                        e += lane.empty[f];
+                    }
+                }
+                (s + ts, q + tq, e + tc)
             })
             .collect()
     }

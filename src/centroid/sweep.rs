@@ -1,7 +1,8 @@
 //! The background sweep: a frame's centre-of-gravity error at every background level at once.
 
+use super::centroider::CentroidFrame;
 use super::levels::LevelIndex;
-use super::sums::LevelSums;
+use super::sums::{LaneSums, LevelSums, LANES};
 
 /// Sums over the pixels of one bucket, positions relative to the truth: value, value x
 /// column offset, value x row offset, 0, then count, column offset, row offset, 0 (each
@@ -13,6 +14,20 @@ use super::sums::LevelSums;
 #[derive(Debug, Clone, Copy, Default)]
 #[repr(C, align(64))]
 struct Bin([f64; 8]);
+
+/// A bucket's sums for a batch of frames, one frame per lane: the six sums of a [`Bin`]
+/// (value, value x column, value x row, count, column, row), each across the frames.
+#[derive(Debug, Clone, Copy, Default)]
+#[repr(C, align(64))]
+struct LaneBin([[f64; LANES]; 6]);
+
+/// `a` if `pick`, else `b`, by masking their bits: no branch and no masked memory access
+/// whatever the compiler's choice, and lanes of a vector select independently.
+#[inline(always)]
+fn select(pick: bool, a: f64, b: f64) -> f64 {
+    let mask = u64::from(pick).wrapping_neg();
+    f64::from_bits((a.to_bits() & mask) | (b.to_bits() & !mask))
+}
 
 /// A pixel's terms in one half of a [`Bin`]: (1, column offset, row offset, 0) times `f`.
 #[inline(always)]
@@ -114,8 +129,19 @@ pub struct BackgroundSweep {
     moment_sq: Vec<f32>,
     /// Per level: the distance of the centre of gravity from the truth (px).
     dist: Vec<f32>,
+    /// The same for a batch of frames (allocated on the first batch).
+    batch: BatchScratch,
     /// The CPU has AVX2 (the per-level loops run twice as wide).
     avx2: bool,
+}
+
+/// A batch's buckets and per-level values, one frame per lane.
+#[derive(Debug, Clone, Default)]
+struct BatchScratch {
+    bins: Vec<LaneBin>,
+    mass: Vec<[f32; LANES]>,
+    moment_sq: Vec<[f32; LANES]>,
+    dist: Vec<[f32; LANES]>,
 }
 
 impl BackgroundSweep {
@@ -133,6 +159,7 @@ impl BackgroundSweep {
             mass: vec![0.0; count],
             moment_sq: vec![0.0; count],
             dist: vec![0.0; count],
+            batch: BatchScratch::default(),
             levels,
             n,
             #[cfg(target_arch = "x86_64")]
@@ -159,6 +186,122 @@ impl BackgroundSweep {
     /// from the centre.
     pub fn accumulate(&mut self, img: &[f64], truth: (f64, f64), acc: &mut LevelSums) {
         self.accumulate_terms(img, &Plain, truth, acc)
+    }
+
+    /// [`Self::accumulate`] for each of `frames` (the plain centre of gravity; at most
+    /// [`LANES`] frames): the same error per frame and level, summed per lane. A full batch
+    /// is swept once for all its frames, one per vector lane: each level's sums, distances
+    /// and additions are one vector operation for [`LANES`] frames (a level of one frame
+    /// costs the same operations, one lane wide). A shorter batch is added frame by frame.
+    pub fn accumulate_batch(&mut self, frames: &[CentroidFrame], acc: &mut LevelSums) {
+        if frames.len() != LANES {
+            for f in frames {
+                self.accumulate(f.image_e, f.truth_px, acc);
+            }
+            return;
+        }
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only when the CPU has AVX2 (checked in `new`).
+            return unsafe { self.accumulate_batch_avx2(frames, acc) };
+        }
+        self.accumulate_batch_inline(frames, acc)
+    }
+
+    /// [`Self::accumulate_batch`] compiled for AVX2 (the same operations in the same order).
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn accumulate_batch_avx2(&mut self, frames: &[CentroidFrame], acc: &mut LevelSums) {
+        self.accumulate_batch_inline(frames, acc)
+    }
+
+    #[inline(always)]
+    fn accumulate_batch_inline(&mut self, frames: &[CentroidFrame], acc: &mut LevelSums) {
+        let count = self.levels.len();
+        if self.batch.bins.is_empty() {
+            self.batch = BatchScratch {
+                bins: vec![LaneBin::default(); count + 1],
+                mass: vec![[0.0; LANES]; count],
+                moment_sq: vec![[0.0; LANES]; count],
+                dist: vec![[0.0; LANES]; count],
+            };
+        }
+        let (mut top, mut centre) = (0, [0.0; LANES]);
+        for (lane, f) in frames.iter().enumerate() {
+            let t = f.truth_px;
+            centre[lane] = (t.0 * t.0 + t.1 * t.1).sqrt();
+            top = top.max(self.bin_pixels_lane(f.image_e, t, lane));
+        }
+        // Levels at and above the brightest pixel of the batch see empty frames (recorded once
+        // per frame); below it, a frame above its own brightest pixel has every sum exactly 0:
+        // not lit, so empty there too, as in `accumulate`.
+        for c in centre {
+            acc.tail_sum[top] += c;
+            acc.tail_sum_sq[top] += c * c;
+            acc.tail_count[top] += 1;
+        }
+        // Disjoint slices, so that the compiler keeps the running sums in registers.
+        let BatchScratch {
+            bins,
+            mass,
+            moment_sq,
+            dist,
+        } = &mut self.batch;
+        let (bins, mass, moment_sq) = (&mut bins[..=top], &mut mass[..top], &mut moment_sq[..top]);
+        let levels = &self.levels[..top];
+        let mut run = [[0.0; LANES]; 6];
+        for l in (0..top).rev() {
+            let bin = std::mem::take(&mut bins[l + 1]);
+            for (r, add) in run.iter_mut().zip(bin.0) {
+                for f in 0..LANES {
+                    r[f] += add[f];
+                }
+            }
+            let lv = levels[l];
+            let (mut m, mut q) = ([0.0f32; LANES], [0.0f32; LANES]);
+            for f in 0..LANES {
+                // As `level_sums` with gains 1: S, Sx, Sy = first half - level x second.
+                let x = run[1][f] - lv * run[4][f];
+                let y = run[2][f] - lv * run[5][f];
+                m[f] = (run[0][f] - lv * run[3][f]) as f32;
+                q[f] = (x * x + y * y) as f32;
+            }
+            mass[l] = m;
+            moment_sq[l] = q;
+        }
+        let dist = &mut dist[..top];
+        for ((d, m), q) in dist.iter_mut().zip(&*mass).zip(&*moment_sq) {
+            for f in 0..LANES {
+                d[f] = q[f].sqrt() / m[f];
+            }
+        }
+        let lanes = &mut acc.lanes_mut()[..top];
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: `avx2` is set only when the CPU has AVX2 (checked in `new`).
+            return unsafe { add_lanes_avx2(lanes, mass, dist, centre) };
+        }
+        add_lanes(lanes, mass, dist, centre);
+    }
+
+    /// [`Self::bin_pixels`] for the plain centre of gravity into lane `lane` of the batch's
+    /// buckets (the same sums, in the same order).
+    #[inline(always)]
+    fn bin_pixels_lane(&mut self, img: &[f64], truth: (f64, f64), lane: usize) -> usize {
+        let n = self.n;
+        let (tx, ty) = self.origin(truth);
+        let (kept, top) = self.lit_pixels(img, &Plain);
+        for &(row, col, k) in &self.lit[..kept] {
+            let (row, col) = (usize::from(row), usize::from(col));
+            let v = img[row * n + col];
+            let (x, y) = (col as f64 - tx, row as f64 - ty);
+            // SAFETY: 0 < k <= levels (count_below) < bins.len().
+            let b = unsafe { self.batch.bins.get_unchecked_mut(k as usize) };
+            for (sum, term) in b.0.iter_mut().zip([v, v * x, v * y, 1.0, x, y]) {
+                sum[lane] += term;
+            }
+        }
+        top
     }
 
     /// [`Self::accumulate`] for the centroid of w_i max(x_i - b s_i, 0) times a gain, the
@@ -249,8 +392,35 @@ impl BackgroundSweep {
     #[inline(always)]
     fn bin_pixels<T: PixelTerms>(&mut self, img: &[f64], terms: &T, truth: (f64, f64)) -> usize {
         let n = self.n;
-        let c = (n as f64 - 1.0) / 2.0;
-        let (tx, ty) = (truth.0 + c, truth.1 + c);
+        let (tx, ty) = self.origin(truth);
+        let (kept, top) = self.lit_pixels(img, terms);
+        for &(row, col, k) in &self.lit[..kept] {
+            let (row, col) = (usize::from(row), usize::from(col));
+            let i = row * n + col;
+            let (w, s, v) = (terms.weight(i), terms.scale(i), img[i]);
+            let (x, y) = (col as f64 - tx, row as f64 - ty);
+            // SAFETY: 0 < k <= levels (count_below) < bins.len().
+            let b = unsafe { self.bins.get_unchecked_mut(k as usize) };
+            let (a, c) = (half(w * v, x, y), half(w * s, x, y));
+            for (t, d) in b.0.iter_mut().zip(a.into_iter().chain(c)) {
+                *t += d;
+            }
+        }
+        top
+    }
+
+    /// The pixel grid's origin for positions relative to `truth` (px from the centre).
+    #[inline(always)]
+    fn origin(&self, truth: (f64, f64)) -> (f64, f64) {
+        let c = (self.n as f64 - 1.0) / 2.0;
+        (truth.0 + c, truth.1 + c)
+    }
+
+    /// Fill `lit` with (row, column, bucket) of the pixels above the first level, in pixel
+    /// order: how many, and the highest bucket.
+    #[inline(always)]
+    fn lit_pixels<T: PixelTerms>(&mut self, img: &[f64], terms: &T) -> (usize, usize) {
+        let n = self.n;
         let (mut top, mut kept) = (0, 0);
         let (lit, cells) = (&mut self.lit[..n * n], &mut self.cells[..n * n]);
         for (i, (&v, c)) in img[..n * n].iter().zip(cells.iter_mut()).enumerate() {
@@ -272,19 +442,7 @@ impl BackgroundSweep {
                 top = top.max(k);
             }
         }
-        for &(row, col, k) in &lit[..kept] {
-            let (row, col) = (usize::from(row), usize::from(col));
-            let i = row * n + col;
-            let (w, s, v) = (terms.weight(i), terms.scale(i), img[i]);
-            let (x, y) = (col as f64 - tx, row as f64 - ty);
-            // SAFETY: 0 < k <= levels (count_below) < bins.len().
-            let b = unsafe { self.bins.get_unchecked_mut(k as usize) };
-            let (a, c) = (half(w * v, x, y), half(w * s, x, y));
-            for (t, d) in b.0.iter_mut().zip(a.into_iter().chain(c)) {
-                *t += d;
-            }
-        }
-        top
+        (kept, top)
     }
 
     /// Fill `mass` and `moment_sq` for levels 0..top from the buckets (cleared), the first
@@ -307,6 +465,62 @@ impl BackgroundSweep {
             }
             self.mass[l] = t[0] as f32;
             self.moment_sq[l] = (t[1] * t[1] + t[2] * t[2]) as f32;
+        }
+    }
+}
+
+/// Add each level's error of every lane's frame to its lane sums: the distance where the
+/// level's sum is positive, else the centre's (an empty frame).
+fn add_lanes(
+    lanes: &mut [LaneSums],
+    mass: &[[f32; LANES]],
+    dist: &[[f32; LANES]],
+    centre: [f64; LANES],
+) {
+    for ((s, m), d) in lanes.iter_mut().zip(mass).zip(dist) {
+        for f in 0..LANES {
+            let lit = m[f] > 0.0;
+            let d = f64::from(d[f]);
+            s.sum[f] += select(lit, d, centre[f]);
+            s.sum_sq[f] += select(lit, d * d, centre[f] * centre[f]);
+            s.empty[f] += u64::from(!lit);
+        }
+    }
+}
+
+/// [`add_lanes`] in AVX2 vectors, one lane a frame (the compiler leaves the portable loop
+/// scalar): the same values.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn add_lanes_avx2(
+    lanes: &mut [LaneSums],
+    mass: &[[f32; LANES]],
+    dist: &[[f32; LANES]],
+    centre: [f64; LANES],
+) {
+    use std::arch::x86_64::*;
+    const _: () = assert!(LANES == 4, "four f64 lanes per AVX2 vector");
+    // SAFETY (every load and store): each pointer is to an array of four f32, f64 or u64.
+    unsafe {
+        let c = _mm256_loadu_pd(centre.as_ptr());
+        let c_sq = _mm256_mul_pd(c, c);
+        let one = _mm256_set1_epi64x(1);
+        for ((s, m), d) in lanes.iter_mut().zip(mass).zip(dist) {
+            // m > 0 (false for NaN), widened to 64-bit lane masks.
+            let lit32 = _mm_cmp_ps::<_CMP_GT_OQ>(_mm_loadu_ps(m.as_ptr()), _mm_setzero_ps());
+            let lit = _mm256_cvtepi32_epi64(_mm_castps_si128(lit32));
+            let lit_pd = _mm256_castsi256_pd(lit);
+            let d = _mm256_cvtps_pd(_mm_loadu_ps(d.as_ptr()));
+            let add = _mm256_blendv_pd(c, d, lit_pd);
+            let add_sq = _mm256_blendv_pd(c_sq, _mm256_mul_pd(d, d), lit_pd);
+            let sum = _mm256_add_pd(_mm256_loadu_pd(s.sum.as_ptr()), add);
+            _mm256_storeu_pd(s.sum.as_mut_ptr(), sum);
+            let sum_sq = _mm256_add_pd(_mm256_loadu_pd(s.sum_sq.as_ptr()), add_sq);
+            _mm256_storeu_pd(s.sum_sq.as_mut_ptr(), sum_sq);
+            let empty_ptr = s.empty.as_mut_ptr().cast::<__m256i>();
+            let empty =
+                _mm256_add_epi64(_mm256_loadu_si256(empty_ptr), _mm256_andnot_si256(lit, one));
+            _mm256_storeu_si256(empty_ptr, empty);
         }
     }
 }

@@ -221,6 +221,16 @@ struct ThresholdedWorker<'c> {
 }
 
 impl CentroidWorker for ThresholdedWorker<'_> {
+    fn accumulate_batch(&mut self, frames: &[CentroidFrame], acc: &mut SettingSums) {
+        if let Weighting::None = self.c.weighting {
+            self.sweep.accumulate_batch(frames, acc.part_mut(0));
+        } else {
+            for f in frames {
+                self.accumulate(f, acc);
+            }
+        }
+    }
+
     fn accumulate(&mut self, f: &CentroidFrame, acc: &mut SettingSums) {
         let (img, truth) = (f.image_e, f.truth_px);
         let plain = (1.0, 1.0);

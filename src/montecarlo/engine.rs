@@ -13,7 +13,7 @@ use super::blocks::{Blocks, Term, SUB_BLOCK};
 use super::config::SimConfig;
 use super::photons::ShotNoise;
 use crate::centroid::{
-    cog, CentroidContext, CentroidFrame, Centroider, CentroiderSpec, Setting, SettingSums,
+    cog, CentroidContext, CentroidFrame, Centroider, CentroiderSpec, Setting, SettingSums, LANES,
 };
 use crate::detector::{draw_normals, FrameInput, Readout};
 use crate::progress::Observer;
@@ -323,63 +323,82 @@ impl<'m> Experiment<'m> {
                     .any(|&a| self.arms[a].centroider.needs_noise_map())
             })
             .collect();
-        let mut sigma = vec![0.0; npix];
+        // Per model, the frames of a batch (LANES frames, one after the other) and their known
+        // sigmas.
+        let mut images = vec![vec![0.0; LANES * npix]; models.len()];
+        let mut sigmas = vec![vec![0.0; LANES * npix]; models.len()];
+        let mut truths = [(0.0, 0.0); LANES];
         let mut expected = vec![0.0; npix];
         let mean = &self.mean_e;
         let mut photons = vec![0u32; npix];
         let mut shot = ShotNoise::new(npix);
         let mut normals = vec![0.0; npix];
-        let mut image = vec![0.0; npix];
         let h = cfg.position_half_range_px;
-        let mut block_start = iters.start;
-        for it in iters.clone() {
-            let streams = ItemStreams::new(cfg.seed, it);
-            let mut pos = streams.stream(POSITION);
-            let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
-            self.renderer.render(x0, y0, &mut expected);
-            let rendered: f64 = expected.iter().sum();
-            // A spot entirely outside the sub-aperture leaves nothing to measure.
-            let (mean_photo_e, scale) = if rendered > 0.0 {
-                let mean = cfg.signal_photons * cfg.qe;
-                (mean, mean / rendered)
-            } else {
-                (0.0, 0.0)
-            };
-            expected.iter_mut().for_each(|v| *v *= scale);
-            let truth = cog(&expected, n).unwrap_or((0.0, 0.0));
-            let mut ph = streams.stream(PHOTONS);
-            shot.draw(&expected, mean_photo_e, &mut ph, &mut photons);
-            // Every model reads with the same normal deviates and starts from the same auxiliary
-            // stream (common random numbers): drawn once, the stream's state copied.
-            draw_normals(&mut streams.stream(NOISE), &mut normals);
-            let input = FrameInput {
-                subap_px: n,
-                expected_e: &expected,
-                mean_e: mean,
-                photo_e: &photons,
-                normals: &normals,
-            };
-            let aux0 = streams.stream(AUX);
-            for (m, model) in models.iter().enumerate() {
-                let known: &[f64] = if needs_map[m] {
-                    model.read_known(&input, &mut aux0.clone(), &mut image, &mut sigma);
-                    &sigma
+        let (mut first, mut block_start) = (iters.start, iters.start);
+        while first < iters.end {
+            // Batches of consecutive frames within a sub-block: the centroiders take a batch at
+            // a time (the plain centre of gravity sweeps it in vector lanes).
+            let end = (first + LANES as u64)
+                .min((first / sub + 1) * sub)
+                .min(iters.end);
+            for (lane, it) in (first..end).enumerate() {
+                let streams = ItemStreams::new(cfg.seed, it);
+                let mut pos = streams.stream(POSITION);
+                let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
+                self.renderer.render(x0, y0, &mut expected);
+                let rendered: f64 = expected.iter().sum();
+                // A spot entirely outside the sub-aperture leaves nothing to measure.
+                let (mean_photo_e, scale) = if rendered > 0.0 {
+                    let mean = cfg.signal_photons * cfg.qe;
+                    (mean, mean / rendered)
                 } else {
-                    model.read(&input, &mut aux0.clone(), &mut image);
-                    &[]
+                    (0.0, 0.0)
                 };
-                let frame = CentroidFrame {
-                    image_e: &image,
-                    truth_px: truth,
-                    sigma_e: known,
+                expected.iter_mut().for_each(|v| *v *= scale);
+                truths[lane] = cog(&expected, n).unwrap_or((0.0, 0.0));
+                let mut ph = streams.stream(PHOTONS);
+                shot.draw(&expected, mean_photo_e, &mut ph, &mut photons);
+                // Every model reads with the same normal deviates and starts from the same
+                // auxiliary stream (common random numbers): drawn once, the stream's state
+                // copied.
+                draw_normals(&mut streams.stream(NOISE), &mut normals);
+                let input = FrameInput {
+                    subap_px: n,
+                    expected_e: &expected,
                     mean_e: mean,
-                    photon_variance_factor: model.photon_variance_factor(),
+                    photo_e: &photons,
+                    normals: &normals,
                 };
-                for &a in &arms_of[m] {
-                    workers[a].accumulate(&frame, &mut accs[a]);
+                let aux0 = streams.stream(AUX);
+                let frame = lane * npix..(lane + 1) * npix;
+                for (m, model) in models.iter().enumerate() {
+                    let image = &mut images[m][frame.clone()];
+                    if needs_map[m] {
+                        let sigma = &mut sigmas[m][frame.clone()];
+                        model.read_known(&input, &mut aux0.clone(), image, sigma);
+                    } else {
+                        model.read(&input, &mut aux0.clone(), image);
+                    }
                 }
             }
-            if (it + 1) % sub == 0 || it + 1 == iters.end {
+            for (m, model) in models.iter().enumerate() {
+                let frames: [CentroidFrame; LANES] = std::array::from_fn(|lane| {
+                    let frame = lane * npix..(lane + 1) * npix;
+                    CentroidFrame {
+                        image_e: &images[m][frame.clone()],
+                        truth_px: truths[lane],
+                        sigma_e: if needs_map[m] { &sigmas[m][frame] } else { &[] },
+                        mean_e: mean,
+                        photon_variance_factor: model.photon_variance_factor(),
+                    }
+                });
+                let batch = &frames[..(end - first) as usize];
+                for &a in &arms_of[m] {
+                    workers[a].accumulate_batch(batch, &mut accs[a]);
+                }
+            }
+            first = end;
+            if end % sub == 0 || end == iters.end {
                 // A sub-block ends: its sums join the chunk's (into zeros when it is the whole
                 // chunk, which leaves them exact) and, when kept, the block list.
                 if self.blocks.is_some() {
@@ -387,13 +406,13 @@ impl<'m> Experiment<'m> {
                         .iter()
                         .flat_map(|a| a.finish().into_iter().map(|(s, _, _)| s))
                         .collect();
-                    out.blocks.push((block_start, it + 1 - block_start, sums));
+                    out.blocks.push((block_start, end - block_start, sums));
                 }
                 for (t, a) in out.totals.iter_mut().zip(accs.iter_mut()) {
                     t.merge(a);
                     a.clear();
                 }
-                block_start = it + 1;
+                block_start = end;
             }
         }
         out
