@@ -371,10 +371,10 @@ impl BackgroundSweep {
         for k in 0..top {
             let lit = mass[k] > 0.0;
             let d = f64::from(dist[k]);
-            // Selects, not branches: left to itself the compiler turns each into a pair of
-            // masked loads and stores, which are microcoded and ~10x slower on AMD Zen.
-            sum[k] += std::hint::select_unpredictable(lit, d, centre_error);
-            sum_sq[k] += std::hint::select_unpredictable(lit, d * d, centre_sq);
+            // Selects by masks, not branches: left to itself the compiler turns each into a
+            // pair of masked loads and stores, which are microcoded and ~10x slower on AMD Zen.
+            sum[k] += select(lit, d, centre_error);
+            sum_sq[k] += select(lit, d * d, centre_sq);
             empty[k] += u64::from(!lit);
         }
     }

@@ -142,8 +142,8 @@ fn invert_lanes(lambda: [f64; LANES], u: [f64; LANES], p0: [f64; LANES]) -> [u32
 #[inline(always)]
 pub fn exp_neg(x: f64) -> f64 {
     // ln 2 split so that n x LN2_HI is exact for |n| < 2^11.
-    const LN2_HI: f64 = 6.931_471_803_691_238_2e-1;
-    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+    const LN2_HI: f64 = f64::from_bits(0x3fe6_2e42_fee0_0000);
+    const LN2_LO: f64 = f64::from_bits(0x3dea_39ef_3579_3c76);
     const INV_FACT: [f64; 14] = [
         1.0,
         1.0,
