@@ -524,3 +524,49 @@ unsafe fn add_lanes_avx2(
         }
     }
 }
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn vector_lane_sums_equal_the_portable_ones() {
+        // Random masses (with zeros, negatives and NaN: not lit) and distances: the AVX2 sums
+        // equal the portable loop's bit for bit.
+        use rand::RngExt;
+        if !std::arch::is_x86_feature_detected!("avx2") {
+            return;
+        }
+        let mut rng = crate::rng::stream(8, 0, 0);
+        let levels = 300;
+        let mass: Vec<[f32; LANES]> = (0..levels)
+            .map(|_| {
+                std::array::from_fn(|_| match rng.random_range(0..6) {
+                    0 => 0.0,
+                    1 => -rng.random_range(0.0..1.0f32),
+                    2 => f32::NAN,
+                    _ => rng.random_range(0.0..50.0f32),
+                })
+            })
+            .collect();
+        let dist: Vec<[f32; LANES]> = (0..levels)
+            .map(|_| std::array::from_fn(|_| rng.random_range(0.0..2.0f32)))
+            .collect();
+        let centre = [0.1, 0.7, 0.0, 0.45];
+        let (mut a, mut b) = (
+            vec![LaneSums::default(); levels],
+            vec![LaneSums::default(); levels],
+        );
+        for _ in 0..3 {
+            add_lanes(&mut a, &mass, &dist, centre);
+            // SAFETY: the CPU has AVX2 (checked above).
+            unsafe { add_lanes_avx2(&mut b, &mass, &dist, centre) };
+        }
+        for (x, y) in a.iter().zip(&b) {
+            assert_eq!(x.sum.map(f64::to_bits), y.sum.map(f64::to_bits));
+            assert_eq!(x.sum_sq.map(f64::to_bits), y.sum_sq.map(f64::to_bits));
+            assert_eq!(x.empty, y.empty);
+        }
+        assert!(a.iter().any(|s| s.empty.iter().any(|&e| e > 0)));
+    }
+}
