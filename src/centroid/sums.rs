@@ -11,9 +11,9 @@ pub struct LevelSums {
     pub(super) tail_sum: Vec<f64>,
     pub(super) tail_sum_sq: Vec<f64>,
     pub(super) tail_count: Vec<u64>,
-    /// Per level, sums of frames added a batch at a time ([`super::BackgroundSweep::
-    /// accumulate_batch`]): one partial sum per lane, added up by `finish`. Empty until a
-    /// batch is added.
+    /// Per level, sums of frames added a batch at a time
+    /// ([`super::BackgroundSweep::accumulate_batch`]): one partial sum per lane, added up by
+    /// `finish`. Empty until a batch is added.
     pub(super) lanes: Vec<LaneSums>,
 }
 

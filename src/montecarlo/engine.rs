@@ -326,7 +326,10 @@ impl<'m> Experiment<'m> {
         // Per model, the frames of a batch (LANES frames, one after the other) and their known
         // sigmas.
         let mut images = vec![vec![0.0; LANES * npix]; models.len()];
-        let mut sigmas = vec![vec![0.0; LANES * npix]; models.len()];
+        let mut sigmas: Vec<Vec<f64>> = needs_map
+            .iter()
+            .map(|&needs| vec![0.0; if needs { LANES * npix } else { 0 }])
+            .collect();
         let mut truths = [(0.0, 0.0); LANES];
         let mut expected = vec![0.0; npix];
         let mean = &self.mean_e;

@@ -133,6 +133,36 @@ impl TabulatedPdf {
     }
 }
 
+impl TabulatedPdf {
+    /// The alias table, built on first use.
+    fn alias_table(&self) -> &[u64] {
+        self.alias.get_or_init(|| alias_table(&self.cdf))
+    }
+
+    /// The rms (e-) that the deviates of [`alias_deviates`] pick: the cell kept or its alias,
+    /// and the position `within` it.
+    #[inline]
+    fn alias_value(&self, table: &[u64], product: u128, within: f64) -> f64 {
+        let i = (product >> 64) as usize;
+        let entry = table[i];
+        let cell = if ((product as u64) >> 32) < (entry >> 32) {
+            i
+        } else {
+            (entry & 0xffff_ffff) as usize
+        };
+        self.lo + (cell as f64 + within) * self.step
+    }
+}
+
+/// One draw's deviates, in draw order: bits x cells / 2^64 (the integer part picks the cell,
+/// each with probability 1/cells to 2^-64; the fractional part, uniform and independent of it,
+/// decides keep or alias), then the position within the cell.
+#[inline]
+fn alias_deviates(table: &[u64], rng: &mut SimRng) -> (u128, f64) {
+    let product = u128::from(rng.random::<u64>()) * table.len() as u128;
+    (product, rng.random::<f64>())
+}
+
 /// Walker's alias table over cells of masses `cdf[i + 1] - cdf[i]` (Vose's construction):
 /// entry i packs the probability of keeping cell i (high 32 bits, in units of 2^-32) and the
 /// cell taken otherwise (low 32 bits). One draw reads one entry, wherever the mass lies, so a
@@ -165,34 +195,23 @@ fn alias_table(cdf: &[f64]) -> Vec<u64> {
 
 impl RmsPdf for TabulatedPdf {
     fn sample(&self, rng: &mut SimRng) -> f64 {
-        let mut out = [0.0];
-        self.sample_into(rng, &mut out);
-        out[0]
+        let table = self.alias_table();
+        let (product, within) = alias_deviates(table, rng);
+        self.alias_value(table, product, within)
     }
 
     fn sample_into(&self, rng: &mut SimRng, out: &mut [f64]) {
         const BATCH: usize = 64;
-        let table = self.alias.get_or_init(|| alias_table(&self.cdf));
+        let table = self.alias_table();
         // The deviates of a batch first (in draw order), then its table entries: the look-ups
         // (800 KB of table, mostly outside the L1 cache) are then independent and overlap.
-        let (mut product, mut within) = ([0u128; BATCH], [0.0; BATCH]);
+        let mut deviates = [(0u128, 0.0); BATCH];
         for chunk in out.chunks_mut(BATCH) {
-            for (p, w) in product.iter_mut().zip(within.iter_mut()).take(chunk.len()) {
-                // bits x cells / 2^64: the integer part picks the cell (each with probability
-                // 1/cells to 2^-64), the fractional part, uniform and independent of it,
-                // decides keep or alias.
-                *p = u128::from(rng.random::<u64>()) * table.len() as u128;
-                *w = rng.random::<f64>();
+            for d in deviates.iter_mut().take(chunk.len()) {
+                *d = alias_deviates(table, rng);
             }
-            for ((o, &p), &w) in chunk.iter_mut().zip(&product).zip(&within) {
-                let i = (p >> 64) as usize;
-                let entry = table[i];
-                let cell = if ((p as u64) >> 32) < (entry >> 32) {
-                    i
-                } else {
-                    (entry & 0xffff_ffff) as usize
-                };
-                *o = self.lo + (cell as f64 + w) * self.step;
+            for (o, &(product, within)) in chunk.iter_mut().zip(&deviates) {
+                *o = self.alias_value(table, product, within);
             }
         }
     }
@@ -232,6 +251,21 @@ mod tests {
     use super::*;
     use crate::pdf::paper;
     use crate::rng::stream;
+
+    #[test]
+    fn batched_draws_are_the_single_draws() {
+        // sample_into must consume the stream exactly as sample does, element by element
+        // (common random numbers): lengths across the batch size, and the stream after.
+        let pdf = paper();
+        for n in [0, 1, 63, 64, 65, 200] {
+            let (mut a, mut b) = (stream(12, n, 0), stream(12, n, 0));
+            let mut batch = vec![0.0; n as usize];
+            pdf.sample_into(&mut a, &mut batch);
+            let single: Vec<f64> = (0..n).map(|_| pdf.sample(&mut b)).collect();
+            assert_eq!(batch, single, "{n}");
+            assert_eq!(a.random::<u64>(), b.random::<u64>(), "{n}");
+        }
+    }
 
     #[test]
     fn paper_pdf_moments_match_spec() {
