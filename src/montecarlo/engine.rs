@@ -11,17 +11,15 @@
 
 use super::blocks::{Blocks, Term, SUB_BLOCK};
 use super::config::SimConfig;
-use super::photons::ShotNoise;
-use crate::centroid::{
-    cog, CentroidContext, CentroidFrame, Centroider, CentroiderSpec, Setting, SettingSums, LANES,
-};
-use crate::detector::{draw_normals, FrameInput, Readout};
+use crate::centroid::{CentroidContext, Centroider, CentroiderSpec, Setting, SettingSums, LANES};
+use crate::detector::Readout;
 use crate::progress::Observer;
-use crate::rng::ItemStreams;
 use crate::spot::SpotRenderer;
 use crate::{Error, Result};
-use rand::RngExt;
+use frames::{BatchFrames, Scene};
 use rayon::prelude::*;
+
+mod frames;
 
 /// Iterations per parallel work item: chunk c holds iterations [c CHUNK, (c + 1) CHUNK) of the
 /// run (fixed, so sums are added in the same order always, whatever the thread count).
@@ -298,45 +296,19 @@ impl<'m> Experiment<'m> {
     /// Run iterations `iters` for every arm, in sub-blocks of `sub` iterations (aligned on
     /// multiples of `sub`).
     fn run_chunk(&self, iters: std::ops::Range<u64>, sub: u64) -> ChunkSums {
-        let cfg = &self.cfg;
-        let models = &self.models;
-        let n = cfg.subap_px;
-        let npix = n * n;
+        let scene = Scene {
+            cfg: &self.cfg,
+            renderer: &self.renderer,
+            models: &self.models,
+            mean_e: &self.mean_e,
+        };
         let mut out = ChunkSums {
             totals: self.arms.iter().map(|a| a.centroider.sums()).collect(),
             blocks: Vec::new(),
         };
         let mut accs = out.totals.clone();
         let mut workers: Vec<_> = self.arms.iter().map(|a| a.centroider.worker()).collect();
-        // Per model: its arms, and whether any of them uses the known noise map.
-        let arms_of: Vec<Vec<usize>> = (0..models.len())
-            .map(|m| {
-                (0..self.arms.len())
-                    .filter(|&a| self.arms[a].model == m)
-                    .collect()
-            })
-            .collect();
-        let needs_map: Vec<bool> = arms_of
-            .iter()
-            .map(|arms| {
-                arms.iter()
-                    .any(|&a| self.arms[a].centroider.needs_noise_map())
-            })
-            .collect();
-        // Per model, the frames of a batch (LANES frames, one after the other) and their known
-        // sigmas.
-        let mut images = vec![vec![0.0; LANES * npix]; models.len()];
-        let mut sigmas: Vec<Vec<f64>> = needs_map
-            .iter()
-            .map(|&needs| vec![0.0; if needs { LANES * npix } else { 0 }])
-            .collect();
-        let mut truths = [(0.0, 0.0); LANES];
-        let mut expected = vec![0.0; npix];
-        let mean = &self.mean_e;
-        let mut photons = vec![0u32; npix];
-        let mut shot = ShotNoise::new(npix);
-        let mut normals = vec![0.0; npix];
-        let h = cfg.position_half_range_px;
+        let mut batch = BatchFrames::new(&scene, &self.arms);
         let (mut first, mut block_start) = (iters.start, iters.start);
         while first < iters.end {
             // Batches of consecutive frames within a sub-block: the centroiders take a batch at
@@ -345,61 +317,9 @@ impl<'m> Experiment<'m> {
                 .min((first / sub + 1) * sub)
                 .min(iters.end);
             for (lane, it) in (first..end).enumerate() {
-                let streams = ItemStreams::new(cfg.seed, it);
-                let mut pos = streams.stream(POSITION);
-                let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
-                self.renderer.render(x0, y0, &mut expected);
-                let rendered: f64 = expected.iter().sum();
-                // A spot entirely outside the sub-aperture leaves nothing to measure.
-                let (mean_photo_e, scale) = if rendered > 0.0 {
-                    let mean = cfg.signal_photons * cfg.qe;
-                    (mean, mean / rendered)
-                } else {
-                    (0.0, 0.0)
-                };
-                expected.iter_mut().for_each(|v| *v *= scale);
-                truths[lane] = cog(&expected, n).unwrap_or((0.0, 0.0));
-                let mut ph = streams.stream(PHOTONS);
-                shot.draw(&expected, mean_photo_e, &mut ph, &mut photons);
-                // Every model reads with the same normal deviates and starts from the same
-                // auxiliary stream (common random numbers): drawn once, the stream's state
-                // copied.
-                draw_normals(&mut streams.stream(NOISE), &mut normals);
-                let input = FrameInput {
-                    subap_px: n,
-                    expected_e: &expected,
-                    mean_e: mean,
-                    photo_e: &photons,
-                    normals: &normals,
-                };
-                let aux0 = streams.stream(AUX);
-                let frame = lane * npix..(lane + 1) * npix;
-                for (m, model) in models.iter().enumerate() {
-                    let image = &mut images[m][frame.clone()];
-                    if needs_map[m] {
-                        let sigma = &mut sigmas[m][frame.clone()];
-                        model.read_known(&input, &mut aux0.clone(), image, sigma);
-                    } else {
-                        model.read(&input, &mut aux0.clone(), image);
-                    }
-                }
+                batch.simulate(&scene, it, lane);
             }
-            for (m, model) in models.iter().enumerate() {
-                let frames: [CentroidFrame; LANES] = std::array::from_fn(|lane| {
-                    let frame = lane * npix..(lane + 1) * npix;
-                    CentroidFrame {
-                        image_e: &images[m][frame.clone()],
-                        truth_px: truths[lane],
-                        sigma_e: if needs_map[m] { &sigmas[m][frame] } else { &[] },
-                        mean_e: mean,
-                        photon_variance_factor: model.photon_variance_factor(),
-                    }
-                });
-                let batch = &frames[..(end - first) as usize];
-                for &a in &arms_of[m] {
-                    workers[a].accumulate_batch(batch, &mut accs[a]);
-                }
-            }
+            batch.centroid(&scene, (end - first) as usize, &mut workers, &mut accs);
             first = end;
             if end % sub == 0 || end == iters.end {
                 // A sub-block ends: its sums join the chunk's (into zeros when it is the whole

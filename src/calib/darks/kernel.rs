@@ -335,7 +335,9 @@ struct Stored<'a, 'l, V, const N: usize> {
 impl<const W: usize, const N: usize, V: Fn([u8; N]) -> f64> Samples<W> for Stored<'_, '_, V, N> {
     #[inline(always)]
     fn get(&mut self, j: usize) -> [f64; W] {
-        let b = &self.raw[j][self.p * N..(self.p + W) * N];
+        let frame = self.raw[j];
+        let b = &frame[self.p * N..(self.p + W) * N];
+        prefetch(frame, (self.p + W) * N + AHEAD);
         let mut x = [0.0; W];
         for (o, a) in x.iter_mut().zip(b.chunks_exact(N)) {
             *o = (self.value)(a.try_into().expect("N bytes"));
@@ -345,6 +347,24 @@ impl<const W: usize, const N: usize, V: Fn([u8; N]) -> f64> Samples<W> for Store
         }
         x
     }
+}
+
+/// Bytes ahead of the sweep's position in each frame that are fetched into cache: each
+/// frame of a batch is a separate stream, written by the reading thread's core, and the
+/// hardware prefetchers do not keep up with a batch's 16-32 streams.
+const AHEAD: usize = 256;
+
+/// Ask for the cache line of byte `at` of `v` (nothing when `at` is past the end).
+#[inline(always)]
+fn prefetch(v: &[u8], at: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if at < v.len() {
+        use std::arch::x86_64::{_mm_prefetch, _MM_HINT_T0};
+        // SAFETY: a prefetch is a hint that never faults, and `at` is inside `v`.
+        unsafe { _mm_prefetch::<_MM_HINT_T0>(v.as_ptr().add(at).cast()) };
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (v, at);
 }
 
 /// The running sums of `W` pixels that do not depend on the parity of the frame.
