@@ -21,8 +21,10 @@ use crate::calib::{Map, Unit};
 use crate::error::{Error, Result};
 use crate::io::{read_batches, ByteTap, FrameData, FrameStack};
 
-/// Pixels per tile (one rayon task per batch).
-const TILE: usize = 4096;
+/// Pixels per tile (one rayon task per batch). Measured on 512 x 512 uint16 darks (AMD Zen 4,
+/// 1 MiB L2): 8192 took 5-10 % less wall time than 4096 (the tile's sums, 640 KiB, still fit
+/// in L2, and half as many tasks and line shares), 2048 13 % more, 16384 and above no less.
+const TILE: usize = 8192;
 
 /// A per-frame transformation applied before accumulation; returns a scalar recorded per
 /// frame (common-mode offset, lamp level). Called on frames in order.
