@@ -91,8 +91,13 @@ fn delivered_bytes(f: &FrameData) -> usize {
     }
 }
 
-/// Fill `batch` with the next frames of `reader`; returns the number read (0 at the end).
-fn fill(reader: &mut super::StackReader<'_>, batch: &mut FrameBatch) -> Result<usize> {
+/// Fill `batch` with the next frames of `reader`, each offered to `tap` as it is read;
+/// returns the number read (0 at the end).
+fn fill(
+    reader: &mut super::StackReader<'_>,
+    batch: &mut FrameBatch,
+    tap: Option<&ByteTap>,
+) -> Result<usize> {
     batch.origins.clear();
     let mut want = MAX_BATCH;
     while batch.origins.len() < want {
@@ -101,7 +106,12 @@ fn fill(reader: &mut super::StackReader<'_>, batch: &mut FrameBatch) -> Result<u
             batch.frames.push(FrameData::Values(Vec::new()));
         }
         match reader.next_frame_data(&mut batch.frames[i])? {
-            Some(origin) => batch.origins.push(origin),
+            Some(origin) => {
+                if let Some(tap) = tap {
+                    tap.hash_read_frame(&origin, &batch.frames[i]);
+                }
+                batch.origins.push(origin)
+            }
             None => break,
         }
         if i == 0 {
@@ -129,7 +139,7 @@ pub fn read_batches(
             loop {
                 let free = reader_pool.lock().ok().and_then(|mut p| p.pop());
                 let mut batch = free.unwrap_or_default();
-                match fill(&mut reader, &mut batch) {
+                match fill(&mut reader, &mut batch, tap) {
                     Err(e) => {
                         let _ = tx.send(Err(e));
                         return;

@@ -203,3 +203,81 @@ fn the_works_error_comes_first_and_a_vanished_file_is_named() {
         .to_string();
     assert!(e.contains("gone.fits"), "{e}");
 }
+
+#[test]
+fn the_reader_hashes_stored_frames_inline_and_leaves_the_rest_to_the_thread() {
+    let cube = fixture("astropy-u16-bzero.fits");
+    let stack = FrameStack::open(std::slice::from_ref(&cube)).unwrap();
+    let mut state = StackHash::new(&stack, Checksum::Blake3);
+    let abort = AtomicBool::new(false);
+    let mut reader = stack.reader();
+    let mut frame = FrameData::Values(Vec::new());
+    let origin = reader.next_frame_data(&mut frame).unwrap().unwrap();
+    let FrameData::Raw(bytes, _) = &frame else {
+        panic!("the cube's frames are stored bytes");
+    };
+    let end = origin.offset.unwrap() + bytes.len() as u64;
+    // A decoded frame is not hashed inline: the file stays where it was.
+    let decoded = FrameData::Values(vec![0.0; 35]);
+    state.inline(&origin, &decoded, &abort);
+    assert_eq!(state.files[0].pos, 0);
+    // A stored frame is, with the header before it (2880 bytes, within the gap allowed).
+    state.inline(&origin, &frame, &abort);
+    assert_eq!(state.files[0].pos, end);
+    // The thread's turn for the same frame skips it.
+    state.add(&origin, &frame, &abort).unwrap();
+    assert_eq!(state.files[0].pos, end);
+    // A frame further on than INLINE_GAP is left to the thread.
+    let far = FrameOrigin {
+        offset: Some(end + INLINE_GAP + 1),
+        ..origin
+    };
+    state.inline(&far, &frame, &abort);
+    assert_eq!(state.files[0].pos, end);
+    // The rest of the file is read at the end, and the digest is the file's.
+    let digests = state.finish(&abort).unwrap();
+    assert_eq!(digests, [one_shot_digest(&cube, Checksum::Blake3)]);
+}
+
+#[test]
+fn the_reader_finishes_a_previous_file_only_when_little_of_it_is_left() {
+    // Two files of 8 frames of 64 x 64 uint16 (64 KiB + header, more than INLINE_GAP): the
+    // second's first frame is hashed inline once the first file has been hashed up to its
+    // padding, not while most of it is left.
+    let d = tempfile::tempdir().unwrap();
+    let cube = d.path().join("cube.fits");
+    let mut k = 0.0;
+    let mut next = || {
+        k += 1.0;
+        (0..64 * 64).map(|i| 100.0 + k + (i % 7) as f64).collect()
+    };
+    crate::io::fits::write_cube(&cube, (64, 64), 8, true, &mut next, &[]).unwrap();
+    assert!(std::fs::metadata(&cube).unwrap().len() > INLINE_GAP);
+    let paths = [cube.clone(), cube.clone()];
+    let stack = FrameStack::open(&paths).unwrap();
+    let abort = AtomicBool::new(false);
+    let frames: Vec<(FrameOrigin, FrameData)> = {
+        let mut reader = stack.reader();
+        let mut out = Vec::new();
+        loop {
+            let mut f = FrameData::Values(Vec::new());
+            match reader.next_frame_data(&mut f).unwrap() {
+                Some(o) => out.push((o, f)),
+                None => break out,
+            }
+        }
+    };
+    let second = frames.iter().position(|(o, _)| o.source == 1).unwrap();
+    let mut state = StackHash::new(&stack, Checksum::Blake3);
+    state.inline(&frames[second].0, &frames[second].1, &abort);
+    assert_eq!(state.files[1].pos, 0, "the first file is all left");
+    for (o, f) in &frames {
+        state.inline(o, f, &abort);
+    }
+    assert_eq!(state.next, 1, "the first file finished inline");
+    let offset = frames.last().unwrap().0.offset.unwrap();
+    assert!(state.files[1].pos > offset);
+    let digests = state.finish(&abort).unwrap();
+    let want = one_shot_digest(&cube, Checksum::Blake3);
+    assert_eq!(digests, [want.clone(), want]);
+}
