@@ -1,30 +1,26 @@
 //! Which background levels lie below a pixel value, in O(1): the sweep's bucket index.
 
-/// Most cells of the lookup grid (128 KiB): small enough to stay in the L2 cache.
+/// Most cells of the lookup grid (32 KiB): small enough to stay in the L1 cache.
 const MAX_CELLS: usize = 8192;
 
+/// Flag of a cell entry: the cell holds more than one level.
+const MULTI: u32 = 1 << 31;
+
 /// Counts the levels strictly below a value with a uniform grid of cells over the levels'
-/// range: a cell holds the number of levels in the cells below it and its own first level, so
-/// one load and one comparison answer unless the cell holds several levels (only the last
-/// cell, when the range needs more than [`MAX_CELLS`] cells).
+/// range: a cell holds the number of levels in the cells below it, `b`, so that the levels
+/// below a value of the cell are `b`, plus one when level `b` (the cell's own level, or one in
+/// a higher cell, which is above the value) is below it: one small load from the grid, one
+/// from the levels and one comparison, unless the cell holds several levels (the last cell,
+/// when the range needs more than [`MAX_CELLS`] cells, or two levels that round into one).
 #[derive(Debug, Clone)]
 pub(super) struct LevelIndex {
+    /// The levels, then +infinity (the level "above" every cell past the last level).
     levels: Vec<f64>,
     lo: f64,
     inv_width: f64,
     last_cell: f64,
-    cells: Vec<Cell>,
-}
-
-/// One cell of the grid.
-#[derive(Debug, Clone, Copy)]
-struct Cell {
-    /// The cell's first level, or +infinity when it has none.
-    first: f64,
-    /// Levels in the cells below.
-    below: u32,
-    /// Levels in this cell.
-    count: u32,
+    /// Per cell: the levels in the cells below it, with [`MULTI`] when it holds several.
+    cells: Vec<u32>,
 }
 
 impl LevelIndex {
@@ -50,35 +46,25 @@ impl LevelIndex {
             (1, 0.0)
         };
         let mut index = LevelIndex {
-            levels: levels.to_vec(),
+            levels: levels.iter().copied().chain([f64::INFINITY]).collect(),
             lo,
             inv_width,
             last_cell: (count - 1) as f64,
             cells: Vec::new(),
         };
-        let empty = Cell {
-            first: f64::INFINITY,
-            below: 0,
-            count: 0,
-        };
-        let mut cells = vec![empty; count];
-        for (k, &l) in levels.iter().enumerate() {
-            let cell = &mut cells[index.cell(l)];
-            if cell.count == 0 {
-                cell.first = l;
-                cell.below = k as u32;
-            }
-            cell.count += 1;
+        let mut in_cell = vec![0u32; count];
+        for &l in levels {
+            in_cell[index.cell(l)] += 1;
         }
-        // Empty cells: every level of the cells below.
         let mut below = 0;
-        for cell in &mut cells {
-            if cell.count == 0 {
-                cell.below = below;
-            }
-            below = cell.below + cell.count;
-        }
-        index.cells = cells;
+        index.cells = in_cell
+            .iter()
+            .map(|&n| {
+                let entry = below | if n > 1 { MULTI } else { 0 };
+                below += n;
+                entry
+            })
+            .collect();
         index
     }
 
@@ -105,12 +91,17 @@ impl LevelIndex {
     /// are computed in one loop that vectorises.
     #[inline]
     pub(super) fn count_below_in(&self, cell: usize, v: f64) -> usize {
-        let cell = self.cells[cell];
-        let k = cell.below as usize + usize::from(cell.first < v);
-        if cell.count <= 1 {
+        let entry = self.cells[cell];
+        let below = (entry & !MULTI) as usize;
+        // below <= levels, and `self.levels` has one more element (+infinity).
+        let k = below + usize::from(self.levels[below] < v);
+        if entry & MULTI == 0 {
             return k;
         }
-        let end = (cell.below + cell.count) as usize;
+        let end = self
+            .cells
+            .get(cell + 1)
+            .map_or(self.levels.len() - 1, |&e| (e & !MULTI) as usize);
         k + self.levels[k..end].partition_point(|l| *l < v)
     }
 }
