@@ -1,6 +1,7 @@
 //! A stack's frames read on a thread of their own, a batch at a time, while the caller uses
-//! the previous batch. A batch can be shared with the checksum thread (a [`ByteTap`]), so
-//! the bytes read for the statistics are hashed from memory instead of read again; its
+//! the previous batch. Frames can be handed to the checksums (a [`ByteTap`]): each one as it
+//! is read (hashed by the reading thread, BLAKE3) and each batch (to the checksum thread), so
+//! the bytes read for the statistics are hashed from memory instead of read again; a batch's
 //! buffers return to a pool when the last user drops it, so no frame buffer is allocated
 //! (and faulted in) per frame.
 
