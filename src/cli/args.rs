@@ -417,7 +417,7 @@ mod tests;
 /// The centroiders to run (simulate, effective, report).
 #[derive(clap::Args, Debug, Clone)]
 pub struct CentroiderArgs {
-    /// Centroiders, comma-separated NAME[:PARAM]; a PARAM fixes the method's parameter instead
+    /// Centroiders, comma-separated `NAME[:PARAM]`; a PARAM fixes the method's parameter instead
     /// of sweeping it (K in sigmas, M in times the median sigma, W in px, N in pixels). Each is
     /// reported at its best setting; every method is listed with --help.
     #[arg(long, default_value = "cog", long_help = centroider_help())]

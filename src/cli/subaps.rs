@@ -17,7 +17,7 @@ use std::path::PathBuf;
 /// (`subaps` and `report`).
 #[derive(clap::Args, Debug, Clone, Default)]
 pub struct SubapGeometryArgs {
-    /// Lenslet grid over the detector: SIZE[,PITCH[,X0,Y0]] in px (e.g. 16, or 16,18,4,4):
+    /// Lenslet grid over the detector: `SIZE[,PITCH[,X0,Y0]]` in px (e.g. 16, or 16,18,4,4):
     /// square sub-apertures of SIZE px per side, PITCH px apart (the size if left out), the
     /// first one's first pixel at column X0, row Y0 (0,0 if left out). Sub-apertures that do
     /// not fit the map are left out (the count is stated).

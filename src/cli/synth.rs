@@ -93,7 +93,7 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 0.005, value_parser = real(Included(0.0), Included(MAX_LIGHT_E), "e-"))]
     pub cic_e: f64,
     /// sCMOS fraction of random-telegraph (RTS) pixels, [0, 1] (unitless); their truth goes
-    /// to <stem>.truth-rts.csv (the columns of `darks`' rts.csv).
+    /// to `<stem>.truth-rts.csv` (the columns of `darks`' rts.csv).
     #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub rts_fraction: f64,
     /// sCMOS RTS level heights above the lowest level (e-), ascending, comma-separated: one
@@ -119,7 +119,7 @@ pub struct SynthArgs {
     #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
     pub column_noise_e: f64,
     /// sCMOS fraction of hot pixels, [0, 1] (unitless); their dark signal goes to
-    /// <stem>.truth-hot_dark_e.fits.
+    /// `<stem>.truth-hot_dark_e.fits`.
     #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub hot_fraction: f64,
     /// sCMOS dark signal of a hot pixel (e- per frame, Poisson), 0 to 1e6.

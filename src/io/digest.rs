@@ -95,7 +95,7 @@ const QUEUED_BATCHES: usize = 1;
 
 /// Hands the frames a stack reader has read to the hashing of [`hash_stack_while`]: each
 /// batch to its thread, and with BLAKE3 each frame, as soon as it is read, to the reading
-/// thread's own hash ([`ByteTap::hash_read_frame`]).
+/// thread's own hash (`ByteTap::hash_read_frame`).
 pub struct ByteTap<'t, 's> {
     tx: mpsc::SyncSender<Arc<SharedBatch>>,
     algorithm: Checksum,
