@@ -288,19 +288,17 @@ impl BackgroundSweep {
     /// buckets (the same sums, in the same order).
     #[inline(always)]
     fn bin_pixels_lane(&mut self, img: &[f64], truth: (f64, f64), lane: usize) -> usize {
-        let n = self.n;
-        let (tx, ty) = self.origin(truth);
+        let origin = self.origin(truth);
         let (kept, top) = self.lit_pixels(img, &Plain);
-        for &(row, col, k) in &self.lit[..kept] {
-            let (row, col) = (usize::from(row), usize::from(col));
-            let v = img[row * n + col];
-            let (x, y) = (col as f64 - tx, row as f64 - ty);
+        let bins = &mut self.batch.bins;
+        sum_lit(&self.lit[..kept], img, self.n, origin, &Plain, |k, t| {
             // SAFETY: 0 < k <= levels (count_below) < bins.len().
-            let b = unsafe { self.batch.bins.get_unchecked_mut(k as usize) };
-            for (sum, term) in b.0.iter_mut().zip([v, v * x, v * y, 1.0, x, y]) {
+            let b = unsafe { bins.get_unchecked_mut(k) };
+            // Plain terms (w = s = 1): the six sums v, v x, v y, 1, x, y.
+            for (sum, term) in b.0.iter_mut().zip([t[0], t[1], t[2], t[4], t[5], t[6]]) {
                 sum[lane] += term;
             }
-        }
+        });
         top
     }
 
@@ -391,21 +389,16 @@ impl BackgroundSweep {
     /// computed.
     #[inline(always)]
     fn bin_pixels<T: PixelTerms>(&mut self, img: &[f64], terms: &T, truth: (f64, f64)) -> usize {
-        let n = self.n;
-        let (tx, ty) = self.origin(truth);
+        let origin = self.origin(truth);
         let (kept, top) = self.lit_pixels(img, terms);
-        for &(row, col, k) in &self.lit[..kept] {
-            let (row, col) = (usize::from(row), usize::from(col));
-            let i = row * n + col;
-            let (w, s, v) = (terms.weight(i), terms.scale(i), img[i]);
-            let (x, y) = (col as f64 - tx, row as f64 - ty);
+        let bins = &mut self.bins;
+        sum_lit(&self.lit[..kept], img, self.n, origin, terms, |k, t| {
             // SAFETY: 0 < k <= levels (count_below) < bins.len().
-            let b = unsafe { self.bins.get_unchecked_mut(k as usize) };
-            let (a, c) = (half(w * v, x, y), half(w * s, x, y));
-            for (t, d) in b.0.iter_mut().zip(a.into_iter().chain(c)) {
-                *t += d;
+            let b = unsafe { bins.get_unchecked_mut(k) };
+            for (sum, term) in b.0.iter_mut().zip(t) {
+                *sum += term;
             }
-        }
+        });
         top
     }
 
@@ -466,6 +459,28 @@ impl BackgroundSweep {
             self.mass[l] = t[0] as f32;
             self.moment_sq[l] = (t[1] * t[1] + t[2] * t[2]) as f32;
         }
+    }
+}
+
+/// For each of the `lit` pixels (row, column, bucket) of the n x n `img`, in order: `add` its
+/// bucket and its terms as a [`Bin`] holds them (w v, w v x, w v y, 0, w s, w s x, w s y, 0;
+/// x and y its offsets from `origin`).
+#[inline(always)]
+fn sum_lit<T: PixelTerms>(
+    lit: &[(u16, u16, u32)],
+    img: &[f64],
+    n: usize,
+    (tx, ty): (f64, f64),
+    terms: &T,
+    mut add: impl FnMut(usize, [f64; 8]),
+) {
+    for &(row, col, k) in lit {
+        let (row, col) = (usize::from(row), usize::from(col));
+        let i = row * n + col;
+        let (w, s, v) = (terms.weight(i), terms.scale(i), img[i]);
+        let (x, y) = (col as f64 - tx, row as f64 - ty);
+        let (a, c) = (half(w * v, x, y), half(w * s, x, y));
+        add(k as usize, [a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3]]);
     }
 }
 
