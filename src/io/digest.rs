@@ -322,6 +322,11 @@ impl<'a> StackHash<'a> {
     }
 }
 
+/// The error of a checksum state left by a thread that panicked while holding it.
+fn poisoned() -> Error {
+    Error::Numeric("the checksum state was poisoned (a hashing thread panicked)".into())
+}
+
 /// Whether `frame` is a file's stored bytes (at a known offset), which can be hashed from
 /// memory.
 fn is_stored(origin: &FrameOrigin, frame: &FrameData) -> bool {
@@ -336,14 +341,12 @@ fn hash_stack(
     rx: mpsc::Receiver<Arc<SharedBatch>>,
     abort: &AtomicBool,
 ) -> Result<()> {
-    let lock = || {
-        state
-            .lock()
-            .map_err(|_| Error::Numeric("the checksum state was poisoned".into()))
-    };
     for batch in rx {
         for (frame, origin) in batch.frames().iter().zip(batch.origins()) {
-            lock()?.add(origin, frame, abort)?;
+            state
+                .lock()
+                .map_err(|_| poisoned())?
+                .add(origin, frame, abort)?;
         }
         if abort.load(Ordering::Relaxed) {
             return Err(Error::Numeric("checksums abandoned".into()));
@@ -401,9 +404,7 @@ pub fn hash_stack_while<T>(
         hashed??;
         Ok(value)
     })?;
-    let state = state
-        .into_inner()
-        .map_err(|_| Error::Numeric("the checksum state was poisoned".into()))?;
+    let state = state.into_inner().map_err(|_| poisoned())?;
     Ok((result, state.finish(&abort)?))
 }
 
