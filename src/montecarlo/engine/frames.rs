@@ -2,7 +2,7 @@
 //! model, then handed to the centroiders a batch at a time.
 
 use super::{BuiltArm, AUX, NOISE, PHOTONS, POSITION};
-use crate::centroid::{cog, CentroidFrame, CentroidWorker, SettingSums, LANES};
+use crate::centroid::{CentroidFrame, CentroidWorker, ImageSums, SettingSums, LANES};
 use crate::detector::{draw_normals, FrameInput, Readout};
 use crate::montecarlo::config::SimConfig;
 use crate::montecarlo::photons::ShotNoise;
@@ -78,16 +78,18 @@ impl BatchFrames {
         let (x0, y0) = (pos.random_range(-h..=h), pos.random_range(-h..=h));
         let expected = &mut self.expected;
         scene.renderer.render(x0, y0, expected);
-        let rendered: f64 = expected.iter().sum();
+        // The truth is the noiseless image's centre of gravity, which scaling leaves alone:
+        // taken from the rendered image's sums, whose total also sets the scale.
+        let rendered = ImageSums::of(expected, n);
+        self.truths[lane] = rendered.centroid(n).unwrap_or((0.0, 0.0));
         // A spot entirely outside the sub-aperture leaves nothing to measure.
-        let (mean_photo_e, scale) = if rendered > 0.0 {
+        let (mean_photo_e, scale) = if rendered.total > 0.0 {
             let mean = cfg.signal_photons * cfg.qe;
-            (mean, mean / rendered)
+            (mean, mean / rendered.total)
         } else {
             (0.0, 0.0)
         };
         expected.iter_mut().for_each(|v| *v *= scale);
-        self.truths[lane] = cog(expected, n).unwrap_or((0.0, 0.0));
         let mut ph = streams.stream(PHOTONS);
         self.shot
             .draw(expected, mean_photo_e, &mut ph, &mut self.photons);
