@@ -108,6 +108,19 @@ fn poisson_each_inline(lambdas: &[f64], rng: &mut SimRng, out: &mut [u32]) {
     }
 }
 
+/// 1/k for k = 1..=1000 (entry 0 unused): each step of [`invert_lanes`] loads its factor
+/// instead of dividing (a division per step set the pace of the search). Evaluated at compile
+/// time, correctly rounded like the division at run time: the same bits.
+static RECIPROCALS: [f64; 1001] = {
+    let mut table = [0.0; 1001];
+    let mut k = 1;
+    while k <= 1000 {
+        table[k] = 1.0 / k as f64;
+        k += 1;
+    }
+    table
+};
+
 /// The smallest k with CDF(k) >= u per lane (Poisson(lambda), 0 <= lambda < 30, p0 =
 /// exp(-lambda); at most 1000, the bound of [`poisson`] for u within round-off of 1). A lane of
 /// mean 0 and deviate 0 gives 0.
@@ -126,7 +139,7 @@ fn invert_lanes(lambda: [f64; LANES], u: [f64; LANES], p0: [f64; LANES]) -> [u32
         if going == 0 {
             break;
         }
-        let inv = 1.0 / f64::from(step);
+        let inv = RECIPROCALS[step as usize];
         for i in 0..LANES {
             p[i] *= lambda[i] * inv;
             cdf[i] += p[i];
