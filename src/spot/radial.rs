@@ -49,12 +49,15 @@ impl RadialTable {
     /// the centre).
     pub(super) fn at(&self, r: f64) -> f64 {
         let t = r * self.inv_step;
-        let k = t as usize;
-        if k + 1 >= self.values.len() {
+        // As u32 (saturating: far radii stay past the end): one conversion each way, where
+        // usize takes several on x86-64 without AVX-512.
+        let k = t as u32;
+        let i = k as usize;
+        if i + 1 >= self.values.len() {
             return 0.0;
         }
-        let f = t - k as f64;
-        self.values[k] * (1.0 - f) + self.values[k + 1] * f
+        let f = t - f64::from(k);
+        self.values[i] * (1.0 - f) + self.values[i + 1] * f
     }
 
     /// Cubic (4-point Lagrange) interpolation, 0 past the end; the node before r = 0 is the
