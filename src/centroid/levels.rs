@@ -84,17 +84,26 @@ impl LevelIndex {
     /// Number of levels strictly below `v` (0 for NaN).
     #[cfg(test)]
     pub(super) fn count_below(&self, v: f64) -> usize {
-        self.count_below_in(self.cell(v), v)
+        // SAFETY: the cell is `Self::cell`'s.
+        unsafe { self.count_below_in(self.cell(v), v) }
     }
 
     /// [`Self::count_below`] with `v`'s cell ([`Self::cell`]) already found: a frame's cells
-    /// are computed in one loop that vectorises.
+    /// are computed in one loop that vectorises. The two look-ups go unchecked: with their
+    /// bounds checks the sweep's pixel loop ran out of registers and reloaded the tables'
+    /// lengths and addresses for every pixel.
+    ///
+    /// # Safety
+    /// `cell` is [`Self::cell`] of some value (so less than the number of cells).
     #[inline]
-    pub(super) fn count_below_in(&self, cell: usize, v: f64) -> usize {
-        let entry = self.cells[cell];
+    pub(super) unsafe fn count_below_in(&self, cell: usize, v: f64) -> usize {
+        debug_assert!(cell < self.cells.len());
+        // SAFETY: the caller's `cell` is a cell (`Self::cell` is at most the last).
+        let entry = unsafe { *self.cells.get_unchecked(cell) };
         let below = (entry & !MULTI) as usize;
-        // below <= levels, and `self.levels` has one more element (+infinity).
-        let k = below + usize::from(self.levels[below] < v);
+        // SAFETY: below <= levels (the levels in lower cells), and `self.levels` has one more
+        // element (+infinity).
+        let k = below + usize::from(unsafe { *self.levels.get_unchecked(below) } < v);
         if entry & MULTI == 0 {
             return k;
         }

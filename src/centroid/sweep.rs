@@ -120,8 +120,8 @@ pub struct BackgroundSweep {
     n: usize,
     index: LevelIndex,
     bins: Vec<Bin>,
-    /// Per frame: (row, column, bucket) of the pixels above the first level, in pixel order.
-    lit: Vec<(u16, u16, u32)>,
+    /// Per frame: the pixels above the first level, in pixel order.
+    lit: Vec<LitPixel>,
     /// Per frame: each pixel's cell in the level index.
     cells: Vec<u32>,
     /// Per level: the thresholded sum S(b) and squared first moment about the truth.
@@ -154,7 +154,7 @@ impl BackgroundSweep {
             index: LevelIndex::new(&levels),
             // Buckets 0..=count (bucket 0, below every level, stays empty).
             bins: vec![Bin::default(); count + 1],
-            lit: vec![(0, 0, 0); n * n],
+            lit: vec![LitPixel(0); n * n],
             cells: vec![0; n * n],
             mass: vec![0.0; count],
             moment_sq: vec![0.0; count],
@@ -424,13 +424,16 @@ impl BackgroundSweep {
                 let i = row * n + col;
                 // A pixel of weight 0 counts nowhere, like one below every level.
                 let k = if terms.weight(i) > 0.0 {
-                    self.index
-                        .count_below_in(cells[i] as usize, v / terms.scale(i))
+                    // SAFETY: cells[i] is `self.index.cell` of the same value.
+                    unsafe {
+                        self.index
+                            .count_below_in(cells[i] as usize, v / terms.scale(i))
+                    }
                 } else {
                     0
                 };
                 // SAFETY: kept <= i < n * n = lit.len().
-                *unsafe { lit.get_unchecked_mut(kept) } = (row as u16, col as u16, k as u32);
+                *unsafe { lit.get_unchecked_mut(kept) } = LitPixel::new(row, col, k);
                 kept += usize::from(k > 0);
                 top = top.max(k);
             }
@@ -462,25 +465,49 @@ impl BackgroundSweep {
     }
 }
 
-/// For each of the `lit` pixels (row, column, bucket) of the n x n `img`, in order: `add` its
-/// bucket and its terms as a [`Bin`] holds them (w v, w v x, w v y, 0, w s, w s x, w s y, 0;
-/// x and y its offsets from `origin`).
+/// A pixel above the first level: its row (bits 0-15), column (16-31) and bucket (32-63), one
+/// 8-byte store for the pass that finds it (a tuple's three fields took three stores).
+#[derive(Debug, Clone, Copy)]
+struct LitPixel(u64);
+
+impl LitPixel {
+    /// The pixel at `row`, `col` (< 2^16) in bucket `k` (< 2^32).
+    #[inline(always)]
+    fn new(row: usize, col: usize, k: usize) -> Self {
+        LitPixel(row as u64 & 0xffff | (col as u64 & 0xffff) << 16 | (k as u64) << 32)
+    }
+
+    /// Row, column and bucket.
+    #[inline(always)]
+    fn parts(self) -> (usize, usize, usize) {
+        let r = self.0;
+        (
+            (r & 0xffff) as usize,
+            (r >> 16 & 0xffff) as usize,
+            (r >> 32) as usize,
+        )
+    }
+}
+
+/// For each of the `lit` pixels of the n x n `img`, in order: `add` its bucket and its terms
+/// as a [`Bin`] holds them (w v, w v x, w v y, 0, w s, w s x, w s y, 0; x and y its offsets
+/// from `origin`).
 #[inline(always)]
 fn sum_lit<T: PixelTerms>(
-    lit: &[(u16, u16, u32)],
+    lit: &[LitPixel],
     img: &[f64],
     n: usize,
     (tx, ty): (f64, f64),
     terms: &T,
     mut add: impl FnMut(usize, [f64; 8]),
 ) {
-    for &(row, col, k) in lit {
-        let (row, col) = (usize::from(row), usize::from(col));
+    for &pixel in lit {
+        let (row, col, k) = pixel.parts();
         let i = row * n + col;
         let (w, s, v) = (terms.weight(i), terms.scale(i), img[i]);
         let (x, y) = (col as f64 - tx, row as f64 - ty);
         let (a, c) = (half(w * v, x, y), half(w * s, x, y));
-        add(k as usize, [a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3]]);
+        add(k, [a[0], a[1], a[2], a[3], c[0], c[1], c[2], c[3]]);
     }
 }
 
