@@ -178,12 +178,7 @@ fn single_electron_pmf(p: f64, stages: u32, gain: f64) -> Vec<f64> {
     let mut z: Vec<Complex64> = (0..size)
         .map(|j| Complex64::from_polar(1.0, 2.0 * std::f64::consts::PI * j as f64 / size as f64))
         .collect();
-    // pgf after N stages: F_N = f o ... o f (s), with f(s) = (1-p) s + p s^2.
-    for v in z.iter_mut() {
-        for _ in 0..stages {
-            *v = *v * ((1.0 - p) + p * *v);
-        }
-    }
+    compose_stages(&mut z, p, stages);
     FftPlanner::new().plan_fft_forward(size).process(&mut z);
     // z_j = sum_k p_k e^{2 pi i jk/M}, so the forward FFT gives M p_m at index m.
     let mut pmf: Vec<f64> = z.iter().map(|v| (v.re / size as f64).max(0.0)).collect();
@@ -194,6 +189,21 @@ fn single_electron_pmf(p: f64, stages: u32, gain: f64) -> Vec<f64> {
         pmf.pop();
     }
     pmf
+}
+
+/// The pgf after `stages` stages at each point of `z` (in place): F_N = f o ... o f (s), with
+/// f(s) = (1-p) s + p s^2. Each point's stages form a chain of dependent multiplications; a
+/// block of points takes each stage in turn, so that the chains of the block overlap: the same
+/// operations per point, so the same values, several times faster than one point's stages
+/// after another.
+fn compose_stages(z: &mut [Complex64], p: f64, stages: u32) {
+    for block in z.chunks_mut(64) {
+        for _ in 0..stages {
+            for v in block.iter_mut() {
+                *v = *v * ((1.0 - p) + p * *v);
+            }
+        }
+    }
 }
 
 /// Walker/Vose alias table for O(1) sampling of a discrete distribution.
@@ -238,6 +248,28 @@ mod tests {
     use super::*;
     use crate::rng::stream;
     use crate::stats::mean_var;
+
+    #[test]
+    fn stages_composed_in_blocks_are_composed_point_by_point() {
+        // 1000 points (whole blocks and a remainder) on the unit circle and inside it: the
+        // blocked iteration gives each point's values bit for bit.
+        let (p, stages) = (stage_probability(500.0, 520), 520);
+        let start: Vec<Complex64> = (0..1000)
+            .map(|j| Complex64::from_polar(1.0 - (j % 3) as f64 * 0.1, j as f64 * 0.0063))
+            .collect();
+        let mut blocked = start.clone();
+        compose_stages(&mut blocked, p, stages);
+        for (v0, b) in start.iter().zip(&blocked) {
+            let mut v = *v0;
+            for _ in 0..stages {
+                v = v * ((1.0 - p) + p * v);
+            }
+            assert_eq!(
+                (v.re.to_bits(), v.im.to_bits()),
+                (b.re.to_bits(), b.im.to_bits())
+            );
+        }
+    }
 
     #[test]
     fn analytic_moments_for_paper_register() {
