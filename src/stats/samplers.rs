@@ -187,6 +187,7 @@ pub fn exp_neg(x: f64) -> f64 {
 }
 
 /// One Binomial(k, 1/2) draw: the number of set bits among k fair random bits.
+#[inline(always)]
 pub fn binomial_half(k: u32, rng: &mut SimRng) -> u32 {
     let mut left = k;
     let mut total = 0;

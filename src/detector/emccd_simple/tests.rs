@@ -3,6 +3,7 @@ use crate::detector::readout::sampling::pixel_samples;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::rng::stream;
 use crate::stats::mean_var;
+use rand::RngExt;
 
 #[test]
 fn simple_model_variance_is_q_lambda_plus_read_noise() {
@@ -91,4 +92,30 @@ fn the_factor_and_the_read_noise_come_from_the_spec_and_the_params() {
     }
     assert!(EmccdSimple::new(0.5, -1.0).is_err());
     assert!(EmccdSimple::read_noise_of(0.0, 50.0).is_err());
+}
+
+#[test]
+fn the_popcnt_build_reads_what_the_portable_one_reads() {
+    // Counts from 0 to past BINOMIAL_ABOVE_E, q with a short and an endless binary expansion:
+    // `read` (the POPCNT build where the CPU has it) and the portable loop give the same
+    // pixels bit for bit and leave the stream in the same state.
+    let photo_e: Vec<u32> = (0..400).map(|i| (i * i * 7 % 1000) as u32).chain([70_000]).collect();
+    let normals: Vec<f64> = (0..photo_e.len()).map(|i| (i as f64 * 0.37).sin()).collect();
+    let zeros = vec![0.0; photo_e.len()];
+    let input = FrameInput {
+        subap_px: 1,
+        expected_e: &zeros,
+        mean_e: &zeros,
+        photo_e: &photo_e,
+        normals: &normals,
+    };
+    for q in [0.5, 0.37, 1.0] {
+        let model = EmccdSimple::new(q, 0.1).unwrap();
+        let (mut a, mut b) = (stream(9, 2, 3), stream(9, 2, 3));
+        let (mut x, mut y) = (vec![0.0; photo_e.len()], vec![0.0; photo_e.len()]);
+        model.read(&input, &mut a, &mut x);
+        model.read_inline(&input, &mut b, &mut y);
+        assert_eq!(x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), y.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "q {q}");
+        assert_eq!(a.random::<u64>(), b.random::<u64>(), "q {q}: streams in step");
+    }
 }
