@@ -7,6 +7,11 @@ use rand_distr::{Distribution, Poisson};
 /// Mean at which Poisson sampling switches from inversion to rand_distr's rejection method.
 const POISSON_INVERSION_MAX: f64 = 30.0;
 
+/// Most steps of the inversion's search, a count it never exceeds: the bound only guards
+/// against a deviate within round-off of 1 (the mass beyond 1000 at a mean below 30 is
+/// ~1e-1100).
+const MAX_INVERSION_STEPS: u32 = 1000;
+
 /// One Poisson(lambda) draw; lambda <= 0 gives 0.
 ///
 /// Inversion by sequential search below lambda = 30 (exact, and cheap for the small means
@@ -24,8 +29,7 @@ pub fn poisson(lambda: f64, rng: &mut SimRng) -> u32 {
     let mut p = (-lambda).exp();
     let mut cdf = p;
     let mut k = 0u32;
-    // The bound only guards against u within round-off of 1.
-    while u > cdf && k < 1000 {
+    while u > cdf && k < MAX_INVERSION_STEPS {
         k += 1;
         p *= lambda / k as f64;
         cdf += p;
@@ -108,13 +112,13 @@ fn poisson_each_inline(lambdas: &[f64], rng: &mut SimRng, out: &mut [u32]) {
     }
 }
 
-/// 1/k for k = 1..=1000 (entry 0 unused): each step of [`invert_lanes`] loads its factor
-/// instead of dividing (a division per step set the pace of the search). Evaluated at compile
-/// time, correctly rounded like the division at run time: the same bits.
-static RECIPROCALS: [f64; 1001] = {
-    let mut table = [0.0; 1001];
+/// 1/k for k = 1..=[`MAX_INVERSION_STEPS`] (entry 0 unused): each step of [`invert_lanes`]
+/// loads its factor instead of dividing (a division per step set the pace of the search).
+/// Evaluated at compile time, correctly rounded like the division at run time: the same bits.
+static RECIPROCALS: [f64; MAX_INVERSION_STEPS as usize + 1] = {
+    let mut table = [0.0; MAX_INVERSION_STEPS as usize + 1];
     let mut k = 1;
-    while k <= 1000 {
+    while k <= MAX_INVERSION_STEPS as usize {
         table[k] = 1.0 / k as f64;
         k += 1;
     }
@@ -122,14 +126,14 @@ static RECIPROCALS: [f64; 1001] = {
 };
 
 /// The smallest k with CDF(k) >= u per lane (Poisson(lambda), 0 <= lambda < 30, p0 =
-/// exp(-lambda); at most 1000, the bound of [`poisson`] for u within round-off of 1). A lane of
+/// exp(-lambda); at most [`MAX_INVERSION_STEPS`], as [`poisson`]). A lane of
 /// mean 0 and deviate 0 gives 0.
 #[inline(always)]
 fn invert_lanes(lambda: [f64; LANES], u: [f64; LANES], p0: [f64; LANES]) -> [u32; LANES] {
     let mut p = p0;
     let mut cdf = p;
     let mut k = [0u32; LANES];
-    for step in 1..=1000u32 {
+    for step in 1..=MAX_INVERSION_STEPS {
         let mut going = 0u32;
         for i in 0..LANES {
             let go = u32::from(u[i] > cdf[i]);
