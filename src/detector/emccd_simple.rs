@@ -137,9 +137,7 @@ impl EmccdSimple {
         }
         kept
     }
-}
 
-impl EmccdSimple {
     /// [`Readout::read`] compiled with POPCNT: the thinning counts a draw's bits once per
     /// binary digit of q, which the baseline x86-64 target does in a dozen instructions. The
     /// same draws and counts.

@@ -311,8 +311,9 @@ mod tests {
     #[test]
     fn running_sums_never_decrease_repeat_at_zeros_and_round_like_plain_sums() {
         // Lengths 0-40 (whole blocks of four and remainders), a third of the values 0: each sum
-        // is at least the one before, equal to it after a 0, within rounding of the plain
-        // running sum (both sum at most 40 values >= 0: each within 40 eps x their sum), and the last is returned.
+        // is at least the one before, equal to it after a 0, and within rounding of the plain
+        // running sum (both add at most 40 values >= 0, each within 40 eps x their sum of the
+        // exact sum, so within 80 eps of each other); the last is returned.
         use rand::RngExt;
         let mut rng = stream(6, 0, 0);
         let mut sums = Vec::new();

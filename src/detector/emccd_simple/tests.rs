@@ -99,7 +99,10 @@ fn the_popcnt_build_reads_what_the_portable_one_reads() {
     // Counts from 0 to past BINOMIAL_ABOVE_E, q with a short and an endless binary expansion:
     // `read` (the POPCNT build where the CPU has it) and the portable loop give the same
     // pixels bit for bit and leave the stream in the same state.
-    let photo_e: Vec<u32> = (0..400).map(|i| (i * i * 7 % 1000) as u32).chain([70_000]).collect();
+    let photo_e: Vec<u32> = (0..400u32)
+        .map(|i| i * i * 7 % 1000)
+        .chain([70_000])
+        .collect();
     let normals: Vec<f64> = (0..photo_e.len()).map(|i| (i as f64 * 0.37).sin()).collect();
     let zeros = vec![0.0; photo_e.len()];
     let input = FrameInput {
@@ -115,7 +118,8 @@ fn the_popcnt_build_reads_what_the_portable_one_reads() {
         let (mut x, mut y) = (vec![0.0; photo_e.len()], vec![0.0; photo_e.len()]);
         model.read(&input, &mut a, &mut x);
         model.read_inline(&input, &mut b, &mut y);
-        assert_eq!(x.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), y.iter().map(|v| v.to_bits()).collect::<Vec<_>>(), "q {q}");
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&x), bits(&y), "q {q}");
         assert_eq!(a.random::<u64>(), b.random::<u64>(), "q {q}: streams in step");
     }
 }
