@@ -171,6 +171,8 @@ struct FileHash<'a> {
     pos: u64,
     file: Option<File>,
     done: bool,
+    /// The file's length, looked up once (by [`FileHash::left`]).
+    len: Option<u64>,
 }
 
 impl<'a> FileHash<'a> {
@@ -181,6 +183,7 @@ impl<'a> FileHash<'a> {
             pos: 0,
             file: None,
             done: false,
+            len: None,
         }
     }
 
@@ -221,12 +224,17 @@ impl<'a> FileHash<'a> {
         Ok(())
     }
 
-    /// Bytes of the file not hashed yet (unknown, taken as all, when it cannot be read).
-    fn left(&self) -> u64 {
+    /// Bytes of the file not hashed yet (unknown, taken as all, when it cannot be read). The
+    /// length is looked up once: the reader asks for every frame while the file is unfinished.
+    fn left(&mut self) -> u64 {
         if self.done {
             return 0;
         }
-        std::fs::metadata(self.path).map_or(u64::MAX, |m| m.len().saturating_sub(self.pos))
+        let path = self.path;
+        let len = *self
+            .len
+            .get_or_insert_with(|| std::fs::metadata(path).map_or(u64::MAX, |m| m.len()));
+        len.saturating_sub(self.pos)
     }
 
     /// Hash the rest of the file.
@@ -303,12 +311,11 @@ impl<'a> StackHash<'a> {
         let near = !file.done && offset >= file.pos && offset - file.pos <= INLINE_GAP;
         // The files before it must be finished first: inline only when little of them is left
         // (a raw FITS file's padding after its last frame).
-        let rest = || {
-            self.files[self.next..origin.source]
-                .iter()
+        if near
+            && self.files[self.next..origin.source]
+                .iter_mut()
                 .all(|f| f.left() <= INLINE_GAP)
-        };
-        if near && rest() {
+        {
             let _ = self.add(origin, frame, abort);
         }
     }
