@@ -34,6 +34,10 @@ pub(super) struct TileLines {
     row_part: Vec<f64>,
     /// Column sums, `span` per frame.
     col_part: Vec<f64>,
+    /// Pixels of the tile in each column share.
+    col_count: Vec<u32>,
+    /// Scratch: one frame's integer column sums.
+    col_int: Vec<i32>,
 }
 
 impl TileLines {
@@ -41,22 +45,28 @@ impl TileLines {
     pub(super) fn new(start: usize, len: usize, cols: usize) -> TileLines {
         let row0 = start / cols;
         let rows = (start + len.max(1) - 1) / cols - row0 + 1;
+        let span = len.min(cols);
+        let mut col_count = vec![0u32; span];
+        for i in 0..len {
+            col_count[if len <= cols { i } else { (start + i) % cols }] += 1;
+        }
         TileLines {
             cols,
             start,
             len,
             row0,
             rows,
-            span: len.min(cols),
+            span,
             count: 0,
             row_part: Vec::new(),
             col_part: Vec::new(),
+            col_count,
+            col_int: Vec::new(),
         }
     }
 
     /// Start a batch of `count` frames: row shares zero; column shares zero with
-    /// `clear_cols`, else left to [`TileLines::add_chunk`], which writes each on first touch
-    /// (clearing them every batch cost as much as a tenth of the kernel's time).
+    /// `clear_cols`, else left to [`TileLines::add_stored`], which writes every one.
     pub(super) fn begin(&mut self, count: usize, clear_cols: bool) {
         self.count = count;
         self.row_part.clear();
@@ -67,67 +77,51 @@ impl TileLines {
         self.col_part.resize(count * self.span, 0.0);
     }
 
-    /// Where the `W` tile-local pixels `i..i + W` go in the shares of a frame (computed once
-    /// for all the frames of a batch).
+    /// Add frame `j` of the batch from its stored integer samples of the tile (`bytes`, `N`
+    /// bytes a sample, whose value is `int(sample) + zero`, `zero` an integer). The samples
+    /// are added as integers, frame by frame and row by row (the kernel's sweep holds all the
+    /// frames of a batch at once, where each addition to memory shares were a load and a
+    /// store per frame: a quarter of the statistics' time), and each share takes its
+    /// samples' `zero`s once: integer sums below 2^53, the same as adding the values in any
+    /// order.
     #[inline(always)]
-    pub(super) fn place<const W: usize>(&self, i: usize) -> Place {
-        let p = self.start + i;
-        let col = if self.len <= self.cols {
-            i
-        } else {
-            p % self.cols
-        };
-        let first = i + W <= self.cols;
-        Place {
-            i,
-            lanes: (p / self.cols - self.row0) * 8,
-            col,
-            // One row, and every column first touched or every one touched before.
-            whole: p % self.cols + W <= self.cols && (first || i >= self.cols),
-            first,
-        }
-    }
-
-    /// Add the `W` samples `x` of the pixels at `at` (from [`TileLines::place`]) of frame `j`
-    /// of the batch, writing each column share on its first touch in the batch (after
-    /// `begin(_, false)`): the tile's first `cols` pixels hold every column it covers once.
-    /// Inlined into the kernel, with its vector instructions.
-    #[inline(always)]
-    pub(super) fn add_chunk<const W: usize>(&mut self, at: &Place, x: &[f64; W], j: usize) {
+    pub(super) fn add_stored<const N: usize>(
+        &mut self,
+        j: usize,
+        bytes: &[u8],
+        zero: f64,
+        int: impl Fn([u8; N]) -> i32,
+    ) {
+        // |sample| <= 2^15 and at most 2^15 samples a share keep every i32 sum in range.
+        assert!(self.len <= 1 << 15 && bytes.len() == self.len * N);
+        self.col_int.clear();
+        self.col_int.resize(self.span, 0);
         let rows = &mut self.row_part[j * self.rows * 8..(j + 1) * self.rows * 8];
-        let cols = &mut self.col_part[j * self.span..(j + 1) * self.span];
-        if at.whole {
-            let lanes: &mut [f64; 8] = (&mut rows[at.lanes..at.lanes + 8])
-                .try_into()
-                .expect("8 lanes");
-            for k in 0..W {
-                lanes[k % 8] += x[k];
-            }
-            let dst: &mut [f64; W] = (&mut cols[at.col..at.col + W])
-                .try_into()
-                .expect("W columns");
-            if at.first {
-                *dst = *x;
-            } else {
-                for k in 0..W {
-                    dst[k] += x[k];
-                }
-            }
-            return;
-        }
-        for (k, v) in x.iter().enumerate() {
-            let (i, p) = (at.i + k, self.start + at.i + k);
-            rows[(p / self.cols - self.row0) * 8 + k % 8] += v;
+        let (mut p, end) = (self.start, self.start + self.len);
+        while p < end {
+            let r = p / self.cols;
+            let seg_end = end.min((r + 1) * self.cols);
             let c = if self.len <= self.cols {
-                i
+                p - self.start
             } else {
                 p % self.cols
             };
-            if i < self.cols {
-                cols[c] = *v;
-            } else {
-                cols[c] += v;
+            let seg = &bytes[(p - self.start) * N..(seg_end - self.start) * N];
+            let mut total = 0i32;
+            for (acc, b) in self.col_int[c..c + (seg_end - p)]
+                .iter_mut()
+                .zip(seg.chunks_exact(N))
+            {
+                let v = int(b.try_into().expect("N bytes"));
+                *acc += v;
+                total += v;
             }
+            rows[(r - self.row0) * 8] = total as f64 + (seg_end - p) as f64 * zero;
+            p = seg_end;
+        }
+        let cols = &mut self.col_part[j * self.span..(j + 1) * self.span];
+        for ((d, s), n) in cols.iter_mut().zip(&self.col_int).zip(&self.col_count) {
+            *d = *s as f64 + *n as f64 * zero;
         }
     }
 
@@ -178,20 +172,6 @@ impl TileLines {
             add_into(cols, part);
         }
     }
-}
-
-/// Where a run of a tile's pixels goes in its line shares.
-pub(super) struct Place {
-    /// First tile-local pixel.
-    i: usize,
-    /// Offset of the row's lanes in a frame's row shares.
-    lanes: usize,
-    /// First column share.
-    col: usize,
-    /// The run is in one row, with every column first touched or every one touched before.
-    whole: bool,
-    /// Every column first touched (when `whole`).
-    first: bool,
 }
 
 /// Add `x` to `dst` element by element and its sum to the eight lanes `lanes` (lane i gets
@@ -465,6 +445,50 @@ mod tests {
             close(&got.col_var_adu2, &want.col_var_adu2);
             close(&[got.frame_var_adu2], &[want.frame_var_adu2]);
         }
+    }
+
+    /// The row and column sums of frame 0 of `t`'s shares, in a frame of `shape`.
+    fn shares(t: &TileLines, shape: (usize, usize)) -> (Vec<f64>, Vec<f64>) {
+        let (mut rows, mut cols) = (vec![0.0; shape.0], vec![0.0; shape.1]);
+        t.add_to(0, &mut rows, &mut cols);
+        (rows, cols)
+    }
+
+    /// Stored samples of `N` bytes (pseudo-random, every byte value) read as `int`, plus
+    /// `zero`: the shares added as integers are those of the values, for any tiling.
+    fn stored_like_values<const N: usize>(int: impl Fn([u8; N]) -> i32 + Copy, zero: f64) {
+        let shape = (7, 10);
+        let npix = shape.0 * shape.1;
+        let bytes: Vec<u8> = (0..npix * N).map(|i| (i * 151 % 256) as u8).collect();
+        let values: Vec<f64> = bytes
+            .chunks_exact(N)
+            .map(|b| int(b.try_into().unwrap()) as f64 + zero)
+            .collect();
+        for tile in [4, 10, 23, 70] {
+            for start in (0..npix).step_by(tile) {
+                let len = tile.min(npix - start);
+                let mut want = TileLines::new(start, len, shape.1);
+                want.begin(1, true);
+                want.add(0, &values[start..start + len], 0);
+                let mut got = TileLines::new(start, len, shape.1);
+                got.begin(1, false);
+                got.add_stored(0, &bytes[start * N..(start + len) * N], zero, int);
+                assert_eq!(
+                    shares(&got, shape),
+                    shares(&want, shape),
+                    "tile {tile} at {start}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn stored_integers_give_the_line_shares_of_their_values() {
+        stored_like_values(|b: [u8; 2]| i16::from_be_bytes(b) as i32, 32768.0);
+        stored_like_values(|b: [u8; 2]| i16::from_le_bytes(b) as i32, 0.0);
+        stored_like_values(|b: [u8; 2]| i16::from_le_bytes(b) as i32, -7.0);
+        stored_like_values(|b: [u8; 1]| b[0] as i32, 0.0);
+        stored_like_values(|b: [u8; 1]| b[0] as i32, -128.0);
     }
 
     #[test]

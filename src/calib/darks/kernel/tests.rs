@@ -162,17 +162,19 @@ fn line_variances(
 
 #[test]
 fn integer_frames_give_the_line_sums_of_decoded_ones() {
-    // Frames 9 x 37: tiles shorter than a row, a row long, spanning rows from mid-row (the
-    // first-touch boundary of the column shares inside a vector of pixels), the whole frame;
-    // decoded frames take the other sweep, which clears the shares and adds.
+    // Frames 9 x 37: tiles shorter than a row (some wrapping from one row into the next), a
+    // row long, spanning rows from mid-row, the whole frame; stored integers take the fused
+    // sweep, whose line shares are integer sums frame by frame, decoded frames the other
+    // sweep, which adds values block by block: the same sums, bit for bit.
     let shape = (9, 37);
     for tile in [5, 20, 37, 50, 333] {
         let (want, want_tiles) =
             line_variances(shape, tile, false, |t, v, k| sweep(t, v, k, true, 0));
         assert_eq!(want.frames, 11);
         assert!(want.row_var_adu2.iter().all(|v| *v > 0.0));
-        for width in [1, 4, 16] {
+        for width in [0, 1, 4, 16] {
             let (got, tiles) = line_variances(shape, tile, true, |t, v, k| match width {
+                0 => sweep(t, v, k, true, 0),
                 1 => sweep_w::<1>(t, v, k, true, 0),
                 4 => sweep_w::<4>(t, v, k, true, 0),
                 _ => sweep_w::<16>(t, v, k, true, 0),
