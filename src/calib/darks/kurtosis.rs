@@ -37,7 +37,9 @@ pub(super) fn excess_kurtosis(p: PowerSums) -> f64 {
     // With central moments m2, m4: n^2 m2 = n s2 - s1^2 and n^4 m4 = n^3 s4 - 4 n^2 s1 s3
     // + 6 n s1^2 s2 - 3 s1^4, whatever the shift; m4 / m2^2 = n^4 m4 / (n^2 m2)^2.
     let ratio = if [n, s1, s2, s3, s4].into_iter().all(integral) {
-        let [n, s1, s2, s3, s4] = [n, s1, s2, s3, s4].map(|v| v as i128);
+        // Through i64 (one instruction; f64 to i128 is a library call), exact for integers
+        // below 2^53.
+        let [n, s1, s2, s3, s4] = [n, s1, s2, s3, s4].map(|v| v as i64 as i128);
         let m2n2 = n * s2 - s1 * s1;
         // Each term is checked: beyond i128 the f64 formula takes over.
         let m4n4 = n
@@ -52,7 +54,10 @@ pub(super) fn excess_kurtosis(p: PowerSums) -> f64 {
             });
         match m4n4 {
             // m4 / m2^2 = (n^4 m4) / (n^2 m2)^2: both exact integers, rounded once each.
-            Some(m4n4) if m2n2 > 0 => m4n4 as f64 / ((m2n2 as f64) * (m2n2 as f64)),
+            Some(m4n4) if m2n2 > 0 => {
+                let (m4n4, m2n2) = (rounded(m4n4), rounded(m2n2));
+                m4n4 / (m2n2 * m2n2)
+            }
             Some(_) => return f64::NAN,
             None => shifted_ratio(p),
         }
@@ -61,6 +66,15 @@ pub(super) fn excess_kurtosis(p: PowerSums) -> f64 {
     };
     let g2 = ratio - 3.0;
     ((n + 1.0) * g2 + 6.0) * (n - 1.0) / ((n - 2.0) * (n - 3.0))
+}
+
+/// `v` rounded to the nearest f64 (ties to even), through i64 when it fits: the same value
+/// as `v as f64`, without the library call that converts an i128.
+fn rounded(v: i128) -> f64 {
+    match i64::try_from(v) {
+        Ok(v) => v as f64,
+        Err(_) => v as f64,
+    }
 }
 
 /// m4 / m2^2 from the shifted sums in f64.
@@ -184,6 +198,29 @@ mod tests {
         assert!((excess_kurtosis(sums(&f, f[0])) - direct(&f)).abs() < 1e-9);
         assert!(excess_kurtosis(sums(&[3.0; 10], 3.0)).is_nan());
         assert!(excess_kurtosis(sums(&[1.0, 2.0, 3.0], 1.0)).is_nan());
+    }
+
+    #[test]
+    fn rounding_through_i64_is_the_i128_conversion() {
+        let big = [
+            0i128,
+            1,
+            -1,
+            (1 << 53) + 1,
+            (1 << 62) + 513,
+            i64::MAX as i128,
+            i64::MIN as i128,
+            i64::MAX as i128 + 1,
+            -(1i128 << 100) - 12_345,
+            i128::MAX,
+        ];
+        for v in big
+            .into_iter()
+            .chain((0..200).map(|k| (k * 0x9E37_79B9_7F4A_7C15) >> 3))
+        {
+            assert_eq!(rounded(v).to_bits(), (v as f64).to_bits(), "{v}");
+            assert_eq!(rounded(-v).to_bits(), (-v as f64).to_bits(), "{v}");
+        }
     }
 
     #[test]
