@@ -201,19 +201,18 @@ fn fused<const W: usize, const N: usize>(
             lines.add_stored(j, &frame[start * N..(start + len) * N], zero, int);
         }
     }
-    let value = move |a: [u8; N]| int(a) as f64 + zero;
     let mut c = 0;
     while c + W <= len {
         let p = start + c;
         if c % 8 == 0 {
             acc.prefetch(c + STATE_AHEAD);
         }
-        chunk::<W>(&mut acc, c, count, first % 2, Stored { raw, p, value });
+        chunk::<W>(&mut acc, c, count, first % 2, Stored { raw, p, int, zero });
         c += W;
     }
     while c < len {
         let p = start + c;
-        chunk::<1>(&mut acc, c, count, first % 2, Stored { raw, p, value });
+        chunk::<1>(&mut acc, c, count, first % 2, Stored { raw, p, int, zero });
         c += 1;
     }
 }
@@ -299,7 +298,14 @@ fn plain<const W: usize>(
 /// trait rather than a closure, so that it is always inlined and the samples stay in
 /// registers).
 trait Samples<const W: usize> {
+    /// The samples of frame `j`, less [`Samples::zero`].
     fn get(&mut self, j: usize) -> [f64; W];
+
+    /// What every sample is less by: the sweep works in the stored integers, whose
+    /// differences are those of the values (all exact), and saves an addition per sample.
+    fn zero(&self) -> f64 {
+        0.0
+    }
 }
 
 /// Decoded rows, `SUB` values per frame, from block-local pixel `c`.
@@ -316,23 +322,29 @@ impl<const W: usize> Samples<W> for Rows<'_> {
     }
 }
 
-/// Stored samples of frame pixel `p`, decoded in registers.
-struct Stored<'a, V, const N: usize> {
+/// Stored samples of frame pixel `p`, decoded in registers: the integers `int` of the
+/// stored bytes, whose values are these plus `zero`.
+struct Stored<'a, I, const N: usize> {
     raw: &'a [&'a [u8]],
     p: usize,
-    value: V,
+    int: I,
+    zero: f64,
 }
 
-impl<const W: usize, const N: usize, V: Fn([u8; N]) -> f64> Samples<W> for Stored<'_, V, N> {
+impl<const W: usize, const N: usize, I: Fn([u8; N]) -> i32> Samples<W> for Stored<'_, I, N> {
     #[inline(always)]
     fn get(&mut self, j: usize) -> [f64; W] {
         let frame = self.raw[j];
         let b = &frame[self.p * N..(self.p + W) * N];
         let mut x = [0.0; W];
         for (o, a) in x.iter_mut().zip(b.chunks_exact(N)) {
-            *o = (self.value)(a.try_into().expect("N bytes"));
+            *o = (self.int)(a.try_into().expect("N bytes")) as f64;
         }
         x
+    }
+
+    fn zero(&self) -> f64 {
+        self.zero
     }
 }
 
@@ -396,13 +408,17 @@ fn chunk<const W: usize>(
     let ld = |v: &[f64]| -> [f64; W] { v[c..c + W].try_into().expect("W pixels") };
     let (mut s1e, mut s1o) = (ld(acc.s1[0]), ld(acc.s1[1]));
     let (mut s2e, mut s2o) = (ld(acc.s2[0]), ld(acc.s2[1]));
+    // The shifts, previous samples and maxima in the samples' terms: exact, as only stored
+    // integers (integer values below 2^53) come with a zero.
+    let zero = sample.zero();
+    let less = |x: [f64; W]| if zero == 0.0 { x } else { x.map(|v| v - zero) };
     let mut p = Shared {
-        shift: ld(acc.shift),
+        shift: less(ld(acc.shift)),
         s3: ld(acc.s3),
         s4: ld(acc.s4),
         vn: ld(acc.vn),
-        prev: ld(acc.prev),
-        max: ld(acc.max),
+        prev: less(ld(acc.prev)),
+        max: less(ld(acc.max)),
     };
     let mut j = 0;
     if parity == 1 && count > 0 {
@@ -425,8 +441,9 @@ fn chunk<const W: usize>(
     st(acc.s3, p.s3);
     st(acc.s4, p.s4);
     st(acc.vn, p.vn);
-    st(acc.prev, p.prev);
-    st(acc.max, p.max);
+    let more = |x: [f64; W]| if zero == 0.0 { x } else { x.map(|v| v + zero) };
+    st(acc.prev, more(p.prev));
+    st(acc.max, more(p.max));
 }
 
 #[cfg(test)]
