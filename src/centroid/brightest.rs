@@ -6,6 +6,7 @@
 //! (N+1)-th value and X the positions relative to the truth.
 
 use super::centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
+use crate::stats::total_order_key;
 
 /// The brightest-N centroider over a grid of N.
 #[derive(Debug, Clone)]
@@ -68,10 +69,7 @@ struct BrightestWorker<'c> {
 
 /// A key of `v` that orders ascending as `v` does descending by `f64::total_cmp`.
 fn descending(v: f64) -> u64 {
-    let b = v.to_bits();
-    // total_cmp's order as an unsigned integer: negative values flipped, the sign bit set
-    // on the others; then reversed.
-    !(if b >> 63 == 1 { !b } else { b | 1 << 63 })
+    !total_order_key(v)
 }
 
 impl CentroidWorker for BrightestWorker<'_> {

@@ -9,5 +9,7 @@ mod order;
 mod samplers;
 
 pub use moments::{correlation, finite_mean, mean_var, robust_slope};
-pub use order::{median, percentile, percentile_sorted, robust_sigma};
+pub use order::{
+    from_total_order_key, median, percentile, percentile_sorted, robust_sigma, total_order_key,
+};
 pub use samplers::{binomial_half, exp_neg, poisson, poisson_each};

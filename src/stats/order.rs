@@ -57,6 +57,22 @@ pub fn percentile_sorted(v: &[f64], p: f64) -> f64 {
     }
 }
 
+/// An unsigned integer that orders as `v` does by `f64::total_cmp` (a negative value's bits
+/// flipped, the sign bit set on the others): sorts of floats as integers.
+pub fn total_order_key(v: f64) -> u64 {
+    let b = v.to_bits();
+    if b >> 63 == 1 {
+        !b
+    } else {
+        b | 1 << 63
+    }
+}
+
+/// The value whose [`total_order_key`] is `k`.
+pub fn from_total_order_key(k: u64) -> f64 {
+    f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
+}
+
 /// Robust sigma of the finite values: 1.4826 x the median absolute deviation from the median
 /// (the standard deviation for Gaussian values, unmoved by a few outliers).
 pub fn robust_sigma(values: &[f64]) -> f64 {
@@ -115,6 +131,38 @@ mod tests {
         sorted.sort_by(f64::total_cmp);
         for p in [0.0, 0.3, 1.0, 25.0, 50.0, 63.7, 99.0, 99.9, 100.0] {
             assert_eq!(percentile(&u, p), percentile_sorted(&sorted, p), "p = {p}");
+        }
+    }
+
+    #[test]
+    fn keys_order_as_total_cmp_and_give_the_values_back() {
+        let v = [
+            3.5,
+            -0.0,
+            0.0,
+            -1e-310,
+            1e-310,
+            f64::NAN,
+            -f64::NAN,
+            -2.0,
+            f64::INFINITY,
+            -f64::MAX,
+            f64::MAX,
+            f64::NEG_INFINITY,
+            7.25,
+        ];
+        for a in v {
+            assert_eq!(
+                from_total_order_key(total_order_key(a)).to_bits(),
+                a.to_bits()
+            );
+            for b in v {
+                assert_eq!(
+                    total_order_key(a).cmp(&total_order_key(b)),
+                    a.total_cmp(&b),
+                    "{a} vs {b}"
+                );
+            }
         }
     }
 

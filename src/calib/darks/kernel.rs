@@ -350,7 +350,7 @@ impl<const W: usize, const N: usize, I: Fn([u8; N]) -> i32> Samples<W> for Store
 
 /// Pixels ahead of the fused sweep's position whose sums are fetched into cache: a tile's
 /// sums (ten arrays) come from memory once per batch, and the hardware prefetchers, which
-/// follow the ten streams, did not fetch them early enough (the sweep took ~4 % less time
+/// follow the ten streams, did not fetch them early enough (the run took 3-4 % less time
 /// with the hint; the frames' bytes need none, as the line shares have just read them).
 const STATE_AHEAD: usize = 64;
 

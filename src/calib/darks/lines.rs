@@ -1,7 +1,9 @@
 //! Row and column sums of every frame, streamed, for the temporal noise decomposition.
 //!
-//! While the kernel holds a block of decoded samples it adds them to its tile's share of each
-//! frame's row sums and column sums ([`TileLines`]); after the batch the shares are added up
+//! The kernel adds each frame of a batch to its tile's share of the frame's row sums and
+//! column sums ([`TileLines`]): stored integers frame by frame before its sweep
+//! ([`TileLines::add_stored`]), other samples a block of decoded values at a time
+//! ([`TileLines::add`]); after the batch the shares are added up
 //! across tiles in tile order ([`LineAcc::add_batch`]) and every row's and column's sum goes
 //! into per-line sums over frames (shifted by the line's first frame, as the per-pixel sums
 //! are). Integer samples give integer sums, exact in any order while below 2^53. Memory: per
@@ -79,11 +81,11 @@ impl TileLines {
 
     /// Add frame `j` of the batch from its stored integer samples of the tile (`bytes`, `N`
     /// bytes a sample, whose value is `int(sample) + zero`, `zero` an integer). The samples
-    /// are added as integers, frame by frame and row by row (the kernel's sweep holds all the
-    /// frames of a batch at once, where each addition to memory shares were a load and a
-    /// store per frame: a quarter of the statistics' time), and each share takes its
+    /// are added as integers, frame by frame and row by row, and each share takes its
     /// samples' `zero`s once: integer sums below 2^53, the same as adding the values in any
-    /// order.
+    /// order. (Inside the fused sweep, which holds every frame of the batch at once, each
+    /// addition to a share was a load and a store per frame and vector of pixels: a quarter
+    /// of the statistics' time.)
     #[inline(always)]
     pub(super) fn add_stored<const N: usize>(
         &mut self,
