@@ -9,6 +9,8 @@ mod order;
 mod samplers;
 
 pub use moments::{correlation, finite_mean, mean_var, robust_slope};
+#[cfg(test)]
+pub(crate) use order::AWKWARD;
 pub use order::{
     from_total_order_key, median, percentile, percentile_sorted, robust_sigma, total_order_key,
 };

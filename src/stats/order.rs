@@ -73,6 +73,26 @@ pub fn from_total_order_key(k: u64) -> f64 {
     f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
 }
 
+/// Values whose order is easy to get wrong (tests): both zeros, subnormals, infinities, the
+/// extremes, NaNs of both signs, a repeat.
+#[cfg(test)]
+pub(crate) const AWKWARD: [f64; 14] = [
+    3.5,
+    -0.0,
+    0.0,
+    -1e-310,
+    1e-310,
+    f64::NAN,
+    -f64::NAN,
+    -2.0,
+    f64::INFINITY,
+    -f64::MAX,
+    f64::MAX,
+    f64::NEG_INFINITY,
+    -2.0,
+    7.25,
+];
+
 /// Robust sigma of the finite values: 1.4826 x the median absolute deviation from the median
 /// (the standard deviation for Gaussian values, unmoved by a few outliers).
 pub fn robust_sigma(values: &[f64]) -> f64 {
@@ -136,21 +156,7 @@ mod tests {
 
     #[test]
     fn keys_order_as_total_cmp_and_give_the_values_back() {
-        let v = [
-            3.5,
-            -0.0,
-            0.0,
-            -1e-310,
-            1e-310,
-            f64::NAN,
-            -f64::NAN,
-            -2.0,
-            f64::INFINITY,
-            -f64::MAX,
-            f64::MAX,
-            f64::NEG_INFINITY,
-            7.25,
-        ];
+        let v = AWKWARD;
         for a in v {
             assert_eq!(
                 from_total_order_key(total_order_key(a)).to_bits(),
