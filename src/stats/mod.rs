@@ -12,6 +12,7 @@ pub use moments::{correlation, finite_mean, mean_var, robust_slope};
 #[cfg(test)]
 pub(crate) use order::AWKWARD;
 pub use order::{
-    from_total_order_key, median, percentile, percentile_sorted, robust_sigma, total_order_key,
+    from_total_order_key, median, median_and_robust_sigma, percentile, percentile_sorted,
+    robust_sigma, total_order_key,
 };
 pub use samplers::{binomial_half, exp_neg, poisson, poisson_each};

@@ -96,9 +96,14 @@ pub(crate) const AWKWARD: [f64; 14] = [
 /// Robust sigma of the finite values: 1.4826 x the median absolute deviation from the median
 /// (the standard deviation for Gaussian values, unmoved by a few outliers).
 pub fn robust_sigma(values: &[f64]) -> f64 {
+    median_and_robust_sigma(values).1
+}
+
+/// The median of the finite values and [`robust_sigma`] about it (NaN if none).
+pub fn median_and_robust_sigma(values: &[f64]) -> (f64, f64) {
     let m = median(values);
     let dev: Vec<f64> = values.iter().map(|v| (v - m).abs()).collect();
-    1.4826 * median(&dev)
+    (m, 1.4826 * median(&dev))
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@ use serde::Serialize;
 
 use super::accumulate::PixelStats;
 use super::options::DarkOptions;
-use crate::stats::{median, robust_sigma};
+use crate::stats::{median, median_and_robust_sigma};
 
 /// Flag bit: hot pixel (offset far above the frame's typical offset).
 pub const FLAG_HOT: i32 = 1;
@@ -75,9 +75,11 @@ pub(super) fn flag_pixels(
     saturation: Option<f64>,
     opts: &DarkOptions,
 ) -> Vec<i32> {
-    let off_med = median(offset);
-    let off_sigma = robust_sigma(offset);
-    let rms_med = median(&stats.rms.data);
+    // (Two selections in a row, and a third beside them.)
+    let ((off_med, off_sigma), rms_med) = rayon::join(
+        || median_and_robust_sigma(offset),
+        || median(&stats.rms.data),
+    );
     let n = stats.frames as f64;
     // Von Neumann ratio of white noise: mean 1, standard error close to 1/sqrt(n).
     let rts_limit = 1.0 - opts.rts_sigma / n.sqrt();
