@@ -131,7 +131,7 @@ impl Tile {
 
     /// Seed a new tile with the first frame's stored integers `x` (values `x + zero`) as
     /// [`Narrow`] shifts, previous samples and maxima (nothing when `zero` is too large).
-    pub(super) fn seed_narrow(&mut self, x: impl ExactSizeIterator<Item = i16>, zero: f64) {
+    pub(super) fn seed_narrow(&mut self, x: impl Iterator<Item = i16>, zero: f64) {
         if zero.abs() >= Narrow::MAX_BASE || !self.shift.is_empty() {
             return;
         }
