@@ -85,14 +85,15 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         accept_illuminated: args.accept_illuminated,
     };
     let r = run_darks(&job, &Terminal::default())?;
-    let (mb, secs) = (r.stored_bytes as f64 / 1e6, r.read_seconds);
+    let (bytes, secs) = (r.stored_bytes as f64, r.read_seconds);
     eprintln!(
-        "read {mb:.1} MB of samples in {secs:.2} s ({:.0} MB/s)",
-        mb / secs
+        "read {} of samples in {secs:.3} s ({}/s)",
+        decimal_size(bytes),
+        decimal_size(bytes / secs.max(1e-9))
     );
     let s = &r.summary;
     eprintln!(
-        "{} frames of {}x{}: median read noise {:.4} adu{}, split-half correlation {:.4}, {} flagged pixels; wrote {}",
+        "{} frames of {}x{}: median read noise {:.4} adu{}, split-half correlation {:.4}, {} flagged pixel{}; wrote {}",
         s.frames,
         s.shape[0],
         s.shape[1],
@@ -100,7 +101,51 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         s.rms_e.as_ref().map(|d| format!(" ({:.4} e-)", d.median)).unwrap_or_default(),
         s.split_half_correlation,
         s.flags.any,
+        if s.flags.any == 1 { "" } else { "s" },
         r.out.display()
     );
     Ok(())
+}
+
+/// A number of bytes in decimal units with three significant digits: "280 B", "1.64 MB",
+/// "2.01 GB" (a small stack read in a millisecond is not "0.0 MB at 0 MB/s").
+fn decimal_size(bytes: f64) -> String {
+    let units = ["B", "kB", "MB", "GB", "TB"];
+    let mut value = bytes;
+    let mut unit = 0;
+    while value >= 999.5 && unit + 1 < units.len() {
+        value /= 1000.0;
+        unit += 1;
+    }
+    let digits = match value {
+        v if unit == 0 || v >= 99.95 => 0,
+        v if v >= 9.995 => 1,
+        _ => 2,
+    };
+    format!("{value:.digits$} {}", units[unit])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::decimal_size;
+
+    #[test]
+    fn sizes_read_in_decimal_units_with_three_digits() {
+        let cases = [
+            (0.0, "0 B"),
+            (280.0, "280 B"),
+            (999.0, "999 B"),
+            (999.6, "1.00 kB"),
+            (9_996.0, "10.0 kB"),
+            (12_345.0, "12.3 kB"),
+            (99_960.0, "100 kB"),
+            (1_638_400.0, "1.64 MB"),
+            (1_048_579_200.0, "1.05 GB"),
+            (2.29e9, "2.29 GB"),
+            (3.0e15, "3000 TB"),
+        ];
+        for (bytes, want) in cases {
+            assert_eq!(decimal_size(bytes), want, "{bytes} bytes");
+        }
+    }
 }
