@@ -88,10 +88,11 @@ impl LevelIndex {
         unsafe { self.count_below_in(self.cell(v), v) }
     }
 
-    /// [`Self::count_below`] with `v`'s cell ([`Self::cell`]) already found: a frame's cells
-    /// are computed in one loop that vectorises. The two look-ups go unchecked: with their
-    /// bounds checks the sweep's pixel loop ran out of registers and reloaded the tables'
-    /// lengths and addresses for every pixel.
+    /// The number of levels strictly below `v` (as the tests' `count_below`) with `v`'s cell
+    /// ([`Self::cell`]) already found: a frame's cells are computed in one loop that
+    /// vectorises. The two look-ups go unchecked: with their bounds checks the sweep's pixel
+    /// loop ran out of registers and reloaded the tables' lengths and addresses for every
+    /// pixel.
     ///
     /// # Safety
     /// `cell` is [`Self::cell`] of some value (so less than the number of cells).

@@ -62,9 +62,9 @@ impl ShotNoise {
     }
 
     /// Fill `guide` (one entry per pixel) from `cumulative` scaled by `scale` (buckets per
-    /// unit of the cumulative sum): guide[g] counts the pixels whose scaled cumulative sum has
+    /// unit of the cumulative sum): guide\[g\] counts the pixels whose scaled cumulative sum has
     /// an integer part below g. Rounding is monotone, so each of them has a cumulative sum
-    /// below every deviate u with floor(u x scale) = g: the search from guide[g] starts at or
+    /// below every deviate u with floor(u x scale) = g: the search from guide\[g\] starts at or
     /// before the answer and finds the same pixel as a search from 0. The pixels' buckets
     /// g_p = floor(c_p x scale) + 1 never decrease with p, so the count for g is the largest
     /// p + 1 with g_p <= g: each pixel stores p + 1 at its bucket (a later pixel of the same

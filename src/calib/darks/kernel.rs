@@ -179,7 +179,7 @@ fn integer_frames<'a>(frames: &[FrameView<'a>]) -> Option<(Vec<&'a [u8]>, RawLay
 
 /// The sweep of integer frames (`raw`, stored samples of `N` bytes, each the integer `int`
 /// of its bytes plus the layout's zero): the line shares first, frame by frame in integers
-/// ([`TileLines::add_stored`]), then each frame's samples of `W` pixels decoded into
+/// ([`super::lines::TileLines::add_stored`]), then each frame's samples of `W` pixels decoded into
 /// registers and added to the pixels' sums, with no scratch buffer in between; per pixel the
 /// same operations in the same order as the other sweep, so the same sums.
 #[inline(always)]
