@@ -22,9 +22,9 @@ pub const BATCH_BYTES: usize = 8 << 20;
 /// Bytes read per batch of frames delivered as stored bytes (integers). Half of
 /// [`BATCH_BYTES`]: the dark statistics of 512 x 512 uint16 frames (1 GiB, page cache, AMD
 /// Zen 4 with 32 MiB of L3) took 4-8 % less wall time with 8 frames per batch than with 16
-/// (the per-pixel sums, 21 MB, and the batches being read and used then fit in L3, and the
-/// reading thread's copy from the page cache slowed less), the same with 12, 30 % more with
-/// 4 (medians of 8-10 alternated runs).
+/// (the per-pixel sums, 21 MB when measured and 16 MB since, and the batches being read and
+/// used then fit in L3, and the reading thread's copy from the page cache slowed less), the
+/// same with 12, 30 % more with 4 (medians of 8-10 alternated runs).
 pub const RAW_BATCH_BYTES: usize = 4 << 20;
 
 /// Most frames per batch (small frames).
