@@ -23,6 +23,7 @@ pub mod plot;
 pub mod progress;
 pub mod report;
 pub mod rng;
+pub mod settings;
 pub mod special;
 pub mod spot;
 pub mod stats;

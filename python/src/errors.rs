@@ -9,30 +9,36 @@ use detnoise::Error;
 use pyo3::exceptions::{PyKeyboardInterrupt, PyOSError, PyRuntimeError, PyValueError};
 use pyo3::PyErr;
 
-/// Library fields that the Python API spells differently: (field, keyword).
+/// Library fields outside the settings registry that the Python API spells differently:
+/// (field, keyword). The registry's settings carry their own keyword.
 pub const PY_NAMES: &[(&str, &str)] = &[
-    ("map", "map_e"),
     ("stacks", "paths"),
     ("darks_paths", "darks"),
     ("flats_paths", "flats"),
     ("subaps_px", "subap_px"),
     ("spots", "spot"),
     ("signals_photons", "signal_photons"),
-    ("cascade_register", "register"),
     ("out", "out"),
 ];
 
+/// Every (field, keyword) pair that differs: the registry's, then [`PY_NAMES`].
+fn renamed() -> impl Iterator<Item = (&'static str, &'static str)> {
+    let registry = detnoise::settings::all().map(|s| (s.field, s.key));
+    registry
+        .chain(PY_NAMES.iter().copied())
+        .filter(|(f, k)| f != k)
+}
+
 /// The Python keyword of library field `field`.
 pub fn keyword(field: &str) -> &str {
-    PY_NAMES
-        .iter()
+    renamed()
         .find(|(f, _)| *f == field)
         .map_or(field, |(_, k)| k)
 }
 
 /// `message` with every `` `field` `` mention replaced by `` `keyword` ``.
 pub fn keywords_in(message: &str) -> String {
-    PY_NAMES.iter().fold(message.to_string(), |m, (field, kw)| {
+    renamed().fold(message.to_string(), |m, (field, kw)| {
         m.replace(&format!("`{field}`"), &format!("`{kw}`"))
     })
 }

@@ -23,12 +23,14 @@ use pyo3::prelude::*;
 fn _detnoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     let py = m.py();
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    m.add("MODEL_NAMES", detnoise::detector::MODEL_NAMES)?;
+    let names: Vec<&str> = detnoise::detector::MODEL_NAMES.split(", ").collect();
+    m.add("MODEL_NAMES", names)?;
     m.add(
         "MODELS_HELP",
         errors::keywords_in(&detnoise::detector::models_help()),
     )?;
-    m.add("MODEL_PARAMS", params::KEYWORDS.to_vec())?;
+    m.add("MODEL_PARAMS", params::keywords())?;
+    m.add("SETTINGS", params::settings_table(py)?)?;
     m.add(
         "DetnoiseWarning",
         py.get_type::<observer::DetnoiseWarning>(),

@@ -1,43 +1,27 @@
 //! The readout-model parameters as Python keywords (`em_gain=1000, map_e=rms_e, ...`): parsed
-//! into the library's [`ModelParams`], each value checked against the range the command line
-//! accepts for the same setting.
+//! into the library's [`ModelParams`] by the library itself, each value checked by the
+//! settings registry, as the command line checks it.
 
+use crate::calib::paths_of;
 use crate::convert::map_from;
 use crate::errors::{invalid, IntoPy};
 use crate::fit::PdfFit;
 use crate::observer::PyObserver;
-use detnoise::calib::{Map, Unit};
-use detnoise::detector::dark_frames::DEFAULT_MAX_MIB;
-use detnoise::detector::pp::PpRule;
-use detnoise::detector::{DarkFrames, EmRegister, ModelParams, RtsTable};
+use detnoise::calib::Unit;
+use detnoise::detector::ModelParams;
 use detnoise::progress::Observer;
+use detnoise::settings::{self, Kind, Setting, Value, Values};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBool, PyDict, PyList};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// The keywords of the readout-model parameters, in the order of the documentation.
-pub const KEYWORDS: &[&str] = &[
-    "em_gain",
-    "stages",
-    "emccd_read_noise_e",
-    "gaussian_switch_e",
-    "register",
-    "sigma_e",
-    "pdf",
-    "pdf_model",
-    "pattern_seed",
-    "map_e",
-    "pp_rule",
-    "pp_lambda",
-    "rts_table",
-    "row_noise_e",
-    "column_noise_e",
-    "dark_frames",
-    "dark_frames_max_mib",
-    "gain_e_per_adu",
-];
+/// The keywords of the readout-model parameters, in the order of the documentation: the
+/// registry's (`detnoise::settings::READOUT`).
+pub fn keywords() -> Vec<&'static str> {
+    settings::READOUT.iter().map(|s| s.key).collect()
+}
 
 /// The parameters of a run: the models' and the conversion gain (which converts dark frames,
 /// and a `Readout`'s output to adu).
@@ -70,192 +54,84 @@ impl<'a, 'py> Given<'a, 'py> {
     fn new(dict: &'a Bound<'py, PyDict>) -> PyResult<Self> {
         for key in dict.keys() {
             let key: String = key.extract()?;
-            if !KEYWORDS.contains(&key.as_str()) {
+            if !settings::READOUT.iter().any(|s| s.key == key) {
                 return Err(PyTypeError::new_err(format!(
                     "unexpected keyword argument '{key}'; readout-model parameters are: {}",
-                    KEYWORDS.join(", ")
+                    keywords().join(", ")
                 )));
             }
         }
         Ok(Given { dict })
     }
 
-    /// The value of `key`, None when absent or None.
-    fn get(&self, key: &str) -> PyResult<Option<Bound<'py, PyAny>>> {
-        Ok(self.dict.get_item(key)?.filter(|v| !v.is_none()))
-    }
-
-    /// A number, with a `ValueError` naming `key` when it is not one.
-    fn number<T>(&self, key: &str) -> PyResult<Option<T>>
-    where
-        T: for<'b> FromPyObject<'b, 'py>,
-    {
-        match self.get(key)? {
-            None => Ok(None),
-            Some(v) => v
-                .extract::<T>()
-                .map(Some)
-                .map_err(|_| invalid(key, format!("{}: not a number of the right kind", repr(&v)))),
+    /// The settings given (None values are not given), each checked by the registry as the
+    /// command line checks it.
+    fn values(&self) -> PyResult<Values> {
+        let mut values = Values::default();
+        let pdf_model: Option<String> = self
+            .dict
+            .get_item(settings::PDF_MODEL.key)?
+            .and_then(|m| m.extract().ok());
+        for &setting in settings::READOUT {
+            let Some(v) = self.dict.get_item(setting.key)?.filter(|v| !v.is_none()) else {
+                continue;
+            };
+            let value = value_of(setting, &v, pdf_model.as_deref())?;
+            let value = setting.check(value).map_err(|e| invalid(setting.key, e))?;
+            values.set(setting, value);
         }
-    }
-
-    /// A real number within `ok` (described as `range` in the message).
-    fn real(&self, key: &str, ok: impl Fn(f64) -> bool, range: &str) -> PyResult<Option<f64>> {
-        match self.number::<f64>(key)? {
-            Some(v) if !(v.is_finite() && ok(v)) => {
-                Err(invalid(key, format!("{v}: must be a number {range}")))
-            }
-            v => Ok(v),
-        }
-    }
-
-    /// A text value among `allowed`.
-    fn choice(&self, key: &str, allowed: &[&str]) -> PyResult<Option<String>> {
-        match self.get(key)? {
-            None => Ok(None),
-            Some(v) => match v.extract::<String>() {
-                Ok(s) if allowed.contains(&s.as_str()) => Ok(Some(s)),
-                _ => Err(invalid(
-                    key,
-                    format!("{}: must be one of {}", repr(&v), allowed.join(", ")),
-                )),
-            },
-        }
-    }
-
-    /// A path (str or os.PathLike).
-    fn path(&self, key: &str) -> PyResult<Option<PathBuf>> {
-        self.get(key)?.map(|v| v.extract::<PathBuf>()).transpose()
+        Ok(values)
     }
 
     fn params(&self, observer: &dyn Observer) -> PyResult<Params> {
-        let d = ModelParams::default();
-        let em_gain = self.real("em_gain", |_| true, "")?.unwrap_or(d.em_gain);
-        let stages = self.number::<u32>("stages")?.unwrap_or(d.stages);
-        EmRegister::check(em_gain, stages, "em_gain").py()?;
-        let non_negative = |k| self.real(k, |v| v >= 0.0, ">= 0 e-");
-        let positive = |k, unit| self.real(k, |v| v > 0.0, unit);
-        let gain_e_per_adu = positive("gain_e_per_adu", "> 0 e- per adu")?;
-        let pp_rule = match self.choice("pp_rule", &["poisson-prior", "equal-density"])? {
-            Some(s) if s == "equal-density" => PpRule::EqualDensity,
-            _ => d.pp_rule,
-        };
-        let model = ModelParams {
-            em_gain,
-            stages,
-            emccd_read_noise_e: non_negative("emccd_read_noise_e")?.unwrap_or(d.emccd_read_noise_e),
-            gaussian_switch_e: self.number::<u32>("gaussian_switch_e")?,
-            cascade_register: self.choice("register", &["exact", "cascade"])?.as_deref()
-                == Some("cascade"),
-            sigma_e: non_negative("sigma_e")?.unwrap_or(d.sigma_e),
-            pdf: self.pdf()?.unwrap_or(d.pdf),
-            pattern_seed: self
-                .number::<u64>("pattern_seed")?
-                .unwrap_or(d.pattern_seed),
-            map: self.map()?.map(Arc::new),
-            pp_rule,
-            pp_lambda: positive("pp_lambda", "> 0 photo-electrons per pixel")?,
-            rts_table: self
-                .path("rts_table")?
-                .map(|p| RtsTable::read(&p, observer).map(Arc::new))
-                .transpose()
-                .py()?,
-            row_noise_e: non_negative("row_noise_e")?,
-            column_noise_e: non_negative("column_noise_e")?,
-            dark_frames: self.dark_frames(gain_e_per_adu)?,
-        };
-        let mut input_files: Vec<PathBuf> = ["pdf", "map_e", "rts_table"]
-            .iter()
-            .filter_map(|k| self.path(k).ok().flatten())
-            .filter(|p| p.as_os_str() != "paper")
-            .collect();
-        input_files.extend(self.dark_frame_paths()?);
+        let values = self.values()?;
+        let model = ModelParams::from_settings(&values, observer).py()?;
         Ok(Params {
+            gain_e_per_adu: values.real(&settings::GAIN_E_PER_ADU),
+            input_files: ModelParams::input_files(&values),
             model,
-            gain_e_per_adu,
-            input_files,
         })
     }
+}
 
-    /// `pdf`: `"paper"`, a `PdfFit` (with `pdf_model`), or the path of a pdf_fit.json.
-    fn pdf(&self) -> PyResult<Option<Arc<dyn detnoise::pdf::RmsPdf>>> {
-        let model = self
-            .get("pdf_model")?
-            .map(|m| m.extract::<String>())
-            .transpose()?;
-        let Some(pdf) = self.get("pdf")? else {
-            return match model {
-                Some(_) => Err(invalid(
-                    "pdf_model",
-                    "applies only with `pdf` a PdfFit or a pdf_fit.json",
-                )),
-                None => Ok(None),
-            };
-        };
-        if let Ok(fit) = pdf.cast::<PdfFit>() {
-            return fit.get().report.pdf(model.as_deref()).py().map(Some);
-        }
-        if pdf.extract::<String>().is_ok_and(|s| s == "paper") {
-            if model.is_some() {
-                return Err(invalid(
-                    "pdf_model",
-                    "applies only with `pdf` a PdfFit or a pdf_fit.json",
-                ));
+/// The Python value `v` of `setting` as a registry value (not yet range-checked): numbers of
+/// the right kind, text, paths, and the objects only Python passes (a `PdfFit` as `pdf`, an
+/// array as `map_e`); `pdf_model` picks the model of a `PdfFit`.
+fn value_of(setting: &Setting, v: &Bound<'_, PyAny>, pdf_model: Option<&str>) -> PyResult<Value> {
+    let wrong = || invalid(setting.key, format!("{}: {}", repr(v), setting.expected()));
+    match setting.kind {
+        Kind::Real(..) => {
+            // bool is an int in Python: refuse it as a number.
+            if v.is_instance_of::<PyBool>() {
+                return Err(wrong());
             }
-            return Ok(Some(Arc::new(detnoise::pdf::paper())));
+            v.extract::<f64>().map(Value::Real).map_err(|_| wrong())
         }
-        let path: PathBuf = pdf.extract().map_err(|_| {
-            invalid(
-                "pdf",
-                format!(
-                    "{}: must be \"paper\", a PdfFit or a pdf_fit.json path",
-                    repr(&pdf)
-                ),
-            )
-        })?;
-        detnoise::fit::load_pdf_fit(&path, model.as_deref())
-            .py()
-            .map(Some)
-    }
-
-    /// `map_e`: a 2-D array (e-) or the path of a map file in e-.
-    fn map(&self) -> PyResult<Option<Map>> {
-        let Some(v) = self.get("map_e")? else {
-            return Ok(None);
-        };
-        if let Ok(path) = v.extract::<PathBuf>() {
-            return Map::read(&path, Unit::Electrons).py().map(Some);
+        Kind::Whole(..) => {
+            if v.is_instance_of::<PyBool>() {
+                return Err(wrong());
+            }
+            v.extract::<u64>().map(Value::Whole).map_err(|_| wrong())
         }
-        map_from(&v, Unit::Electrons, "map_e").map(Some)
-    }
-
-    /// The paths of `dark_frames` (a path or a list of paths; none when absent).
-    fn dark_frame_paths(&self) -> PyResult<Vec<PathBuf>> {
-        match self.get("dark_frames")? {
-            None => Ok(Vec::new()),
-            Some(v) => crate::calib::paths_of(&v),
+        Kind::Choice(_) | Kind::Text | Kind::TextList => {
+            if let Ok(fit) = v.cast::<PdfFit>() {
+                return fit.get().report.pdf(pdf_model).py().map(Value::Pdf);
+            }
+            if let Ok(text) = v.extract::<String>() {
+                return Ok(Value::Text(text));
+            }
+            if setting.kind == Kind::Text {
+                if let Ok(path) = v.extract::<PathBuf>() {
+                    return Ok(Value::Path(path));
+                }
+            }
+            Err(wrong())
         }
-    }
-
-    /// `dark_frames` with their conversion gain.
-    fn dark_frames(&self, gain: Option<f64>) -> PyResult<Option<Arc<DarkFrames>>> {
-        let paths = self.dark_frame_paths()?;
-        if paths.is_empty() {
-            return Ok(None);
-        }
-        let Some(gain) = gain else {
-            return Err(invalid(
-                "gain_e_per_adu",
-                "`dark_frames` needs their conversion gain to convert them to e-: give \
-                 `gain_e_per_adu`",
-            ));
-        };
-        let max_mib = self
-            .real("dark_frames_max_mib", |v| v > 0.0, "> 0 MiB")?
-            .unwrap_or(DEFAULT_MAX_MIB);
-        DarkFrames::read(&paths, gain, max_mib)
-            .map(|f| Some(Arc::new(f)))
-            .py()
+        Kind::Path => match v.extract::<PathBuf>() {
+            Ok(path) => Ok(Value::Path(path)),
+            Err(_) => map_from(v, Unit::Electrons, setting.key).map(|m| Value::Map(Arc::new(m))),
+        },
+        Kind::Paths => paths_of(v).map(Value::Paths),
     }
 }
 
@@ -264,4 +140,77 @@ fn repr(v: &Bound<'_, PyAny>) -> String {
     v.repr()
         .map(|r| r.to_string())
         .unwrap_or_else(|_| "?".into())
+}
+
+/// The settings registry as Python sees it (`detnoise.SETTINGS`): one dict per setting with
+/// its group, keyword, field, flag, unit, kind, range or choices, default (as a Python value)
+/// and help, so that tests and users read the ranges and defaults the checks apply.
+pub fn settings_table(py: Python<'_>) -> PyResult<Bound<'_, PyList>> {
+    let rows = PyList::empty(py);
+    for (group, entries) in settings::GROUPS {
+        for setting in entries.iter() {
+            let d = PyDict::new(py);
+            d.set_item("group", group)?;
+            d.set_item("key", setting.key)?;
+            d.set_item("field", setting.field)?;
+            d.set_item("flag", setting.flag)?;
+            d.set_item("unit", setting.unit)?;
+            d.set_item("help", setting.help)?;
+            kind_items(&d, setting)?;
+            let default = setting.default_value().map(|v| match v {
+                Value::Real(x) => x.into_pyobject(py).map(|o| o.into_any()),
+                Value::Whole(n) => n.into_pyobject(py).map(|o| o.into_any()),
+                other => settings_text(&other)
+                    .into_pyobject(py)
+                    .map(|o| o.into_any()),
+            });
+            d.set_item("default", default.transpose()?)?;
+            rows.append(d)?;
+        }
+    }
+    Ok(rows)
+}
+
+/// `kind` ("real", "whole", "choice", "text", "texts", "path", "paths") and its range: `lo`,
+/// `hi` (None: unbounded), `lo_open`, `hi_open` for numbers, `choices` for words.
+fn kind_items(d: &Bound<'_, PyDict>, setting: &Setting) -> PyResult<()> {
+    use std::ops::Bound::{Excluded, Included, Unbounded};
+    let bound = |b: std::ops::Bound<f64>| match b {
+        Included(x) => (Some(x), false),
+        Excluded(x) => (Some(x), true),
+        Unbounded => (None, false),
+    };
+    let kind = match setting.kind {
+        Kind::Real(lo, hi) => {
+            let ((lo, lo_open), (hi, hi_open)) = (bound(lo), bound(hi));
+            d.set_item("lo", lo)?;
+            d.set_item("hi", hi)?;
+            d.set_item("lo_open", lo_open)?;
+            d.set_item("hi_open", hi_open)?;
+            "real"
+        }
+        Kind::Whole(lo, hi) => {
+            d.set_item("lo", lo)?;
+            d.set_item("hi", hi)?;
+            "whole"
+        }
+        Kind::Choice(words) => {
+            d.set_item("choices", words.to_vec())?;
+            "choice"
+        }
+        Kind::Text => "text",
+        Kind::TextList => "texts",
+        Kind::Path => "path",
+        Kind::Paths => "paths",
+    };
+    d.set_item("kind", kind)
+}
+
+/// The text of a text or path value.
+fn settings_text(v: &Value) -> String {
+    match v {
+        Value::Text(t) => t.clone(),
+        Value::Path(p) => p.to_string_lossy().into_owned(),
+        other => format!("{other:?}"),
+    }
 }

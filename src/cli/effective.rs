@@ -9,6 +9,7 @@ use crate::effective::{
 };
 use crate::montecarlo::SimConfig;
 use crate::output::{DirPlan, OutputDir};
+use crate::settings::{self, default_in};
 use crate::Result;
 use std::fmt::Write as _;
 use std::ops::Bound::{Included, Unbounded};
@@ -65,9 +66,9 @@ fn precision_long_help() -> String {
 
 /// Options of `detnoise effective`.
 #[derive(clap::Args, Debug)]
-#[command(mut_arg("subap", |a| a.default_value("4,6,8,10,12,14,16")))]
-#[command(mut_arg("spot", |a| a.default_values(["airy:1,2,4,6,8,10"])))]
-#[command(mut_arg("signal", |a| a.default_value("20,50,100,200,500,1000")))]
+#[command(mut_arg("subap", |a| a.default_value(default_in("effective", &settings::SUBAP_PX))))]
+#[command(mut_arg("spot", |a| a.default_value(default_in("effective", &settings::SPOT))))]
+#[command(mut_arg("signal", |a| a.default_value(default_in("effective", &settings::SIGNAL_PHOTONS))))]
 #[command(mut_arg("iters", |a| a.help(
     "Starting Monte-Carlo iterations (frames) per configuration, 2 to 1e9: more are added, up to \
      --max-iters, until the precision target is met"
@@ -143,9 +144,9 @@ impl EffectiveArgs {
         self.detector.validate(std::slice::from_ref(&spec))?;
         self.centroiders.specs()?;
         self.sweep.validate()?;
-        let precision = self.precision.precision(self.sweep.iters);
-        precision.validate(self.sweep.iters)?;
-        QePrecision::with(&precision, self.qe_target_se).validate(self.sweep.iters)
+        let precision = self.precision.precision(self.sweep.iters());
+        precision.validate(self.sweep.iters())?;
+        QePrecision::with(&precision, self.qe_target_se).validate(self.sweep.iters())
     }
 }
 
@@ -170,7 +171,7 @@ pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
     let specs = [ModelSpec::parse(&args.model)?];
     let params = args.detector.params()?;
     let configs = args.sweep.configs()?;
-    let precision = args.precision.precision(args.sweep.iters);
+    let precision = args.precision.precision(args.sweep.iters());
     if args.simple_qe {
         let precision = QePrecision::with(&precision, args.qe_target_se);
         qe::run(&configs, &specs, &params, &precision, &dir)?;

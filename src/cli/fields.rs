@@ -1,25 +1,20 @@
 //! Library field names -> command-line flags, so that errors name the option the user typed.
 //!
 //! The library names its settings by field (`emccd_read_noise_e`); the command line spells them
-//! as flags (`--emccd-read-noise`). A setting with two spellings across commands maps to one
-//! field per meaning, so each field has exactly one flag.
+//! as flags (`--emccd-read-noise`). The readout and run settings take their flags from the
+//! registry ([`crate::settings`]); this list holds the other commands' fields. A setting with
+//! two spellings across commands maps to one field per meaning, so each field has exactly one
+//! flag.
 
 use crate::Error;
 
-/// Every library field that an error can name, with the flag that sets it on the command line.
+/// Every library field outside the settings registry that an error can name, with the flag
+/// that sets it on the command line.
 pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("out", "--out"),
     ("force", "--force"),
-    ("qe", "--qe"),
     ("stacks", "STACK"),
     // Monte-Carlo configurations, spots, output files (montecarlo, spot, output).
-    ("subap_px", "--subap"),
-    ("spot", "--spot"),
-    ("signal_photons", "--signal"),
-    ("iters", "--iters"),
-    ("bg_grid", "--bg-grid"),
-    ("position_half_range_px", "--position-range"),
-    ("max_empty_frac", "--max-empty-frac"),
     ("plot", "--plot"),
     // Data path (io, calib, fit, synth): darks, ptc, fit-pdf, emgain, synth, and the pdf files
     // and maps they write for simulate/effective.
@@ -29,13 +24,11 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("dead_fraction", "--dead-fraction"),
     ("rts_sigma", "--rts-sigma"),
     ("flats", "--flats"),
-    ("gain_e_per_adu", "--gain-e-per-adu"),
     ("gain_map", "--gain-map"),
     ("offset", "--offset"),
     ("read_noise", "--read-noise"),
     ("fixed_bias_adu", "--offset"),
     ("fixed_read_noise_adu", "--read-noise"),
-    ("stages", "--stages"),
     ("serial_cic", "--serial-cic"),
     ("bin_width_adu", "--bin-width-adu"),
     ("reference_stack", "--reference-stack"),
@@ -43,39 +36,19 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("unit", "--unit"),
     ("models", "--models"),
     ("upper_cut_e", "--upper-cut-e"),
-    ("pdf", "--pdf"),
-    ("pdf_model", "--pdf-model"),
     ("model", "--model"),
-    ("map", "--map"),
     ("shape", "--shape"),
     ("frames", "--frames"),
     ("rms_pdf", "--rms-pdf"),
-    ("em_gain", "--em-gain"),
-    // synth: non-Gaussian sCMOS noise (crate::synth::Defects). `row_noise_e` and
-    // `column_noise_e` also name the scmos-correlated model's amplitudes (one entry each).
+    // synth: non-Gaussian sCMOS noise (crate::synth::Defects); its `row_noise_e` and
+    // `column_noise_e` are the registry's (scmos-correlated's amplitudes, same flags).
     ("rts_fraction", "--rts-fraction"),
     ("rts_steps_e", "--rts-steps-e"),
     ("rts_step_spread", "--rts-step-spread"),
     ("rts_dwell_frames", "--rts-dwell-frames"),
     ("rts_occupancy", "--rts-occupancy"),
-    ("row_noise_e", "--row-noise-e"),
-    ("column_noise_e", "--column-noise-e"),
     ("hot_fraction", "--hot-fraction"),
     ("hot_dark_e", "--hot-dark-e"),
-    // Readout models (detector): `ModelParams` fields, the model list, and the map.
-    ("emccd_read_noise_e", "--emccd-read-noise"),
-    ("gaussian_switch_e", "--gaussian-switch"),
-    ("cascade_register", "--register"),
-    ("sigma_e", "--sigma"),
-    ("pattern_seed", "--pattern-seed"),
-    ("pp_rule", "--pp-rule"),
-    ("pp_lambda", "--pp-lambda"),
-    // Readout models of the camera's real noise (issue 13: scmos-rts, scmos-correlated,
-    // scmos-frames); their conversion gain is `gain_e_per_adu` above.
-    // (`row_noise_e` and `column_noise_e`: listed once, under synth.)
-    ("rts_table", "--rts-table"),
-    ("dark_frames", "--dark-frames"),
-    ("dark_frames_max_mib", "--dark-frames-max-mib"),
     // Effective read noise (crate::effective::Precision): precision target and iteration cap.
     ("target_se_e", "--target-se-e"),
     ("target_rel", "--target-rel"),
@@ -115,21 +88,24 @@ pub const LIBRARY_ONLY_FIELDS: &[&str] = &[
     "pp_zero_one",
 ];
 
+/// Every field with its flag: the registry's settings, then [`FIELD_FLAGS`].
+pub fn all_field_flags() -> impl Iterator<Item = (&'static str, &'static str)> {
+    let registry = crate::settings::all().map(|s| (s.field, s.flag));
+    registry.chain(FIELD_FLAGS.iter().copied())
+}
+
 /// The flag of library field `field`, if it has one.
 pub fn flag_of(field: &str) -> Option<&'static str> {
-    FIELD_FLAGS
-        .iter()
+    all_field_flags()
         .find(|(f, _)| *f == field)
-        .map(|(_, flag)| *flag)
+        .map(|(_, flag)| flag)
 }
 
 /// `message` with every `` `field` `` mention replaced by its flag.
 pub fn flags_in(message: &str) -> String {
-    FIELD_FLAGS
-        .iter()
-        .fold(message.to_string(), |m, (field, flag)| {
-            m.replace(&format!("`{field}`"), flag)
-        })
+    all_field_flags().fold(message.to_string(), |m, (field, flag)| {
+        m.replace(&format!("`{field}`"), flag)
+    })
 }
 
 /// The error as the command line shows it: library fields replaced by their flags.

@@ -10,6 +10,7 @@ pub mod paper;
 pub mod progress;
 pub mod ptc;
 pub mod report;
+pub mod settings;
 pub mod simulate;
 pub mod subaps;
 pub mod synth;

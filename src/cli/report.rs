@@ -6,6 +6,7 @@ use super::effective::PrecisionArgs;
 use super::progress::Terminal;
 use crate::montecarlo::SimConfig;
 use crate::report::{OperatingPoint, ReportOptions};
+use crate::settings::{self, Setting};
 use crate::spot::Sampling;
 use crate::spot::Spot;
 use crate::Result;
@@ -35,13 +36,13 @@ pub struct ReportArgs {
     #[arg(long, num_args = 1..)]
     pub flats: Vec<PathBuf>,
     /// Sub-aperture sizes of the effective-noise table, px per side (2 to 128), comma-separated.
-    #[arg(long, default_value = DEFAULT_SUBAP, allow_hyphen_values = true)]
+    #[arg(long, default_value = grid_default(&settings::SUBAP_PX), allow_hyphen_values = true)]
     pub subap: String,
     /// Airy spot diameters (first dark ring, px, >= 0.1) of the table: airy:D1,D2,...
-    #[arg(long, default_value = DEFAULT_SPOT, allow_hyphen_values = true)]
+    #[arg(long, default_value = grid_default(&settings::SPOT), allow_hyphen_values = true)]
     pub spot: String,
     /// Signal levels, photons per sub-aperture, comma-separated (signal x QE at most 1e9).
-    #[arg(long, default_value = DEFAULT_SIGNAL, allow_hyphen_values = true)]
+    #[arg(long, default_value = grid_default(&settings::SIGNAL_PHOTONS), allow_hyphen_values = true)]
     pub signal: String,
     /// The configuration of the headline numbers and of the comparison chart: sub-aperture
     /// size (px per side), spot (airy:D or gauss:SX,SY, px) and signal (photons), e.g.
@@ -160,10 +161,11 @@ A report has no --bg-grid, --position-range or --max-empty-frac: it subtracts th
 background levels, offsets spots by up to 0.5 px and allows at most 1 % empty frames, as
 `simulate` does by default.";
 
-/// The full grid's lists as typed on the command line (the library's defaults, see the test).
-const DEFAULT_SUBAP: &str = "4,6,8,10,12,16";
-const DEFAULT_SPOT: &str = "airy:1,2,4,6,8,10";
-const DEFAULT_SIGNAL: &str = "20,50,100,200,500,1000";
+/// The full grid's list of `setting` as typed on the command line (the registry's
+/// `COMMAND_DEFAULTS`; the library's grid, see the test).
+fn grid_default(setting: &Setting) -> &'static str {
+    settings::default_in("report", setting).expect("the report's grid has a default")
+}
 
 impl ReportArgs {
     /// The report's options without the readout-model parameters (they read files): a list
@@ -176,14 +178,14 @@ impl ReportArgs {
             detector: self.kind,
             darks_paths: self.darks.clone(),
             flats_paths: self.flats.clone(),
-            gain_e_per_adu: self.detector.gain_e_per_adu,
-            subaps_px: unless_default(&self.subap, DEFAULT_SUBAP)
+            gain_e_per_adu: self.detector.gain_e_per_adu(),
+            subaps_px: unless_default(&self.subap, grid_default(&settings::SUBAP_PX))
                 .map(|s| parse_list(s, "--subap"))
                 .transpose()?,
-            spots: unless_default(&self.spot, DEFAULT_SPOT)
+            spots: unless_default(&self.spot, grid_default(&settings::SPOT))
                 .map(|s| Spot::parse_list(&[s.to_string()]))
                 .transpose()?,
-            signals_photons: unless_default(&self.signal, DEFAULT_SIGNAL)
+            signals_photons: unless_default(&self.signal, grid_default(&settings::SIGNAL_PHOTONS))
                 .map(|s| parse_list(s, "--signal"))
                 .transpose()?,
             operating_point: self
@@ -210,8 +212,8 @@ impl ReportArgs {
     pub fn options(&self) -> Result<ReportOptions> {
         let mut options = self.grid_options()?;
         // The register is checked with the user's gain and stages before any file is read.
-        options.model_params.em_gain = self.detector.em_gain;
-        options.model_params.stages = self.detector.stages;
+        options.model_params.em_gain = self.detector.em_gain();
+        options.model_params.stages = self.detector.stages();
         options.subaps = self.subap_geometry.geometry()?;
         options.centroiders = self.centroiders.specs()?;
         options.centroider_full_grid = self.centroider_full_grid;
@@ -270,14 +272,17 @@ mod tests {
     #[test]
     fn the_default_lists_are_the_librarys_full_grid() {
         assert_eq!(
-            parse_list::<usize>(DEFAULT_SUBAP, "--subap").unwrap(),
+            parse_list::<usize>(grid_default(&settings::SUBAP_PX), "--subap").unwrap(),
             DEFAULT_SUBAPS_PX
         );
         let airy = |&diameter_px: &f64| crate::spot::Spot::Airy { diameter_px };
         let spots: Vec<_> = DEFAULT_AIRY_DIAMETERS_PX.iter().map(airy).collect();
-        assert_eq!(Spot::parse_list(&[DEFAULT_SPOT.into()]).unwrap(), spots);
         assert_eq!(
-            parse_list::<f64>(DEFAULT_SIGNAL, "--signal").unwrap(),
+            Spot::parse_list(&[grid_default(&settings::SPOT).into()]).unwrap(),
+            spots
+        );
+        assert_eq!(
+            parse_list::<f64>(grid_default(&settings::SIGNAL_PHOTONS), "--signal").unwrap(),
             DEFAULT_SIGNALS_PHOTONS
         );
     }

@@ -6,6 +6,7 @@ use super::effective::PrecisionArgs;
 use super::progress::Terminal;
 use crate::centroid::CentroiderSpec;
 use crate::montecarlo::SimConfig;
+use crate::settings::Value;
 use crate::subaps::{
     merge_into_dir, read_map_e, run_into_dir, DirTarget, Geometry, GridSpec, Shard, SubapsJob,
     SubapsSummary, ValidMask,
@@ -124,22 +125,20 @@ impl SubapsArgs {
                 "give the lenslet grid: SIZE[,PITCH[,X0,Y0]] in px",
             )
         })?;
-        if self.sweep.subap != GRID_SIZE
-            && parse_list::<usize>(&self.sweep.subap, "--subap")? != [grid.size_px]
-        {
+        let subap = self.sweep.subap_text();
+        if subap != GRID_SIZE && parse_list::<usize>(&subap, "--subap")? != [grid.size_px] {
             return Err(Error::invalid(
                 "--subap",
                 "the sub-aperture size is the SIZE of --subap-grid: leave --subap out",
             ));
         }
-        let sweep = SweepArgs {
-            subap: grid.size_px.to_string(),
-            ..self.sweep.clone()
-        };
+        let mut sweep = self.sweep.clone();
+        let size = Value::Text(grid.size_px.to_string());
+        sweep.values.set(&crate::settings::SUBAP_PX, size);
         let configs = sweep.configs()?;
         let [cfg] = &configs[..] else {
             return Err(Error::invalid(
-                if crate::spot::Spot::parse_list(&self.sweep.spot)?.len() > 1 {
+                if crate::spot::Spot::parse_list(&self.sweep.spot_texts())?.len() > 1 {
                     "--spot"
                 } else {
                     "--signal"

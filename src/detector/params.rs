@@ -1,13 +1,17 @@
 //! The settings shared by the readout models of a run; each registry entry lists the fields
 //! its builder reads.
 
-use crate::calib::Map;
-use std::sync::Arc;
-
 use super::dark_frames::DarkFrames;
 use super::pp::PpRule;
 use super::rts_table::RtsTable;
+use super::{EmRegister, ModelSpec};
+use crate::calib::{Map, Unit};
 use crate::pdf::RmsPdf;
+use crate::progress::Observer;
+use crate::settings::{self as s, Value, Values};
+use crate::{Error, Result};
+use std::path::PathBuf;
+use std::sync::Arc;
 
 /// Parameters shared by the models of a run.
 #[derive(Debug, Clone)]
@@ -45,23 +49,131 @@ pub struct ModelParams {
 }
 
 impl Default for ModelParams {
+    /// Every setting at its registry default (`crate::settings::READOUT`).
     fn default() -> Self {
-        ModelParams {
-            em_gain: 500.0,
-            stages: 520,
-            emccd_read_noise_e: 50.0,
-            gaussian_switch_e: None,
-            cascade_register: false,
-            sigma_e: 1.0,
-            pdf: Arc::new(crate::pdf::paper()),
-            pattern_seed: 2015,
-            map: None,
-            pp_rule: PpRule::PoissonPrior,
-            pp_lambda: None,
-            rts_table: None,
-            row_noise_e: None,
-            column_noise_e: None,
-            dark_frames: None,
+        ModelParams::from_settings(&Values::default(), &crate::progress::Silent)
+            .expect("the registry's defaults are valid and read no file")
+    }
+}
+
+impl ModelParams {
+    /// Check the readout settings together, before any file is read (single values were
+    /// checked when given); `specs` are the models the run will build.
+    pub fn check_settings(values: &Values, specs: &[ModelSpec]) -> Result<()> {
+        let em_gain = values.real(&s::EM_GAIN).unwrap_or(f64::NAN);
+        let stages = values.whole(&s::STAGES).unwrap_or(0) as u32;
+        EmRegister::check(em_gain, stages, "em_gain")?;
+        let pdf_is_file = !matches!(values.get(&s::PDF), Some(Value::Text(t)) if t == "paper");
+        if values.is_given(&s::PDF_MODEL) && !pdf_is_file {
+            return Err(Error::invalid(
+                "pdf_model",
+                "applies only with `pdf` a pdf_fit.json (or a PdfFit)",
+            ));
+        }
+        for spec in specs {
+            for field in spec.entry().params {
+                let Some(setting) = s::by_field(field) else {
+                    continue;
+                };
+                if let (None, Some(what)) = (values.get(setting), setting.needs) {
+                    return Err(Error::invalid(
+                        setting.field,
+                        format!(
+                            "the {} model needs {what}: give `{}`",
+                            spec.name(),
+                            setting.field
+                        ),
+                    ));
+                }
+            }
+        }
+        if values.is_given(&s::DARK_FRAMES) && !values.is_given(&s::GAIN_E_PER_ADU) {
+            return Err(Error::invalid(
+                "gain_e_per_adu",
+                "`dark_frames` needs their conversion gain to convert them to e-: give \
+                 `gain_e_per_adu`",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The parameters `values` give, the files among them read (a pdf fit, the noise map, the
+    /// RTS table, the dark frames); the RTS table's skipped rows are told to `observer`.
+    pub fn from_settings(values: &Values, observer: &dyn Observer) -> Result<ModelParams> {
+        Self::check_settings(values, &[])?;
+        let real = |setting| values.real(setting);
+        Ok(ModelParams {
+            em_gain: real(&s::EM_GAIN).expect("has a default"),
+            stages: values.whole(&s::STAGES).expect("has a default") as u32,
+            emccd_read_noise_e: real(&s::EMCCD_READ_NOISE_E).expect("has a default"),
+            gaussian_switch_e: values.whole(&s::GAUSSIAN_SWITCH_E).map(|n| n as u32),
+            cascade_register: values.text(&s::REGISTER).as_deref() == Some("cascade"),
+            sigma_e: real(&s::SIGMA_E).expect("has a default"),
+            pdf: rms_pdf(values)?,
+            pattern_seed: values.whole(&s::PATTERN_SEED).expect("has a default"),
+            map: noise_map(values)?,
+            pp_rule: values
+                .text(&s::PP_RULE)
+                .and_then(|t| PpRule::parse(&t))
+                .expect("a checked choice"),
+            pp_lambda: real(&s::PP_LAMBDA),
+            rts_table: values
+                .path(&s::RTS_TABLE)
+                .map(|p| RtsTable::read(&p, observer).map(Arc::new))
+                .transpose()?,
+            row_noise_e: real(&s::ROW_NOISE_E),
+            column_noise_e: real(&s::COLUMN_NOISE_E),
+            dark_frames: dark_frames(values)?,
+        })
+    }
+
+    /// The files `values` name (a pdf fit, the map, the RTS table, the dark frames), for the
+    /// output-path checks: none of them may be overwritten.
+    pub fn input_files(values: &Values) -> Vec<PathBuf> {
+        let pdf = match values.get(&s::PDF) {
+            Some(Value::Text(t)) if t != "paper" => Some(PathBuf::from(t)),
+            Some(Value::Path(p)) => Some(p),
+            _ => None,
+        };
+        let files = values.path(&s::MAP).into_iter().chain(pdf);
+        let files = files.chain(values.path(&s::RTS_TABLE));
+        files.chain(values.paths(&s::DARK_FRAMES)).collect()
+    }
+}
+
+/// The per-pixel rms distribution `pdf` names: the paper's, a fitted one, or a pdf_fit.json.
+fn rms_pdf(values: &Values) -> Result<Arc<dyn RmsPdf>> {
+    let model = values.text(&s::PDF_MODEL);
+    match values.get(&s::PDF) {
+        Some(Value::Pdf(pdf)) => Ok(pdf),
+        Some(Value::Text(t)) if t == "paper" => Ok(Arc::new(crate::pdf::paper())),
+        _ => {
+            let path = values.path(&s::PDF).expect("pdf has a default");
+            crate::fit::pdf_fit::load_pdf_fit(&path, model.as_deref())
         }
     }
+}
+
+/// The measured noise map of `map`: an array given, or a file in e-.
+fn noise_map(values: &Values) -> Result<Option<Arc<Map>>> {
+    match values.get(&s::MAP) {
+        None => Ok(None),
+        Some(Value::Map(map)) => Ok(Some(map)),
+        Some(_) => {
+            let path = values.path(&s::MAP).expect("given");
+            Ok(Some(Arc::new(Map::read(path, Unit::Electrons)?)))
+        }
+    }
+}
+
+/// The dark frames of `dark_frames`, converted with `gain_e_per_adu`.
+fn dark_frames(values: &Values) -> Result<Option<Arc<DarkFrames>>> {
+    let paths = values.paths(&s::DARK_FRAMES);
+    if paths.is_empty() {
+        return Ok(None);
+    }
+    // `check_settings` has refused dark frames without a gain.
+    let gain = values.real(&s::GAIN_E_PER_ADU).unwrap_or(f64::NAN);
+    let max_mib = values.real(&s::DARK_FRAMES_MAX_MIB).expect("has a default");
+    Ok(Some(Arc::new(DarkFrames::read(&paths, gain, max_mib)?)))
 }

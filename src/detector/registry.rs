@@ -56,12 +56,33 @@ pub(super) fn parse(models: &'static [ModelEntry], known: &str, text: &str) -> R
         Some((h, a)) => (h, Some(a)),
         None => (text, None),
     };
-    let bad = || Error::invalid("model", format!("unknown model '{text}' (known: {known})"));
-    let entry = find(models, head.trim()).ok_or_else(bad)?;
+    let bad = |hint: String| {
+        Error::invalid(
+            "model",
+            format!("unknown model '{text}'{hint} (known: {known})"),
+        )
+    };
+    let Some(entry) = find(models, head.trim()) else {
+        return Err(bad(suggestion(models, head.trim())));
+    };
     if entry.arg.is_none() && arg.is_some() {
-        return Err(bad());
+        return Err(bad(format!("; {} takes no :ARG", entry.name)));
     }
     (entry.parse)(entry, arg).map_err(|why| Error::invalid("model", format!("'{text}': {why}")))
+}
+
+/// `; did you mean 'NAME'?` for the registry name nearest to a mistyped `name` (as clap
+/// suggests for option values), or nothing when none is near.
+fn suggestion(models: &[ModelEntry], name: &str) -> String {
+    let nearest = models
+        .iter()
+        .map(|m| (strsim::jaro(name, m.name), m.name))
+        .max_by(|a, b| a.0.total_cmp(&b.0));
+    match nearest {
+        // clap's threshold for its "a similar value exists" tips.
+        Some((score, near)) if score > 0.7 => format!("; did you mean '{near}'?"),
+        _ => String::new(),
+    }
 }
 
 /// One line per entry: its syntax, its help, and the parameters it reads as `` `field` ``.

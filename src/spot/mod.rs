@@ -164,6 +164,14 @@ pub enum Sampling {
 }
 
 impl Sampling {
+    /// Both samplings, in the order of the `--sampling` values.
+    pub const ALL: [Sampling; 2] = [Sampling::Integrated, Sampling::Point];
+
+    /// The sampling named `label` (see [`Sampling::label`]).
+    pub fn parse(label: &str) -> Option<Sampling> {
+        Self::ALL.into_iter().find(|s| s.label() == label)
+    }
+
     /// Lower-case name.
     pub fn label(&self) -> &'static str {
         match self {

@@ -2,6 +2,9 @@
 
 use super::super::fields::to_cli;
 use super::*;
+use crate::calib::{Map, Unit};
+use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
+use std::ops::Bound::Included;
 
 #[test]
 fn real_parser_states_the_range_and_refuses_non_finite_values() {
@@ -47,17 +50,16 @@ fn each_list_option_names_itself() {
         let e = parse_list::<usize>(text, option).unwrap_err().to_string();
         assert!(e.contains(option), "{e}");
     }
-    let sweep = |subap: &str, signal: &str| SweepArgs {
-        subap: subap.into(),
-        spot: vec!["airy:2".into()],
-        sampling: Sampling::Integrated,
-        signal: signal.into(),
-        qe: 1.0,
-        iters: 100,
-        seed: 1,
-        bg_grid: "auto".into(),
-        position_range: 0.5,
-        max_empty_frac: 0.01,
+    let sweep = |subap: &str, signal: &str| {
+        let mut args = SweepArgs::default();
+        let v = &mut args.values;
+        v.set(&settings::SUBAP_PX, settings::Value::Text(subap.into()));
+        v.set(
+            &settings::SIGNAL_PHOTONS,
+            settings::Value::Text(signal.into()),
+        );
+        v.set(&settings::ITERS, settings::Value::Whole(100));
+        args
     };
     // As the command line shows them: the library names fields, the CLI maps them to flags.
     let shown = |s: SweepArgs| to_cli(s.validate().unwrap_err()).to_string();
@@ -127,8 +129,11 @@ fn each_real_noise_model_names_the_options_it_needs() {
     ]);
     full.validate(&models("scmos-rts,scmos-correlated,scmos-frames,scmos-map"))
         .unwrap();
-    assert_eq!(full.dark_frames.len(), 2);
-    assert_eq!(full.dark_frames_max_mib, 512.0);
+    assert_eq!(full.values.paths(&settings::DARK_FRAMES).len(), 2);
+    assert_eq!(
+        full.values.real(&settings::DARK_FRAMES_MAX_MIB),
+        Some(512.0)
+    );
     let inputs = full.input_files();
     for f in ["m.fits", "rts.csv", "a.fits", "b.fits"] {
         assert!(

@@ -30,13 +30,12 @@ impl PpRule {
         PpRule::PixelPrior,
     ];
 
+    /// The rules' names, in the order of [`PpRule::ALL`].
+    pub const NAMES: [&'static str; 3] = ["poisson-prior", "equal-density", "pixel-prior"];
+
     /// The rule's name on the command line and in tables.
     pub fn label(self) -> &'static str {
-        match self {
-            PpRule::PoissonPrior => "poisson-prior",
-            PpRule::EqualDensity => "equal-density",
-            PpRule::PixelPrior => "pixel-prior",
-        }
+        Self::NAMES[self as usize]
     }
 
     /// The rule named `label` (see [`PpRule::label`]).

@@ -1,0 +1,163 @@
+//! Every option of every command that shares a flag with the settings registry takes the
+//! registry's default and range (the generated ones by construction, the others checked here),
+//! and each generated option reads back the value typed.
+
+use crate::settings::{self, Kind, Setting};
+use std::ops::Bound::{Excluded, Included, Unbounded};
+
+/// Texts at and just beyond each end of a setting's range: (text, taken).
+fn probes(kind: Kind) -> Vec<(String, bool)> {
+    let real = |v: f64| format!("{v:e}");
+    let nudge = |a: f64, up: bool| a + if up { 1.0 } else { -1.0 } * a.abs().max(1.0) * 1e-9;
+    match kind {
+        Kind::Real(lo, hi) => {
+            let mut p = vec![("nan".to_string(), false), ("inf".to_string(), false)];
+            match lo {
+                Included(a) => p.extend([(real(a), true), (real(nudge(a, false)), false)]),
+                Excluded(a) => p.extend([(real(a), false), (real(nudge(a, true)), true)]),
+                Unbounded => {}
+            }
+            match hi {
+                Included(b) => p.extend([(real(b), true), (real(nudge(b, true)), false)]),
+                Excluded(b) => p.extend([(real(b), false), (real(nudge(b, false)), true)]),
+                Unbounded => p.push((real(1e300), true)),
+            }
+            p
+        }
+        Kind::Whole(lo, hi) => {
+            let mut p = vec![
+                (lo.to_string(), true),
+                (hi.to_string(), true),
+                ("1.5".into(), false),
+            ];
+            if lo > 0 {
+                p.push(((lo - 1).to_string(), false));
+            }
+            if hi < u64::MAX {
+                p.push(((hi + 1).to_string(), false));
+            }
+            p
+        }
+        Kind::Choice(words) => {
+            let mut p: Vec<_> = words.iter().map(|w| (w.to_string(), true)).collect();
+            p.push(("no-such-word".into(), false));
+            p
+        }
+        _ => Vec::new(),
+    }
+}
+
+/// Every (command, option) whose flag is a registry setting's.
+fn registry_options() -> Vec<(String, clap::Arg, &'static Setting)> {
+    let cmd = crate::cli::command();
+    let mut found = Vec::new();
+    for sub in cmd.get_subcommands() {
+        for arg in sub.get_arguments() {
+            let Some(long) = arg.get_long() else { continue };
+            let flag = format!("--{long}");
+            if let Some(s) = settings::all().find(|s| s.flag == flag) {
+                found.push((sub.get_name().to_string(), arg.clone(), s));
+            }
+        }
+    }
+    found
+}
+
+#[test]
+fn every_option_with_a_registry_flag_takes_its_default_and_range() {
+    let options = registry_options();
+    // The Monte-Carlo commands carry every readout and run setting.
+    for name in ["simulate", "effective"] {
+        for s in settings::all() {
+            assert!(
+                options
+                    .iter()
+                    .any(|(c, _, o)| c == name && o.flag == s.flag),
+                "{name} lacks {}",
+                s.flag
+            );
+        }
+    }
+    let (mut checked, mut wrong) = (0, Vec::new());
+    for (name, arg, s) in &options {
+        let defaults: Vec<String> = arg
+            .get_default_values()
+            .iter()
+            .map(|d| d.to_string_lossy().into_owned())
+            .collect();
+        let registry: Vec<String> = settings::default_in(name, s)
+            .iter()
+            .map(|d| d.to_string())
+            .collect();
+        if defaults != registry {
+            wrong.push(format!(
+                "{name} {}: default {defaults:?}, registry {registry:?}",
+                s.flag
+            ));
+        }
+        for (text, taken) in probes(s.kind) {
+            // The option's own value parser alone (its relations to other options stripped).
+            let bare = clap::Arg::new("v")
+                .long("v")
+                .value_parser(arg.get_value_parser().clone());
+            let one = clap::Command::new("t").arg(bare);
+            let typed = ["t".to_string(), format!("--v={text}")];
+            if one.try_get_matches_from(typed).is_ok() != taken {
+                wrong.push(format!(
+                    "{name} {}={text}: taken {}, registry {taken}",
+                    s.flag, !taken
+                ));
+            }
+        }
+        checked += 1;
+    }
+    assert!(
+        wrong.is_empty(),
+        "differ from the registry:\n{}",
+        wrong.join("\n")
+    );
+    assert!(checked > 60, "only {checked} options checked");
+}
+
+#[test]
+fn the_generated_options_read_back_what_was_typed() {
+    use clap::Parser;
+    #[derive(clap::Parser, Debug)]
+    struct Cli {
+        #[command(flatten)]
+        d: crate::cli::args::DetectorArgs,
+        #[command(flatten)]
+        s: crate::cli::args::SweepArgs,
+    }
+    let cli = Cli::try_parse_from([
+        "x",
+        "--em-gain",
+        "1000",
+        "--stages",
+        "604",
+        "--pp-rule",
+        "pixel-prior",
+        "--dark-frames",
+        "a.fits",
+        "b.fits",
+        "--spot",
+        "gauss:1,2",
+        "--spot",
+        "airy:3",
+        "--iters",
+        "1e3",
+    ])
+    .unwrap();
+    let (d, s) = (&cli.d.values, &cli.s.values);
+    assert_eq!(d.real(&settings::EM_GAIN), Some(1000.0));
+    assert_eq!(d.whole(&settings::STAGES), Some(604));
+    assert_eq!(d.text(&settings::PP_RULE).as_deref(), Some("pixel-prior"));
+    assert_eq!(d.paths(&settings::DARK_FRAMES).len(), 2);
+    assert!(!d.is_given(&settings::SIGMA_E));
+    assert_eq!(d.real(&settings::SIGMA_E), Some(1.0));
+    assert_eq!(s.texts(&settings::SPOT), ["gauss:1,2", "airy:3"]);
+    assert_eq!(s.whole(&settings::ITERS), Some(1000));
+    // A typo in a word is refused with clap's suggestion.
+    let e = Cli::try_parse_from(["x", "--pp-rule", "pixel-priors"]).unwrap_err();
+    assert!(e.to_string().contains("pixel-prior"), "{e}");
+}

@@ -1,0 +1,447 @@
+//! The entries: readout-model settings (`ModelParams`, Python's `**params`) and the run
+//! settings of a Monte-Carlo sweep (`SimConfig` and its grid).
+
+use super::Kind::{self, Choice, Paths, Real, Text, TextList, Whole};
+use super::Setting;
+use crate::detector::pp::PpRule;
+use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
+use crate::montecarlo::SimConfig;
+use std::ops::Bound::{Excluded, Included, Unbounded};
+
+const NON_NEGATIVE: Kind = Real(Included(0.0), Unbounded);
+const POSITIVE: Kind = Real(Excluded(0.0), Unbounded);
+const ANY_SEED: Kind = Whole(0, u64::MAX);
+
+/// EMCCD mean EM gain, e-/e-.
+pub const EM_GAIN: Setting = Setting::new(
+    "em_gain",
+    "--em-gain",
+    Real(Included(1.0), Included(MAX_EM_GAIN)),
+    "EMCCD mean EM gain, output e- per input e-: 1 to 10,000 (cameras run at most at a few \
+     thousand; the exact register's table grows linearly with the gain)",
+)
+.unit("e-/e-")
+.default("500");
+
+/// Stages of the EM register.
+pub const STAGES: Setting = Setting::new(
+    "stages",
+    "--stages",
+    Whole(1, MAX_STAGES as u64),
+    "Stages of the EM register, 1 to 2000 stages, and at least log2(gain) (a stage at most \
+     doubles the charge: p = gain^(1/stages) - 1 <= 1)",
+)
+.unit("stages")
+.default("520");
+
+/// EMCCD read noise before division by the gain, e- rms.
+pub const EMCCD_READ_NOISE_E: Setting = Setting::new(
+    "emccd_read_noise_e",
+    "--emccd-read-noise",
+    NON_NEGATIVE,
+    "EMCCD read noise before division by the gain, e- rms",
+)
+.unit("e-")
+.default("50");
+
+/// Input electrons above which `emccd-distribution` draws a Gaussian.
+pub const GAUSSIAN_SWITCH_E: Setting = Setting::new(
+    "gaussian_switch_e",
+    "--gaussian-switch",
+    Whole(0, u32::MAX as u64),
+    "`emccd-distribution` draws N(n g, n g^2) instead of Gamma(n, g) above this many input \
+     electrons, e- (the paper's switch, corrected); default: always the exact Gamma",
+)
+.unit("input e-");
+
+/// EM register sampler.
+pub const REGISTER: Setting = Setting::new(
+    "cascade_register",
+    "--register",
+    Choice(&["exact", "cascade"]),
+    "EM register sampler: `exact` (tabulated single-electron output, fast) or `cascade` \
+     (per-stage binomials, the slow reference)",
+)
+.key("register")
+.default("exact");
+
+/// Read noise of a bare `scmos-constant`, e- rms.
+pub const SIGMA_E: Setting = Setting::new(
+    "sigma_e",
+    "--sigma",
+    NON_NEGATIVE,
+    "Read noise of `scmos-constant` without its own `:SIGMA`, e- rms",
+)
+.unit("e-")
+.default("1");
+
+/// Per-pixel rms distribution of the sCMOS models.
+pub const PDF: Setting = Setting::new(
+    "pdf",
+    "--pdf",
+    Text,
+    "Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or the path \
+     of a `pdf_fit.json` written by `detnoise fit-pdf` (its best model unless --pdf-model)",
+)
+.default("paper");
+
+/// The model taken from a `pdf_fit.json`.
+pub const PDF_MODEL: Setting = Setting::new(
+    "pdf_model",
+    "--pdf-model",
+    Text,
+    "Name of the model to take from a `pdf_fit.json`: paper-scaled, paper-family, \
+     lognormal+tail or empirical",
+);
+
+/// Seed of the fixed sCMOS noise patterns.
+pub const PATTERN_SEED: Setting = Setting::new(
+    "pattern_seed",
+    "--pattern-seed",
+    ANY_SEED,
+    "Seed of the fixed sCMOS noise patterns, unitless (`scmos-fixed:K` uses pattern K of it)",
+)
+.default("2015");
+
+/// Measured read-noise map (e-) of `scmos-map`.
+pub const MAP: Setting = Setting::new(
+    "map",
+    "--map",
+    Kind::Path,
+    "Measured read-noise map in e- (FITS/TIFF/EXR; e.g. `rms_e.fits` from `darks`) for the \
+     `scmos-map` model; non-finite pixels are excluded",
+)
+.key("map_e")
+.needed_as("a measured noise map (FILE, e-)");
+
+/// Threshold rule of `emccd-pp`.
+pub const PP_RULE: Setting = Setting::new(
+    "pp_rule",
+    "--pp-rule",
+    Choice(&PpRule::NAMES),
+    "`emccd-pp` threshold rule (a reconstruction of Basden et al. 2003): poisson-prior \
+     (boundaries n(n+1)/lambda in units of g, lambda the sub-aperture mean or --pp-lambda), \
+     pixel-prior (the same with each pixel's own mean level in the centred noiseless spot, in \
+     photo-electrons: per-pixel thresholds and correction) or equal-density (fixed, ~0.203, \
+     0.719, 1.896 g ...)",
+)
+.default("poisson-prior");
+
+/// Reference light level of `emccd-pp`, photo-electrons per pixel.
+pub const PP_LAMBDA: Setting = Setting::new(
+    "pp_lambda",
+    "--pp-lambda",
+    POSITIVE,
+    "`emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture \
+     mean (not with --pp-rule pixel-prior, whose levels are the pixels' own)",
+)
+.unit("photo-electrons per pixel");
+
+/// Telegraph pixels of `scmos-rts`.
+pub const RTS_TABLE: Setting = Setting::new(
+    "rts_table",
+    "--rts-table",
+    Kind::Path,
+    "Telegraph (RTS) pixels for `scmos-rts`: the rts.csv written by `darks` (with \
+     --gain-e-per-adu, so that it has the levels in e-), of the camera of --map",
+)
+.needed_as("the telegraph pixels (rts.csv from darks)");
+
+/// Row-noise amplitude of `scmos-correlated`, e- rms.
+pub const ROW_NOISE_E: Setting = Setting::new(
+    "row_noise_e",
+    "--row-noise-e",
+    NON_NEGATIVE,
+    "Row-noise amplitude of `scmos-correlated`, e- rms: one draw per row of the window per \
+     frame (darks: temporal_noise.row_rms_e in summary.json)",
+)
+.unit("e-")
+.needed_as("the row-noise amplitude (e- rms; 0 for none)");
+
+/// Column-noise amplitude of `scmos-correlated`, e- rms.
+pub const COLUMN_NOISE_E: Setting = Setting::new(
+    "column_noise_e",
+    "--column-noise-e",
+    NON_NEGATIVE,
+    "Column-noise amplitude of `scmos-correlated`, e- rms: one draw per column of the window \
+     per frame (darks: temporal_noise.column_rms_e in summary.json)",
+)
+.unit("e-")
+.needed_as("the column-noise amplitude (e- rms; 0 for none)");
+
+/// Dark frames of `scmos-frames`.
+pub const DARK_FRAMES: Setting = Setting::new(
+    "dark_frames",
+    "--dark-frames",
+    Paths,
+    "Dark frames for `scmos-frames` (files, a directory or a glob; FITS, TIFF, OpenEXR): each \
+     pixel's mean over the stack is subtracted and the values converted with --gain-e-per-adu",
+)
+.needed_as("the camera's dark frames (and `gain_e_per_adu`)");
+
+/// Memory bound of the dark frames kept, MiB.
+pub const DARK_FRAMES_MAX_MIB: Setting = Setting::new(
+    "dark_frames_max_mib",
+    "--dark-frames-max-mib",
+    POSITIVE,
+    "Memory bound of the dark frames kept for `scmos-frames`, MiB: a larger stack is sampled \
+     uniformly (a fixed-seed reservoir, reproducible) down to what fits, as f32 e-",
+)
+.unit("MiB")
+.default("512");
+
+/// Conversion gain, e- per adu.
+pub const GAIN_E_PER_ADU: Setting = Setting::new(
+    "gain_e_per_adu",
+    "--gain-e-per-adu",
+    POSITIVE,
+    "Conversion gain of --dark-frames, e- per adu",
+)
+.unit("e- per adu");
+
+/// The readout-model settings (`ModelParams`; Python's `**params`), in the order of `--help`.
+pub const READOUT: &[&Setting] = &[
+    &EM_GAIN,
+    &STAGES,
+    &EMCCD_READ_NOISE_E,
+    &SIGMA_E,
+    &GAUSSIAN_SWITCH_E,
+    &REGISTER,
+    &PATTERN_SEED,
+    &PP_RULE,
+    &PP_LAMBDA,
+    &PDF,
+    &PDF_MODEL,
+    &MAP,
+    &RTS_TABLE,
+    &ROW_NOISE_E,
+    &COLUMN_NOISE_E,
+    &DARK_FRAMES,
+    &DARK_FRAMES_MAX_MIB,
+    &GAIN_E_PER_ADU,
+];
+
+/// Sub-aperture sizes, px per side.
+pub const SUBAP_PX: Setting = Setting::new(
+    "subap_px",
+    "--subap",
+    Text,
+    "Sub-aperture sizes, pixels per side (2 to 128), comma-separated (e.g. 4,8,16)",
+)
+.unit("px")
+.default("16");
+
+/// Spot shapes.
+pub const SPOT: Setting = Setting::new(
+    "spot",
+    "--spot",
+    TextList,
+    "Spot shapes: airy:D (first-dark-ring diameter D px; airy:1,2,4 gives three spots) or \
+     gauss:SX,SY (standard deviations in px); sizes >= 0.1 px. Repeat the option for several \
+     Gaussians",
+)
+.unit("px")
+.default("airy:2");
+
+/// Pixel sampling of the spot.
+pub const SAMPLING: Setting = Setting::new(
+    "sampling",
+    "--sampling",
+    Choice(&["integrated", "point"]),
+    "Pixel sampling of the spot: integrated over each pixel's area, or point values at pixel \
+     centres",
+)
+.default("integrated");
+
+/// Signal levels, photons per sub-aperture before QE.
+pub const SIGNAL_PHOTONS: Setting = Setting::new(
+    "signal_photons",
+    "--signal",
+    Text,
+    "Signal levels, photons per sub-aperture before QE, comma-separated; signal x QE at most \
+     1e9 photo-electrons (counts are 32-bit per pixel)",
+)
+.unit("photons")
+.default("50");
+
+/// Quantum efficiency.
+pub const QE: Setting = Setting::new(
+    "qe",
+    "--qe",
+    Real(Excluded(0.0), Included(1.0)),
+    "Quantum efficiency (photo-electrons per photon, 0-1], applied to every model",
+)
+.default("1");
+
+/// Monte-Carlo iterations per configuration.
+pub const ITERS: Setting = Setting::new(
+    "iters",
+    "--iters",
+    Whole(2, SimConfig::MAX_ITERS),
+    "Monte-Carlo iterations (frames) per configuration, 2 to 1e9",
+)
+.unit("frames")
+.default("10000");
+
+/// Seed of every random stream.
+pub const SEED: Setting = Setting::new(
+    "seed",
+    "--seed",
+    ANY_SEED,
+    "Seed of every random stream (a whole number, unitless); the same seed gives the same \
+     results on any thread count",
+)
+.default("1");
+
+/// Background levels subtracted before centroiding, e-.
+pub const BG_GRID: Setting = Setting::new(
+    "bg_grid",
+    "--bg-grid",
+    Text,
+    "Background levels subtracted before centroiding, e-: `auto` (0-1 e- in 0.05 steps, \
+     coarser above, 5 % steps up to the brightest expected pixel) or start:stop:step (at most \
+     100,000 levels)",
+)
+.unit("e-")
+.default("auto");
+
+/// Half-width of the random spot offset, px.
+pub const POSITION_HALF_RANGE_PX: Setting = Setting::new(
+    "position_half_range_px",
+    "--position-range",
+    NON_NEGATIVE,
+    "Half-width of the random spot offset, px: offsets are uniform in [-h, h] in x and y; at \
+     most a quarter of the sub-aperture side (the spot stays mostly inside it)",
+)
+.unit("px")
+.default("0.5");
+
+/// Largest fraction of empty frames for an eligible background level.
+pub const MAX_EMPTY_FRAC: Setting = Setting::new(
+    "max_empty_frac",
+    "--max-empty-frac",
+    Real(Included(0.0), Included(1.0)),
+    "Largest fraction of empty frames (nothing above the level) for a level to be eligible",
+)
+.default("0.01");
+
+/// The run settings of a Monte-Carlo sweep (`simulate`, `effective`, `subaps`), in the order of
+/// `--help`.
+pub const RUN: &[&Setting] = &[
+    &SUBAP_PX,
+    &SPOT,
+    &SAMPLING,
+    &SIGNAL_PHOTONS,
+    &QE,
+    &ITERS,
+    &SEED,
+    &BG_GRID,
+    &POSITION_HALF_RANGE_PX,
+    &MAX_EMPTY_FRAC,
+];
+
+/// Every group, named as `--help` headings and Python's `SETTINGS` name them.
+pub const GROUPS: &[(&str, &[&Setting])] = &[("readout", READOUT), ("run", RUN)];
+
+/// A command whose option for a registry setting takes a default of its own.
+#[derive(Debug, Clone, Copy)]
+pub struct CommandDefault {
+    /// The command (`effective`, `report`, ...).
+    pub command: &'static str,
+    /// The setting.
+    pub setting: &'static Setting,
+    /// The command's default as typed (None: none).
+    pub default: Option<&'static str>,
+    /// Why the command differs.
+    pub why: &'static str,
+}
+
+/// Every command's own default for a registry setting; elsewhere the registry's holds.
+pub const COMMAND_DEFAULTS: &[CommandDefault] = &[
+    CommandDefault {
+        command: "effective",
+        setting: &SUBAP_PX,
+        default: Some("4,6,8,10,12,14,16"),
+        why: "the sub-aperture sizes of the paper's Fig. 12",
+    },
+    CommandDefault {
+        command: "effective",
+        setting: &SPOT,
+        default: Some("airy:1,2,4,6,8,10"),
+        why: "the spot diameters of the paper's Fig. 12",
+    },
+    CommandDefault {
+        command: "effective",
+        setting: &SIGNAL_PHOTONS,
+        default: Some("20,50,100,200,500,1000"),
+        why: "the six signal levels of the paper's Fig. 12",
+    },
+    CommandDefault {
+        command: "report",
+        setting: &SUBAP_PX,
+        default: Some("4,6,8,10,12,16"),
+        why: "the report's grid (crate::report::DEFAULT_SUBAPS_PX)",
+    },
+    CommandDefault {
+        command: "report",
+        setting: &SPOT,
+        default: Some("airy:1,2,4,6,8,10"),
+        why: "the report's grid (crate::report::DEFAULT_AIRY_DIAMETERS_PX)",
+    },
+    CommandDefault {
+        command: "report",
+        setting: &SIGNAL_PHOTONS,
+        default: Some("20,50,100,200,500,1000"),
+        why: "the report's grid (crate::report::DEFAULT_SIGNALS_PHOTONS)",
+    },
+    CommandDefault {
+        command: "subaps",
+        setting: &SUBAP_PX,
+        default: Some("grid"),
+        why: "the sub-aperture size is the SIZE of --subap-grid",
+    },
+    CommandDefault {
+        command: "paper",
+        setting: &SAMPLING,
+        default: Some("point"),
+        why: "the paper's figures are drawn with point sampling (SPEC section 3)",
+    },
+    CommandDefault {
+        command: "ptc",
+        setting: &EM_GAIN,
+        default: Some("1"),
+        why: "the EM gain the flats were taken at: 1 for a camera without EM gain",
+    },
+    CommandDefault {
+        command: "emgain",
+        setting: &STAGES,
+        default: None,
+        why: "the register's stages are a model choice of the fit: none means the Gamma model",
+    },
+    CommandDefault {
+        command: "synth",
+        setting: &EM_GAIN,
+        default: Some("300"),
+        why: "the EM gain of the bundled synthetic EMCCD stacks",
+    },
+    CommandDefault {
+        command: "synth",
+        setting: &ROW_NOISE_E,
+        default: Some("0"),
+        why: "a synthetic camera has no row noise unless asked",
+    },
+    CommandDefault {
+        command: "synth",
+        setting: &COLUMN_NOISE_E,
+        default: Some("0"),
+        why: "a synthetic camera has no column noise unless asked",
+    },
+];
+
+/// The default of `setting` in `command`: the command's own, else the registry's.
+pub fn default_in(command: &str, setting: &Setting) -> Option<&'static str> {
+    COMMAND_DEFAULTS
+        .iter()
+        .find(|d| d.command == command && d.setting.field == setting.field)
+        .map_or(setting.default, |d| d.default)
+}
