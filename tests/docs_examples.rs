@@ -410,9 +410,20 @@ fn run_page(page: &Path) -> Vec<String> {
                     None => failures.push(format!(
                         "{page_name}:{line}: a stdout block that follows no run block"
                     )),
-                    Some(printed) if *printed != shown => failures.push(format!(
-                        "{page_name}:{line}: the page shows\n{shown}\nthe command printed\n{printed}"
-                    )),
+                    Some(printed) if *printed != shown => {
+                        // The first line that differs, as a line of the page.
+                        let at = shown
+                            .lines()
+                            .zip(printed.lines())
+                            .position(|(a, b)| a != b)
+                            .unwrap_or(shown.lines().count().min(printed.lines().count()));
+                        failures.push(format!(
+                            "{page_name}:{}: differs from what the command printed \
+                             (the page's block starts at line {line}); the page shows\n{shown}\n\
+                             the command printed\n{printed}",
+                            line + at
+                        ))
+                    }
                     Some(_) => {}
                 }
             }
