@@ -9,7 +9,11 @@
 //! - `<!-- test: run -->`: every command of the block runs, in order, in the page's scratch
 //!   directory (shared by the page's blocks, with `data-synthetic` linked in) and must succeed.
 //! - `<!-- test: stdout -->`: the block is exactly what the last command of the run block
-//!   before it printed on standard output.
+//!   before it printed on standard output (after a ```python block it is
+//!   python/tests/test_docs.py's to compare).
+//!
+//! What the run blocks write must be listed in .gitignore, so that running the examples in a
+//! clone leaves `git status` clean.
 
 mod common;
 
@@ -88,104 +92,101 @@ fn blocks(text: &str) -> Vec<Block> {
     out
 }
 
-/// One word of a shell command: its text, and whether it holds an unquoted glob character.
+/// One word of a shell command.
 #[derive(Clone, Debug)]
 struct Word {
+    /// The word as the command receives it (quotes removed, braces expanded).
     text: String,
+    /// Whether it holds an unquoted glob character (the shell would expand it).
     glob: bool,
+    /// Whether any of it was quoted (a quoted `"detnoise ..."` is a command line itself).
     quoted: bool,
 }
 
 /// A character of a word being read, and whether it was quoted or escaped (literal).
 type Chars = Vec<(char, bool)>;
 
+/// The words of a shell line as they are read: the commands so far and the word being read.
+#[derive(Default)]
+struct Lexer {
+    commands: Vec<Vec<Word>>,
+    word: Chars,
+    started: bool,
+    quoted: bool,
+}
+
+impl Lexer {
+    /// Start a word (an empty `''` is a word too).
+    fn start(&mut self, quoted: bool) {
+        self.started = true;
+        self.quoted |= quoted;
+    }
+
+    /// End the word being read, if any, adding its brace expansions to the current command.
+    fn end_word(&mut self) {
+        if self.started {
+            let quoted = self.quoted;
+            let words = expand_braces(&self.word).into_iter().map(|w| Word {
+                glob: w
+                    .iter()
+                    .any(|&(c, lit)| !lit && matches!(c, '*' | '?' | '[')),
+                text: w.into_iter().map(|(c, _)| c).collect(),
+                quoted,
+            });
+            self.commands.last_mut().unwrap().extend(words);
+        }
+        self.word.clear();
+        self.started = false;
+        self.quoted = false;
+    }
+}
+
 /// The commands of one shell line (split at `;`, `&&`, `||` and `|`), as words, up to a comment.
 fn shell_words(line: &str) -> Vec<Vec<Word>> {
-    let mut commands = vec![Vec::new()];
-    let mut word: Chars = Vec::new();
-    let mut started = false;
-    let mut quoted = false;
-    let mut it = line.chars().peekable();
-    let finish = |word: &mut Chars, started: &mut bool, quoted: &mut bool, cmd: &mut Vec<Word>| {
-        if *started {
-            cmd.extend(expand_braces(word).into_iter().map(|w| {
-                Word {
-                    glob: w
-                        .iter()
-                        .any(|&(c, lit)| !lit && matches!(c, '*' | '?' | '[')),
-                    text: w.into_iter().map(|(c, _)| c).collect(),
-                    quoted: *quoted,
-                }
-            }));
-        }
-        word.clear();
-        *started = false;
-        *quoted = false;
+    let mut lx = Lexer {
+        commands: vec![Vec::new()],
+        ..Lexer::default()
     };
+    let mut it = line.chars().peekable();
     while let Some(c) = it.next() {
         match c {
             '\'' => {
-                started = true;
-                quoted = true;
-                for c in it.by_ref() {
-                    if c == '\'' {
-                        break;
-                    }
-                    word.push((c, true));
-                }
+                lx.start(true);
+                lx.word
+                    .extend(it.by_ref().take_while(|&c| c != '\'').map(|c| (c, true)));
             }
             '"' => {
-                started = true;
-                quoted = true;
+                lx.start(true);
                 while let Some(c) = it.next() {
                     match c {
                         '"' => break,
                         '\\' if matches!(it.peek(), Some('"' | '\\' | '$' | '`')) => {
-                            word.push((it.next().unwrap(), true))
+                            lx.word.push((it.next().unwrap(), true))
                         }
-                        _ => word.push((c, true)),
+                        _ => lx.word.push((c, true)),
                     }
                 }
             }
             '\\' => {
-                started = true;
-                if let Some(c) = it.next() {
-                    word.push((c, true));
-                }
+                lx.start(false);
+                lx.word.extend(it.next().map(|c| (c, true)));
             }
-            '#' if !started => break,
-            c if c.is_whitespace() => finish(
-                &mut word,
-                &mut started,
-                &mut quoted,
-                commands.last_mut().unwrap(),
-            ),
+            '#' if !lx.started => break,
+            c if c.is_whitespace() => lx.end_word(),
             ';' | '|' | '&' => {
-                finish(
-                    &mut word,
-                    &mut started,
-                    &mut quoted,
-                    commands.last_mut().unwrap(),
-                );
-                if it.peek() == Some(&c) {
-                    it.next();
-                }
-                commands.push(Vec::new());
+                lx.end_word();
+                it.next_if_eq(&c);
+                lx.commands.push(Vec::new());
             }
             c => {
-                started = true;
-                word.push((c, false));
+                lx.start(false);
+                lx.word.push((c, false));
             }
         }
     }
-    finish(
-        &mut word,
-        &mut started,
-        &mut quoted,
-        commands.last_mut().unwrap(),
-    );
-    commands.retain(|c| !c.is_empty());
-    commands
+    lx.end_word();
+    lx.commands.retain(|c| !c.is_empty());
+    lx.commands
 }
 
 /// Bash's brace expansion of one word (`a{1,2}b` is `a1b a2b`), unquoted braces only.
