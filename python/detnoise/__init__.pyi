@@ -4,7 +4,7 @@ pixels, _photons photons per sub-aperture before QE)."""
 import os
 import sys
 from pathlib import Path
-from typing import Any, Callable, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+from typing import Any, Callable, Dict, Iterator, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -16,11 +16,14 @@ else:
 
 __version__: str
 #: Every model name `Readout`, `simulate` and `effective` accept, with its argument syntax.
-MODEL_NAMES: str
+MODEL_NAMES: List[str]
 #: One line per model: syntax, what it simulates, and the parameters it reads.
 MODELS_HELP: str
 #: The keywords of the readout-model parameters (`ModelParams`).
 MODEL_PARAMS: List[str]
+#: Every readout and run setting: group, key, field, flag, unit, kind, range (lo, hi, lo_open,
+#: hi_open) or choices, default and help; the ranges and defaults both front ends apply.
+SETTINGS: List[Dict[str, Any]]
 
 _Path = Union[str, "os.PathLike[str]"]
 _Paths = Union[_Path, Sequence[_Path]]
@@ -34,44 +37,71 @@ class DetnoiseWarning(UserWarning):
     """Something a run wants the user to know that did not stop it."""
 
 class ModelParams(TypedDict, total=False):
-    """Readout-model parameters; each model reads only those it needs (see MODELS_HELP)."""
+    """Readout-model parameters; each model reads only those it needs (see MODELS_HELP).
+    Ranges and defaults are the command line's (``SETTINGS``)."""
 
-    #: EMCCD mean EM gain, output e- per input e-, 1 to 10,000 (500).
+    # BEGIN settings: generated from detnoise::settings::READOUT by tests/python_stubs.rs
+    #: EMCCD mean EM gain, output e- per input e-: 1 to 10,000 (cameras run at most at a few
+    #: thousand; the exact register's table grows linearly with the gain); in [1, 10000] e-/e-;
+    #: default: 500.
     em_gain: float
-    #: Stages of the EM register, 1 to 2000, at least log2(em_gain) (520).
+    #: Stages of the EM register, 1 to 2000 stages, and at least log2(gain) (a stage at most doubles
+    #: the charge: p = gain^(1/stages) - 1 <= 1); whole number from 1 to 2000 stages; default: 520.
     stages: int
-    #: EMCCD read noise before division by the gain, e- rms (50).
+    #: EMCCD read noise before division by the gain, e- rms; >= 0 e-; default: 50.
     emccd_read_noise_e: float
-    #: emccd-distribution draws N(n g, n g^2) above this many input e- (None: exact Gamma).
-    gaussian_switch_e: Optional[int]
-    #: EM register sampler: "exact" (tabulated) or "cascade" (per-stage binomials, slow).
-    register: str
-    #: Read noise of a bare `scmos-constant`, e- rms (1).
+    #: Read noise of `scmos-constant` without its own `:SIGMA`, e- rms; >= 0 e-; default: 1.
     sigma_e: float
-    #: Per-pixel rms distribution: "paper", a PdfFit, or the path of a pdf_fit.json.
-    pdf: Union[str, "PdfFit", _Path]
-    #: Model to take from `pdf` (default its best).
-    pdf_model: Optional[str]
-    #: Seed of the fixed sCMOS noise patterns (2015).
+    #: `emccd-distribution` draws N(n g, n g^2) instead of Gamma(n, g) above this many input
+    #: electrons, e- (the paper's switch, corrected); default: always the exact Gamma; whole number
+    #: from 0 to 4294967295 input e-.
+    gaussian_switch_e: Optional[int]
+    #: EM register sampler: `exact` (tabulated single-electron output, fast) or `cascade` (per-stage
+    #: binomials, the slow reference); default: exact.
+    register: Literal["exact", "cascade"]
+    #: Seed of the fixed sCMOS noise patterns, unitless (`scmos-fixed:K` uses pattern K of it);
+    #: whole number from 0 to 18446744073709551615; default: 2015.
     pattern_seed: int
-    #: Measured read-noise map, e- rms: a 2-D array or a FITS/TIFF/EXR file (scmos-map).
-    map_e: Union[_Array, _Path]
-    #: emccd-pp threshold rule: "poisson-prior" or "equal-density".
-    pp_rule: str
-    #: emccd-pp reference light level, photo-electrons per pixel (None: the sub-aperture mean).
+    #: `emccd-pp` threshold rule (a reconstruction of Basden et al. 2003): poisson-prior (boundaries
+    #: n(n+1)/lambda in units of g, lambda the sub-aperture mean or `pp_lambda`), pixel-prior (the
+    #: same with each pixel's own mean level in the centred noiseless spot, in photo-electrons:
+    #: per-pixel thresholds and correction) or equal-density (fixed, ~0.203, 0.719, 1.896 g ...);
+    #: default: poisson-prior.
+    pp_rule: Literal["poisson-prior", "equal-density", "pixel-prior"]
+    #: `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean
+    #: (not with `pp_rule` pixel-prior, whose levels are the pixels' own); > 0 photo-electrons per
+    #: pixel.
     pp_lambda: Optional[float]
-    #: Telegraph pixels for scmos-rts: the rts.csv written by `darks` with a gain.
-    rts_table: _Path
-    #: Row-noise amplitude of scmos-correlated, e- rms.
-    row_noise_e: float
-    #: Column-noise amplitude of scmos-correlated, e- rms.
-    column_noise_e: float
-    #: Dark frames for scmos-frames (files, a directory or a glob; needs gain_e_per_adu).
-    dark_frames: _Paths
-    #: Memory bound of the dark frames kept, MiB (512).
+    #: Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or the path of
+    #: a `pdf_fit.json` written by `detnoise fit-pdf` (its best model unless `pdf_model`); default:
+    #: paper.
+    pdf: Union[str, "PdfFit", _Path]
+    #: Name of the model to take from a `pdf_fit.json`: paper-scaled, paper-family, lognormal+tail
+    #: or empirical; default: none.
+    pdf_model: Optional[str]
+    #: Measured read-noise map in e- (FITS/TIFF/EXR; e.g. `rms_e.fits` from `darks`) for the
+    #: `scmos-map` model; non-finite pixels are excluded; default: none.
+    map_e: Optional[Union[_Array, _Path]]
+    #: Telegraph (RTS) pixels for `scmos-rts`: the rts.csv written by `darks` (with
+    #: `gain_e_per_adu`, so that it has the levels in e-), of the camera of `map_e`; default: none.
+    rts_table: Optional[_Path]
+    #: Row-noise amplitude of `scmos-correlated`, e- rms: one draw per row of the window per frame
+    #: (darks: temporal_noise.row_rms_e in summary.json); >= 0 e-; default: none.
+    row_noise_e: Optional[float]
+    #: Column-noise amplitude of `scmos-correlated`, e- rms: one draw per column of the window per
+    #: frame (darks: temporal_noise.column_rms_e in summary.json); >= 0 e-; default: none.
+    column_noise_e: Optional[float]
+    #: Dark frames for `scmos-frames` (files, a directory or a glob; FITS, TIFF, OpenEXR): each
+    #: pixel's mean over the stack is subtracted and the values converted with `gain_e_per_adu`;
+    #: default: none.
+    dark_frames: Optional[_Paths]
+    #: Memory bound of the dark frames kept for `scmos-frames`, MiB: a larger stack is sampled
+    #: uniformly (a fixed-seed reservoir, reproducible) down to what fits, as f32 e-; > 0 MiB;
+    #: default: 512.
     dark_frames_max_mib: float
-    #: Conversion gain, e- per adu (dark frames; `Readout.read(unit="adu")`).
-    gain_e_per_adu: float
+    #: Conversion gain of `dark_frames`, e- per adu; > 0 e- per adu; default: none.
+    gain_e_per_adu: Optional[float]
+    # END settings
 
 class Readout:
     """A readout model of the registry as a noise generator, e.g.
