@@ -1,5 +1,7 @@
-//! Which centroider: the names `--centroider` takes, their parameters, and building one for a
-//! run (its parameter grid depends on the spot, the sub-aperture and the camera).
+//! A centroider as the user names it ([`CentroiderSpec`]: `NAME[:PARAM]`) and as the registry
+//! knows it ([`CentroiderEntry`]: name, help, its parameter's names, unit, range and sweep grid,
+//! and its builder), and what building one for a run needs ([`CentroidContext`]: the grid
+//! depends on the spot, the sub-aperture and the camera).
 
 use super::centroider::Centroider;
 use super::registry;
