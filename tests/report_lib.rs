@@ -109,7 +109,7 @@ fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
     // (noisy tail) tcog recovers a resolved part of the gap to the median, and the comparison
     // with the EMCCD has one row per signal.
     let c = &s.centroiders;
-    let kinds = detnoise::centroid::ALL_KINDS.len();
+    let kinds = detnoise::centroid::CENTROIDERS.len();
     assert_eq!(c.rows.len(), kinds * (2 + QUICK_SUBAPS_PX.len() - 1));
     assert_eq!(c.median_rms_e, s.median_rms_e);
     let at_op = |model: &str, name: &str| {

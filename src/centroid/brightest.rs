@@ -6,7 +6,69 @@
 //! (N+1)-th value and X the positions relative to the truth.
 
 use super::centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
+use super::spec::{CentroiderEntry, CentroiderParam, ParamRange};
 use crate::stats::total_order_key;
+use crate::Error;
+
+/// `brightest-n`'s registry entry.
+pub const ENTRY: CentroiderEntry = CentroiderEntry {
+    name: "brightest-n",
+    help: "centre of gravity of the N brightest pixels above the (N+1)-th (N swept, or given)",
+    param: Some(CentroiderParam {
+        name: "n_pixels",
+        symbol: "N",
+        unit: "pixels",
+        meaning: "number of brightest pixels kept",
+        range: ParamRange {
+            least: 1.0,
+            inclusive: true,
+            whole: true,
+        },
+        grid: |ctx| {
+            let pixels = ctx.subap_px * ctx.subap_px;
+            n_grid(pixels.saturating_sub(1))
+                .into_iter()
+                .map(|k| k as f64)
+                .collect()
+        },
+    }),
+    mask_above: false,
+    build: |_, counts, ctx| {
+        let pixels = ctx.subap_px * ctx.subap_px;
+        if pixels < 2 {
+            return Err(Error::invalid(
+                "centroider",
+                "brightest-n needs a sub-aperture of at least 2 pixels",
+            ));
+        }
+        if let Some(p) = counts.iter().find(|&&k| k as usize >= pixels) {
+            return Err(Error::invalid(
+                "centroider",
+                format!("brightest-n:{p}: N must be below the {pixels} pixels of the sub-aperture"),
+            ));
+        }
+        let grid = counts.iter().map(|&k| k as usize).collect();
+        Ok(Box::new(BrightestN::new(grid, ctx.subap_px)))
+    },
+};
+
+/// Pixel counts N: 1 to 16, then 25 % steps, and `most` (none when `most` is 0).
+fn n_grid(most: usize) -> Vec<usize> {
+    let mut n: Vec<usize> = (1..=most.min(16)).collect();
+    let mut v = 16.0f64;
+    loop {
+        v *= 1.25;
+        let k = v.round() as usize;
+        if k >= most {
+            break;
+        }
+        n.push(k);
+    }
+    if n.last().is_some_and(|&last| last < most) {
+        n.push(most);
+    }
+    n
+}
 
 /// The brightest-N centroider over a grid of N.
 #[derive(Debug, Clone)]
@@ -26,11 +88,11 @@ impl BrightestN {
 
 impl Centroider for BrightestN {
     fn name(&self) -> String {
-        "brightest-n".into()
+        ENTRY.name.into()
     }
 
     fn param_name(&self) -> Option<&'static str> {
-        Some("n_pixels")
+        ENTRY.param.map(|p| p.name)
     }
 
     fn settings(&self) -> Vec<Setting> {
@@ -126,7 +188,17 @@ impl CentroidWorker for BrightestWorker<'_> {
 
 #[cfg(test)]
 mod tests {
-    use super::descending;
+    use super::{descending, n_grid};
+
+    #[test]
+    fn n_grid_is_ascending_and_ends_at_most() {
+        for most in [1, 3, 15, 16, 17, 63, 255] {
+            let n = n_grid(most);
+            assert!(n.windows(2).all(|w| w[0] < w[1]), "{n:?}");
+            assert_eq!((n[0], *n.last().unwrap()), (1, most));
+        }
+        assert!(n_grid(0).is_empty());
+    }
 
     #[test]
     fn keys_sort_brightest_first_as_total_cmp_does() {

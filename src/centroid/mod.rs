@@ -1,23 +1,67 @@
 //! Centroiders: the centre of gravity with background subtraction swept over background
 //! levels (the paper's), and the methods that use the camera's known noise map or the spot's
-//! shape (`spec` names them, `thresholded` and `brightest` implement them behind the
-//! [`Centroider`] trait of `centroider`).
+//! shape, behind the [`Centroider`] trait of `centroider`.
 //!
 //! At level b each pixel contributes v = max(x - b, 0) (the Durham platform's "subtract and
 //! clip"). Positions are in pixels from the sub-aperture centre (n-1)/2.
+//!
+//! The registry [`CENTROIDERS`] lists every centroider's [`CentroiderEntry`] (name, one-line
+//! help, its parameter's name, unit, meaning, range and sweep grid, and its builder);
+//! [`CentroiderSpec::parse`], [`centroider_names`], [`centroiders_help`] and
+//! [`centroider_units`] are generated from it. Adding a centroider is two edits:
+//! 1. a new file `src/centroid/NAME.rs` with its [`Centroider`] and [`CentroidWorker`] impls,
+//!    its test against a direct definition, and `pub const ENTRY: CentroiderEntry`;
+//! 2. one line `NAME: [ENTRY],` in the `centroiders!` list below (it declares the module and
+//!    registers the entry).
+//!
+//! The other files: `spec` (specs, entries, the run's context), `registry` (names, help and
+//! parsing over the table), `sweep`, `levels` and `sums` (the background sweep and its sums).
 
-mod brightest;
 mod centroider;
 mod levels;
+mod registry;
 mod spec;
 mod sums;
 mod sweep;
-mod thresholded;
 
 pub use centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
-pub use spec::{CentroidContext, CentroiderKind, CentroiderSpec, ALL_KINDS};
+pub use spec::{
+    BuildFn, CentroidContext, CentroiderEntry, CentroiderParam, CentroiderSpec, ParamRange,
+};
 pub use sums::{LevelSums, LevelTotals, LANES};
 pub use sweep::{BackgroundSweep, PixelTerms, Plain, Scaled, Weighted};
+
+/// Declares each centroider module and lists its entries, in order, in [`CENTROIDERS`].
+macro_rules! centroiders {
+    ($($module:ident: [$($entry:ident),+],)+) => {
+        $(mod $module;)+
+        /// The registry: every centroider, in the order of `--centroider`'s help and of tables.
+        pub const CENTROIDERS: &[CentroiderEntry] = &[$($($module::$entry),+),+];
+    };
+}
+
+centroiders! {
+    thresholded: [COG, TCOG, MASKED_COG, IVW_COG, WCOG],
+    brightest: [ENTRY],
+}
+
+/// Every centroider's name, comma-separated as `--centroider` takes them (the report's
+/// default: `cog,tcog,...`).
+pub fn centroider_names() -> &'static str {
+    static NAMES: std::sync::LazyLock<String> =
+        std::sync::LazyLock::new(|| registry::names(CENTROIDERS, ","));
+    &NAMES
+}
+
+/// The methods of `--centroider`'s long help: a line per centroider, its name and what it does.
+pub fn centroiders_help() -> String {
+    registry::help(CENTROIDERS)
+}
+
+/// What a fixed parameter is in, per centroider that takes one: `K in sigmas, M in ...`.
+pub fn centroider_units() -> String {
+    registry::units(CENTROIDERS)
+}
 
 /// Centre of gravity (x, y) in px from the centre of an n x n row-major image; None if the
 /// image sums to zero or less.

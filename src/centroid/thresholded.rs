@@ -1,12 +1,148 @@
 //! The thresholded centres of gravity: `cog`, `tcog`, `masked-cog`, `ivw-cog` and `wcog`, all
 //! one background sweep ([`BackgroundSweep::accumulate_terms`]) with per-pixel weights or
-//! threshold scales, once per value of an outer parameter.
+//! threshold scales, once per value of an outer parameter; their registry entries and
+//! parameter grids.
 
 use super::centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
-use super::spec::{CentroiderKind, SIGMA_FLOOR_E};
+use super::spec::{CentroidContext, CentroiderEntry, CentroiderParam, ParamRange};
 use super::sweep::{BackgroundSweep, Scaled, Weighted};
 use crate::spot::SpotRenderer;
 use crate::{Error, Result};
+
+/// `cog`: the paper's centre of gravity, background level b swept.
+pub const COG: CentroiderEntry = CentroiderEntry {
+    name: "cog",
+    help: "centre of gravity after subtracting a background level b (swept; the paper's)",
+    param: None,
+    mask_above: false,
+    build: |entry, _, ctx| Ok(swept_levels(entry, Weighting::None, ctx)),
+};
+
+/// `tcog`: per-pixel threshold k sigma_i from the known noise map, k swept.
+pub const TCOG: CentroiderEntry = CentroiderEntry {
+    name: "tcog",
+    help: "per-pixel threshold K x sigma_i from the known noise map (K swept, or given)",
+    param: Some(CentroiderParam {
+        name: "k_sigma",
+        symbol: "K",
+        unit: "sigmas",
+        meaning: "threshold of each pixel, in its own read-noise sigmas",
+        range: ParamRange {
+            least: 0.0,
+            inclusive: true,
+            whole: false,
+        },
+        grid: |ctx| {
+            let peak = ctx.mean_e.iter().copied().fold(0.0, f64::max);
+            k_grid(peak / ctx.median_sigma_e.max(SIGMA_FLOOR_E))
+        },
+    }),
+    mask_above: false,
+    build: |entry, k, ctx| {
+        let t = Thresholded::new(entry, Weighting::NoiseScaled, k.to_vec(), ctx.subap_px);
+        Ok(Box::new(t))
+    },
+};
+
+/// `masked-cog`: pixels noisier than m x the median sigma get zero weight; m and b swept.
+pub const MASKED_COG: CentroiderEntry = CentroiderEntry {
+    name: "masked-cog",
+    help: "pixels with sigma_i above M x the median sigma get zero weight (M swept, or given), b swept",
+    param: Some(CentroiderParam {
+        name: "mask_above_median",
+        symbol: "M",
+        unit: "times the median sigma",
+        meaning: "read noise above which a pixel is left out",
+        range: ParamRange {
+            least: 0.0,
+            inclusive: false,
+            whole: false,
+        },
+        grid: |_| MASK_GRID.to_vec(),
+    }),
+    mask_above: true,
+    build: |entry, m, ctx| {
+        let weighting = Weighting::Mask {
+            above_e: m.iter().map(|m| m * ctx.median_sigma_e).collect(),
+            m: m.to_vec(),
+        };
+        Ok(swept_levels(entry, weighting, ctx))
+    },
+};
+
+/// `ivw-cog`: inverse-variance weights from the noise map and the mean spot; b swept.
+pub const IVW_COG: CentroiderEntry = CentroiderEntry {
+    name: "ivw-cog",
+    help: "weights 1 / (sigma_i^2 + F x mean_i): noise map, mean spot, excess factor F; b swept",
+    param: None,
+    mask_above: false,
+    build: |entry, _, ctx| Ok(swept_levels(entry, Weighting::InverseVariance, ctx)),
+};
+
+/// `wcog`: a Gaussian weight on the sub-aperture centre, bias-corrected; its FWHM and b swept.
+pub const WCOG: CentroiderEntry = CentroiderEntry {
+    name: "wcog",
+    help: "Gaussian weight of FWHM W px on the sub-aperture centre (W swept, or given), b swept; divided by its noiseless response slope",
+    param: Some(CentroiderParam {
+        name: "weight_fwhm_px",
+        symbol: "W",
+        unit: "px",
+        meaning: "full width at half maximum of the Gaussian weight",
+        range: ParamRange {
+            least: 0.0,
+            inclusive: false,
+            whole: false,
+        },
+        grid: |ctx| {
+            let fwhm = ctx.spot.fwhm_px();
+            WCOG_FWHM_FACTORS
+                .iter()
+                .map(|f| (f * fwhm).max(MIN_WEIGHT_FWHM_PX))
+                .collect()
+        },
+    }),
+    mask_above: false,
+    build: |entry, widths, ctx| {
+        let renderer = SpotRenderer::new(ctx.spot, ctx.sampling, ctx.subap_px, SLOPE_OFFSET_PX);
+        let weighting = Weighting::gaussian(widths, &renderer)?;
+        Ok(swept_levels(entry, weighting, ctx))
+    },
+};
+
+/// `entry` weighted by `weighting`, swept over the run's background levels.
+fn swept_levels(
+    entry: &'static CentroiderEntry,
+    weighting: Weighting,
+    ctx: &CentroidContext,
+) -> Box<dyn Centroider> {
+    Box::new(Thresholded::new(
+        entry,
+        weighting,
+        ctx.levels_e.to_vec(),
+        ctx.subap_px,
+    ))
+}
+
+/// Read-noise sigmas below this (e-) are raised to it where one divides by them.
+const SIGMA_FLOOR_E: f64 = 1e-6;
+/// Masking thresholds swept (times the median sigma).
+const MASK_GRID: [f64; 8] = [1.25, 1.5, 2.0, 2.5, 3.0, 4.0, 6.0, 10.0];
+/// Weight widths swept (times the spot's FWHM).
+const WCOG_FWHM_FACTORS: [f64; 7] = [0.5, 0.75, 1.0, 1.5, 2.0, 3.0, 4.0];
+/// Narrowest weight (FWHM, px): narrower weights see one pixel.
+const MIN_WEIGHT_FWHM_PX: f64 = 0.5;
+
+/// Thresholds k (sigmas): 0 to 8 by 0.25, then 10 % steps up to `top` (the brightest mean
+/// pixel in sigmas), beyond which every pixel is cut.
+fn k_grid(top: f64) -> Vec<f64> {
+    let mut k: Vec<f64> = (0..=32).map(|i| i as f64 * 0.25).collect();
+    let mut v = 8.0 * 1.1;
+    while v < top.min(1e6) {
+        k.push(v);
+        v *= 1.1;
+    }
+    k
+}
 
 /// How the pixels are weighted or thresholded.
 #[derive(Debug, Clone)]
@@ -135,17 +271,17 @@ impl Weighting {
 /// sigmas for `tcog`).
 #[derive(Debug, Clone)]
 pub(super) struct Thresholded {
-    kind: CentroiderKind,
+    entry: &'static CentroiderEntry,
     weighting: Weighting,
     levels: Vec<f64>,
     n: usize,
 }
 
 impl Thresholded {
-    /// `kind` weighted by `weighting`, swept over `levels` (sorted and deduplicated here), for
+    /// `entry` weighted by `weighting`, swept over `levels` (sorted and deduplicated here), for
     /// n x n sub-apertures.
     pub(super) fn new(
-        kind: CentroiderKind,
+        entry: &'static CentroiderEntry,
         weighting: Weighting,
         mut levels: Vec<f64>,
         n: usize,
@@ -153,7 +289,7 @@ impl Thresholded {
         levels.sort_by(f64::total_cmp);
         levels.dedup();
         Thresholded {
-            kind,
+            entry,
             weighting,
             levels,
             n,
@@ -163,11 +299,11 @@ impl Thresholded {
 
 impl Centroider for Thresholded {
     fn name(&self) -> String {
-        self.kind.name().to_string()
+        self.entry.name.to_string()
     }
 
     fn param_name(&self) -> Option<&'static str> {
-        self.kind.param_name()
+        self.entry.param.map(|p| p.name)
     }
 
     fn settings(&self) -> Vec<Setting> {
@@ -284,5 +420,16 @@ impl CentroidWorker for ThresholdedWorker<'_> {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn k_grid_is_ascending_and_bounded() {
+        let k = k_grid(40.0);
+        assert!(k.windows(2).all(|w| w[0] < w[1]) && k[0] == 0.0 && *k.last().unwrap() < 40.0);
     }
 }

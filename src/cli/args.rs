@@ -196,10 +196,8 @@ mod tests;
 /// The centroiders to run (simulate, effective, report).
 #[derive(clap::Args, Debug, Clone)]
 pub struct CentroiderArgs {
-    /// Centroiders, comma-separated `NAME[:PARAM]`; a PARAM fixes the method's parameter instead
-    /// of sweeping it (K in sigmas, M in times the median sigma, W in px, N in pixels). Each is
-    /// reported at its best setting; every method is listed with --help.
-    #[arg(long, default_value = "cog", long_help = centroider_help())]
+    /// Centroiders, comma-separated `NAME[:PARAM]`; the help lists them from the registry.
+    #[arg(long, default_value = "cog", help = centroider_short_help(), long_help = centroider_help())]
     pub centroider: String,
     /// Mask pixels whose read noise exceeds this many times the camera's median (sets the
     /// parameter of masked-cog in --centroider; times the median sigma).
@@ -207,24 +205,30 @@ pub struct CentroiderArgs {
     pub mask_above: Option<f64>,
 }
 
+/// The short help of `--centroider`: what a PARAM is in, per method that takes one.
+fn centroider_short_help() -> String {
+    format!(
+        "Centroiders, comma-separated `NAME[:PARAM]`; a PARAM fixes the method's parameter \
+         instead of sweeping it ({}). Each is reported at its best setting; every method is \
+         listed with --help",
+        crate::centroid::centroider_units()
+    )
+}
+
 /// The long help of `--centroider`: the methods and what each does.
 fn centroider_help() -> String {
-    use crate::centroid::ALL_KINDS;
-    let methods: String = ALL_KINDS
-        .iter()
-        .map(|k| format!("\n  {:<12} {}", k.name(), k.help()))
-        .collect();
     format!(
         "Centroiders, comma-separated NAME[:PARAM]; a PARAM fixes the method's parameter instead \
          of sweeping it. Each is reported at its best setting (the eligible-level rule applies), \
-         on the same frames as the others. Methods:{methods}"
+         on the same frames as the others. Methods:{}",
+        crate::centroid::centroiders_help()
     )
 }
 
 impl CentroiderArgs {
-    /// The centroiders, `--mask-above` applied to masked-cog.
+    /// The centroiders, `--mask-above` applied to those whose entry takes it (masked-cog).
     pub fn specs(&self) -> Result<Vec<crate::centroid::CentroiderSpec>> {
-        use crate::centroid::{CentroiderKind, CentroiderSpec};
+        use crate::centroid::{CentroiderSpec, CENTROIDERS};
         let mut specs: Vec<CentroiderSpec> = self
             .centroider
             .split(',')
@@ -235,18 +239,20 @@ impl CentroiderArgs {
             return Err(Error::invalid("--centroider", "no centroider given"));
         }
         if let Some(m) = self.mask_above {
-            let masked = specs
-                .iter_mut()
-                .filter(|s| s.kind == CentroiderKind::MaskedCog);
             let mut any = false;
-            for s in masked {
+            for s in specs.iter_mut().filter(|s| s.entry.mask_above) {
                 any = true;
                 s.param.get_or_insert(m);
             }
             if !any {
+                let takers: Vec<&str> = CENTROIDERS
+                    .iter()
+                    .filter(|e| e.mask_above)
+                    .map(|e| e.name)
+                    .collect();
                 return Err(Error::invalid(
                     "--mask-above",
-                    "applies to masked-cog: add it to --centroider",
+                    format!("applies to {}: add it to --centroider", takers.join(" or ")),
                 ));
             }
         }

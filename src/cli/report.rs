@@ -18,7 +18,7 @@ use crate::report::DetectorKind;
 /// Options of `detnoise report`.
 #[derive(clap::Args, Debug)]
 #[command(after_long_help = SIMULATION_OPTIONS_HELP)]
-#[command(mut_arg("centroider", |a| a.default_value("cog,tcog,masked-cog,ivw-cog,wcog,brightest-n")))]
+#[command(mut_arg("centroider", |a| a.default_value(crate::centroid::centroider_names())))]
 #[command(mut_arg("gain_e_per_adu", |a| a.help(
     "Conversion gain, e- per adu, of --darks (needed when no flats are given) and of \
      --dark-frames"

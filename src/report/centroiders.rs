@@ -261,16 +261,17 @@ fn with_gaps(records: &[EffectiveRecord], median: f64) -> Vec<CentroiderRow> {
         (e.status == Status::Ok || e.status == Status::Imprecise)
             .then_some((e.sigma_eff_e, e.sigma_eff_se_e))
     };
+    let reference = CentroiderSpec::default().label();
     records
         .iter()
         .map(|r| {
             let e = &r.effective;
             let cog = records.iter().find(|c| {
-                c.centroider == "cog" && c.model == r.model && key(&c.config) == key(&r.config)
+                c.centroider == reference && c.model == r.model && key(&c.config) == key(&r.config)
             });
             let (gap, gap_se, gap_status) =
-                match (r.centroider.as_str(), cog.and_then(value), value(r)) {
-                    ("cog", _, _) => (None, None, "reference"),
+                match (r.centroider == reference, cog.and_then(value), value(r)) {
+                    (true, _, _) => (None, None, "reference"),
                     (_, Some((sc, sc_se)), Some((s, s_se))) if sc - median > 2.0 * sc_se => {
                         let g = sc - median;
                         (Some((sc - s) / g), Some(sc_se.hypot(s_se) / g), "ok")

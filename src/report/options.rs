@@ -105,9 +105,10 @@ impl Default for ReportOptions {
             out_dir: PathBuf::new(),
             force: false,
             subaps: None,
-            centroiders: crate::centroid::ALL_KINDS
+            centroiders: crate::centroid::CENTROIDERS
+                .iter()
                 .map(crate::centroid::CentroiderSpec::of)
-                .to_vec(),
+                .collect(),
             centroider_full_grid: false,
         }
     }
