@@ -186,6 +186,22 @@ pub fn by_field(field: &str) -> Option<&'static Setting> {
     all().find(|s| s.field == field)
 }
 
+/// A comma-separated list of numbers for `option` (a field or a flag, as errors name it).
+pub fn parse_list<T: std::str::FromStr>(text: &str, option: &str) -> crate::Result<Vec<T>> {
+    let items: Vec<T> = text
+        .split(',')
+        .map(|s| {
+            s.trim().parse::<T>().map_err(|_| {
+                crate::Error::invalid(option, format!("'{s}' in '{text}' is not a valid number"))
+            })
+        })
+        .collect::<crate::Result<_>>()?;
+    if items.is_empty() {
+        return Err(crate::Error::invalid(option, "empty list"));
+    }
+    Ok(items)
+}
+
 /// A finite real number between `lo` and `hi` from `text`, or the message of why not.
 pub fn parse_real(
     text: &str,

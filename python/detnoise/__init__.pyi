@@ -280,12 +280,15 @@ def simulate(
     bg_grid: str = "auto",
     position_half_range_px: float = 0.5,
     max_empty_frac: float = 0.01,
+    centroider: Union[str, Sequence[str], None] = None,
+    mask_above: Optional[float] = None,
     progress: _Progress = None,
     **params: Unpack[ModelParams],
 ) -> List[_Record]:
-    """The sub-aperture Monte-Carlo (`detnoise simulate`): one record per configuration and
-    model with R (r_px) and its SE (r_se_px), px. Defaults: the command line's models,
-    16 px, airy:2, 50 photons."""
+    """The sub-aperture Monte-Carlo (`detnoise simulate`): one record per configuration, model
+    and centroider with R (r_px) and its SE (r_se_px), px. Defaults: the command line's
+    models, 16 px, airy:2, 50 photons, `cog` (`centroider`: NAME[:PARAM] texts; `mask_above`,
+    times the median sigma, sets masked-cog's parameter)."""
 
 def effective(
     model: str = "scmos-random",
@@ -303,11 +306,14 @@ def effective(
     target_se_e: float = 0.05,
     target_rel: float = 0.025,
     max_iters: Optional[int] = None,
+    centroider: Union[str, Sequence[str], None] = None,
+    mask_above: Optional[float] = None,
     progress: _Progress = None,
     **params: Unpack[ModelParams],
 ) -> List[_Record]:
-    """Effective Gaussian read noise (`detnoise effective`): one record per configuration with
-    sigma_eff_e, sigma_eff_se_e (e-; None without a value) and a status word."""
+    """Effective Gaussian read noise (`detnoise effective`): one record per configuration and
+    centroider with sigma_eff_e, sigma_eff_se_e (e-; None without a value) and a status word.
+    Defaults: the paper's Fig. 12 grid and `cog`."""
 
 class Report:
     """A report's results; its files are in `out_dir`."""
@@ -348,7 +354,14 @@ def report(
     qe: float = 1.0,
     qe_emccd: float = 1.0,
     accept_illuminated: bool = False,
+    centroider: Union[str, Sequence[str], None] = None,
+    mask_above: Optional[float] = None,
+    centroider_full_grid: bool = False,
+    subap_grid: Optional[str] = None,
+    subap_mask: Optional[_Path] = None,
     progress: _Progress = None,
     **params: Unpack[ModelParams],
 ) -> Report:
-    """The end-to-end report (`detnoise report`), written into `out`."""
+    """The end-to-end report (`detnoise report`), written into `out`. `centroider`: the
+    centroider section's methods (default every registered one); `subap_grid`:
+    SIZE[,PITCH[,X0,Y0]] px adds the per-sub-aperture map (`subap_mask`: its valid cells)."""

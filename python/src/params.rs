@@ -45,6 +45,14 @@ pub fn read_params(py: Python<'_>, params: Option<&Bound<'_, PyDict>>) -> PyResu
     p
 }
 
+/// The readout settings given as `**params`, each checked by the registry, no file read yet.
+pub fn given_values(params: Option<&Bound<'_, PyDict>>) -> PyResult<Values> {
+    match params {
+        Some(dict) => Given::new(dict)?.values(),
+        None => Ok(Values::default()),
+    }
+}
+
 /// The keyword arguments, checked for unknown names.
 struct Given<'a, 'py> {
     dict: &'a Bound<'py, PyDict>,

@@ -6,10 +6,12 @@ use crate::convert::{one_or_many, to_py};
 use crate::errors::{invalid, IntoPy};
 use crate::fit::PdfFit;
 use crate::observer::observed;
-use crate::params::read_params;
-use crate::sim::{sampling_of, spots_of};
+use crate::params::{given_values, read_params};
+use crate::sim::{centroiders_of, sampling_of, spots_of, whole};
 use detnoise::effective::Precision;
 use detnoise::report::{DetectorKind, OperatingPoint, ReportOptions, ReportResult, Summary};
+use detnoise::settings;
+use detnoise::subaps::{Geometry, GridSpec, ValidMask};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -103,7 +105,9 @@ impl Report {
     subap_px = None, spot = None, signal_photons = None, operating_point = None, iters = 10_000,
     target_se_e = Precision::DEFAULT_TARGET_SE_E, target_rel = Precision::DEFAULT_TARGET_REL,
     max_iters = None, seed = 1, sampling = "integrated", qe = 1.0, qe_emccd = 1.0,
-    accept_illuminated = false, progress = None, **params
+    accept_illuminated = false, centroider = None, mask_above = None,
+    centroider_full_grid = false, subap_grid = None, subap_mask = None, progress = None,
+    **params
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn report<'py>(
@@ -118,15 +122,20 @@ pub fn report<'py>(
     spot: Option<&Bound<'py, PyAny>>,
     signal_photons: Option<&Bound<'py, PyAny>>,
     operating_point: Option<&str>,
-    iters: u64,
+    iters: i128,
     target_se_e: f64,
     target_rel: f64,
     max_iters: Option<u64>,
-    seed: u64,
+    seed: i128,
     sampling: &str,
     qe: f64,
     qe_emccd: f64,
     accept_illuminated: bool,
+    centroider: Option<&Bound<'py, PyAny>>,
+    mask_above: Option<f64>,
+    centroider_full_grid: bool,
+    subap_grid: Option<&str>,
+    subap_mask: Option<PathBuf>,
     progress: Option<Py<PyAny>>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Report> {
@@ -140,6 +149,10 @@ pub fn report<'py>(
             ))
         }
     };
+    let (iters, seed) = (
+        whole(&settings::ITERS, iters)?,
+        whole(&settings::SEED, seed)?,
+    );
     let mut options = ReportOptions {
         detector,
         darks_paths: crate::calib::paths_of(darks)?,
@@ -167,27 +180,37 @@ pub fn report<'py>(
         force,
         ..ReportOptions::default()
     };
+    // A report runs every registered centroider unless told otherwise (the command line's
+    // default).
+    if let Some(c) = centroider {
+        options.centroiders = centroiders_of(c, mask_above)?;
+    } else if mask_above.is_some() {
+        let all = detnoise::centroid::centroider_names().into_pyobject(py)?;
+        options.centroiders = centroiders_of(all.as_any(), mask_above)?;
+    }
+    options.centroider_full_grid = centroider_full_grid;
+    if let Some(grid) = subap_grid {
+        let grid = GridSpec::parse(grid).py()?;
+        let mask = subap_mask
+            .as_deref()
+            .map(ValidMask::read)
+            .transpose()
+            .py()?;
+        options.subaps = Some(Geometry { grid, mask });
+    } else if subap_mask.is_some() {
+        return Err(invalid("subap_mask", "applies only with `subap_grid`"));
+    }
     // Every option is checked before any file is read, as on the command line: the register
     // and the conversion gain first, from the values given.
-    let given = |key: &str| -> PyResult<Option<Bound<'py, PyAny>>> {
-        Ok(match params {
-            Some(p) => p.get_item(key)?.filter(|v| !v.is_none()),
-            None => None,
-        })
-    };
-    if let Some(g) = given("em_gain")? {
-        options.model_params.em_gain = g.extract()?;
-    }
-    if let Some(s) = given("stages")? {
-        options.model_params.stages = s.extract()?;
-    }
-    if let Some(g) = given("gain_e_per_adu")? {
-        options.gain_e_per_adu = Some(g.extract()?);
-    }
+    let values = given_values(params)?;
+    options.model_params.em_gain = values.real(&settings::EM_GAIN).expect("has a default");
+    options.model_params.stages = values.whole(&settings::STAGES).expect("has a default") as u32;
+    options.gain_e_per_adu = values.real(&settings::GAIN_E_PER_ADU);
+    options.model_input_paths.extend(subap_mask);
     options.validate().py()?;
     let p = read_params(py, params)?;
     options.model_params = p.model;
-    options.model_input_paths = p.input_files;
+    options.model_input_paths.extend(p.input_files);
     let result = observed(py, progress, |o| detnoise::report::run(&options, o))?;
     Ok(Report { result })
 }

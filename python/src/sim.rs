@@ -7,9 +7,11 @@ use crate::convert::{one_or_many, to_py};
 use crate::errors::{invalid, IntoPy};
 use crate::observer::observed;
 use crate::params::read_params;
+use detnoise::centroid::CentroiderSpec;
 use detnoise::detector::ModelSpec;
-use detnoise::effective::{effective_table, Precision};
-use detnoise::montecarlo::{sweep, BgGrid, Grid, SimConfig};
+use detnoise::effective::{effective_table_with, Precision};
+use detnoise::montecarlo::{sweep_with, BgGrid, Grid, SimConfig};
+use detnoise::settings::{self, Setting, Value};
 use detnoise::spot::{Sampling, Spot};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -54,40 +56,84 @@ pub fn spots_of(spot: &Bound<'_, PyAny>) -> PyResult<Vec<Spot>> {
 
 /// The sweep's settings shared by `simulate` and `effective`.
 pub struct Sweep<'a, 'py> {
+    /// The command whose defaults apply to the lists left None (`simulate`, `effective`).
+    pub command: &'static str,
     /// Sub-aperture sides, px.
-    pub subap_px: &'a Bound<'py, PyAny>,
+    pub subap_px: Option<&'a Bound<'py, PyAny>>,
     /// Spots.
-    pub spot: &'a Bound<'py, PyAny>,
+    pub spot: Option<&'a Bound<'py, PyAny>>,
     /// Signals, photons per sub-aperture.
-    pub signal_photons: &'a Bound<'py, PyAny>,
+    pub signal_photons: Option<&'a Bound<'py, PyAny>>,
     /// Everything else, in a configuration.
     pub shared: SimConfig,
 }
 
 impl Sweep<'_, '_> {
-    /// Every configuration of the grid, validated.
+    /// Every configuration of the grid, validated; a list left None takes the command's
+    /// default (`detnoise::settings`), as on the command line.
     pub fn configs(&self) -> PyResult<Vec<SimConfig>> {
+        let default = |s: &Setting| settings::default_in(self.command, s).expect("has a default");
+        let subaps_px = match self.subap_px {
+            Some(v) => one_or_many(v)?,
+            None => settings::parse_list(default(&settings::SUBAP_PX), "subap_px").py()?,
+        };
+        let spots = match self.spot {
+            Some(v) => spots_of(v)?,
+            None => Spot::parse_list(&[default(&settings::SPOT).to_string()]).py()?,
+        };
+        let signals_photons = match self.signal_photons {
+            Some(v) => one_or_many(v)?,
+            None => {
+                settings::parse_list(default(&settings::SIGNAL_PHOTONS), "signal_photons").py()?
+            }
+        };
         let grid = Grid {
-            subaps_px: one_or_many(self.subap_px)?,
-            spots: spots_of(self.spot)?,
-            signals_photons: one_or_many(self.signal_photons)?,
+            subaps_px,
+            spots,
+            signals_photons,
             shared: self.shared.clone(),
         };
         grid.configs().py()
     }
 }
 
-/// The configuration settings other than the grid's, checked by the library.
+/// `value` for `setting` if the registry takes it, else a `ValueError` naming the keyword.
+fn checked(setting: &Setting, value: Value) -> PyResult<Value> {
+    setting.check(value).map_err(|e| invalid(setting.key, e))
+}
+
+/// A Python int for whole-number `setting`, checked by the registry (a negative one too, as a
+/// `ValueError` rather than pyo3's `OverflowError`).
+pub fn whole(setting: &Setting, v: i128) -> PyResult<u64> {
+    let refused = || invalid(setting.key, format!("{v}: {}", setting.expected()));
+    let v = u64::try_from(v).map_err(|_| refused())?;
+    checked(setting, Value::Whole(v))?;
+    Ok(v)
+}
+
+/// The configuration settings other than the grid's, each checked by the registry as the
+/// command line checks it.
 #[allow(clippy::too_many_arguments)]
 pub fn shared_config(
     qe: f64,
-    iters: u64,
-    seed: u64,
+    iters: i128,
+    seed: i128,
     sampling: &str,
     bg_grid: &str,
     position_half_range_px: f64,
     max_empty_frac: f64,
 ) -> PyResult<SimConfig> {
+    checked(&settings::QE, Value::Real(qe))?;
+    let (iters, seed) = (
+        whole(&settings::ITERS, iters)?,
+        whole(&settings::SEED, seed)?,
+    );
+    checked(&settings::SAMPLING, Value::Text(sampling.into()))?;
+    checked(
+        &settings::POSITION_HALF_RANGE_PX,
+        Value::Real(position_half_range_px),
+    )?;
+    checked(&settings::MAX_EMPTY_FRAC, Value::Real(max_empty_frac))?;
     Ok(SimConfig {
         sampling: sampling_of(sampling)?,
         qe,
@@ -98,6 +144,19 @@ pub fn shared_config(
         max_empty_frac,
         ..SimConfig::paper(SimConfig::MIN_SUBAP_PX)
     })
+}
+
+/// The centroiders of `centroider` (a comma-separated text or a list of names), with
+/// `mask_above` (times the median sigma) for those that take it; checked by the library.
+pub fn centroiders_of(
+    centroider: &Bound<'_, PyAny>,
+    mask_above: Option<f64>,
+) -> PyResult<Vec<CentroiderSpec>> {
+    let names: Vec<String> = one_or_many(centroider)?;
+    if let Some(m) = mask_above {
+        checked(&settings::MASK_ABOVE, Value::Real(m))?;
+    }
+    detnoise::centroid::parse_specs(&names.join(","), mask_above).py()
 }
 
 /// The models `simulate` compares by default (those of the command line).
@@ -112,7 +171,7 @@ pub const DEFAULT_MODELS: &str =
     models = None,
     *, subap_px = None, spot = None, signal_photons = None, qe = 1.0, iters = 10_000, seed = 1,
     sampling = "integrated", bg_grid = "auto", position_half_range_px = 0.5,
-    max_empty_frac = 0.01, progress = None, **params
+    max_empty_frac = 0.01, centroider = None, mask_above = None, progress = None, **params
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn simulate<'py>(
@@ -122,12 +181,14 @@ pub fn simulate<'py>(
     spot: Option<&Bound<'py, PyAny>>,
     signal_photons: Option<&Bound<'py, PyAny>>,
     qe: f64,
-    iters: u64,
-    seed: u64,
+    iters: i128,
+    seed: i128,
     sampling: &str,
     bg_grid: &str,
     position_half_range_px: f64,
     max_empty_frac: f64,
+    centroider: Option<&Bound<'py, PyAny>>,
+    mask_above: Option<f64>,
     progress: Option<Py<PyAny>>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -144,20 +205,19 @@ pub fn simulate<'py>(
         position_half_range_px,
         max_empty_frac,
     )?;
-    let defaults = (
-        16usize.into_pyobject(py)?,
-        "airy:2".into_pyobject(py)?,
-        50.0f64.into_pyobject(py)?,
-    );
     let configs = Sweep {
-        subap_px: subap_px.unwrap_or(defaults.0.as_any()),
-        spot: spot.unwrap_or(defaults.1.as_any()),
-        signal_photons: signal_photons.unwrap_or(defaults.2.as_any()),
+        command: "simulate",
+        subap_px,
+        spot,
+        signal_photons,
         shared,
     }
     .configs()?;
+    let centroiders = centroiders_or_cog(py, centroider, mask_above)?;
     let p = read_params(py, params)?;
-    let records = observed(py, progress, |o| sweep(&configs, &specs, &p.model, o))?;
+    let records = observed(py, progress, |o| {
+        sweep_with(&configs, &specs, &centroiders, &p.model, o)
+    })?;
     to_py(py, &records)
 }
 
@@ -172,7 +232,8 @@ pub fn simulate<'py>(
     *, subap_px = None, spot = None, signal_photons = None, qe = 1.0, iters = 10_000, seed = 1,
     sampling = "integrated", bg_grid = "auto", position_half_range_px = 0.5,
     max_empty_frac = 0.01, target_se_e = Precision::DEFAULT_TARGET_SE_E,
-    target_rel = Precision::DEFAULT_TARGET_REL, max_iters = None, progress = None, **params
+    target_rel = Precision::DEFAULT_TARGET_REL, max_iters = None, centroider = None,
+    mask_above = None, progress = None, **params
 ))]
 #[allow(clippy::too_many_arguments)]
 pub fn effective<'py>(
@@ -182,8 +243,8 @@ pub fn effective<'py>(
     spot: Option<&Bound<'py, PyAny>>,
     signal_photons: Option<&Bound<'py, PyAny>>,
     qe: f64,
-    iters: u64,
-    seed: u64,
+    iters: i128,
+    seed: i128,
     sampling: &str,
     bg_grid: &str,
     position_half_range_px: f64,
@@ -191,6 +252,8 @@ pub fn effective<'py>(
     target_se_e: f64,
     target_rel: f64,
     max_iters: Option<u64>,
+    centroider: Option<&Bound<'py, PyAny>>,
+    mask_above: Option<f64>,
     progress: Option<Py<PyAny>>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
@@ -204,18 +267,16 @@ pub fn effective<'py>(
         position_half_range_px,
         max_empty_frac,
     )?;
-    let defaults = (
-        vec![4usize, 6, 8, 10, 12, 14, 16].into_pyobject(py)?,
-        "airy:1,2,4,6,8,10".into_pyobject(py)?,
-        vec![20.0f64, 50.0, 100.0, 200.0, 500.0, 1000.0].into_pyobject(py)?,
-    );
     let configs = Sweep {
-        subap_px: subap_px.unwrap_or(defaults.0.as_any()),
-        spot: spot.unwrap_or(defaults.1.as_any()),
-        signal_photons: signal_photons.unwrap_or(defaults.2.as_any()),
+        command: "effective",
+        subap_px,
+        spot,
+        signal_photons,
         shared,
     }
     .configs()?;
+    let centroiders = centroiders_or_cog(py, centroider, mask_above)?;
+    let iters = configs[0].iters;
     let precision = Precision {
         target_se_e,
         target_rel,
@@ -224,7 +285,20 @@ pub fn effective<'py>(
     precision.validate(iters).py()?;
     let p = read_params(py, params)?;
     let records = observed(py, progress, |o| {
-        effective_table(&configs, &[spec], &p.model, &precision, o)
+        effective_table_with(&configs, &[spec], &centroiders, &p.model, &precision, o)
     })?;
     to_py(py, &records)
+}
+
+/// The centroiders given, or the command's default (`cog`) when None.
+fn centroiders_or_cog(
+    py: Python<'_>,
+    centroider: Option<&Bound<'_, PyAny>>,
+    mask_above: Option<f64>,
+) -> PyResult<Vec<CentroiderSpec>> {
+    let default = settings::CENTROIDER
+        .default
+        .expect("has a default")
+        .into_pyobject(py)?;
+    centroiders_of(centroider.unwrap_or(default.as_any()), mask_above)
 }

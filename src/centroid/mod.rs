@@ -53,6 +53,48 @@ pub fn centroider_names() -> &'static str {
     &NAMES
 }
 
+/// The centroiders of a comma-separated `NAME[:PARAM]` list (`centroider`), with `mask_above`
+/// (times the median sigma) the parameter of those whose entry takes it (masked-cog) unless
+/// fixed in the list: the one parser of the command line and Python.
+pub fn parse_specs(text: &str, mask_above: Option<f64>) -> crate::Result<Vec<CentroiderSpec>> {
+    use crate::Error;
+    let mut specs: Vec<CentroiderSpec> = text
+        .split(',')
+        .filter(|s| !s.trim().is_empty())
+        .map(|s| CentroiderSpec::parse(s.trim()))
+        .collect::<crate::Result<_>>()?;
+    if specs.is_empty() {
+        return Err(Error::invalid("centroider", "no centroider given"));
+    }
+    if let Some(m) = mask_above {
+        let mut takers = specs.iter_mut().filter(|s| s.entry.mask_above).peekable();
+        if takers.peek().is_none() {
+            let names: Vec<&str> = CENTROIDERS
+                .iter()
+                .filter(|e| e.mask_above)
+                .map(|e| e.name)
+                .collect();
+            return Err(Error::invalid(
+                "mask_above",
+                format!("applies to {}: add it to `centroider`", names.join(" or ")),
+            ));
+        }
+        for s in takers {
+            s.param.get_or_insert(m);
+        }
+    }
+    let mut seen = std::collections::HashSet::new();
+    for s in &specs {
+        if !seen.insert(s.label()) {
+            return Err(Error::invalid(
+                "centroider",
+                format!("{} is given twice", s.label()),
+            ));
+        }
+    }
+    Ok(specs)
+}
+
 /// The methods of `--centroider`'s long help: a line per centroider, its name and what it does.
 pub fn centroiders_help() -> String {
     registry::help(CENTROIDERS)

@@ -174,21 +174,7 @@ pub fn parse_models(text: &str) -> Result<Vec<ModelSpec>> {
     Ok(specs)
 }
 
-/// Parse a comma-separated list of numbers for `option`.
-pub fn parse_list<T: std::str::FromStr>(text: &str, option: &str) -> Result<Vec<T>> {
-    let items: Vec<T> = text
-        .split(',')
-        .map(|s| {
-            s.trim().parse::<T>().map_err(|_| {
-                Error::invalid(option, format!("'{s}' in '{text}' is not a valid number"))
-            })
-        })
-        .collect::<Result<_>>()?;
-    if items.is_empty() {
-        return Err(Error::invalid(option, "empty list"));
-    }
-    Ok(items)
-}
+pub use crate::settings::parse_list;
 
 #[cfg(test)]
 mod tests;
@@ -228,43 +214,6 @@ fn centroider_help() -> String {
 impl CentroiderArgs {
     /// The centroiders, `--mask-above` applied to those whose entry takes it (masked-cog).
     pub fn specs(&self) -> Result<Vec<crate::centroid::CentroiderSpec>> {
-        use crate::centroid::{CentroiderSpec, CENTROIDERS};
-        let mut specs: Vec<CentroiderSpec> = self
-            .centroider
-            .split(',')
-            .filter(|s| !s.trim().is_empty())
-            .map(|s| CentroiderSpec::parse(s.trim()))
-            .collect::<Result<_>>()?;
-        if specs.is_empty() {
-            return Err(Error::invalid("--centroider", "no centroider given"));
-        }
-        if let Some(m) = self.mask_above {
-            let mut any = false;
-            for s in specs.iter_mut().filter(|s| s.entry.mask_above) {
-                any = true;
-                s.param.get_or_insert(m);
-            }
-            if !any {
-                let takers: Vec<&str> = CENTROIDERS
-                    .iter()
-                    .filter(|e| e.mask_above)
-                    .map(|e| e.name)
-                    .collect();
-                return Err(Error::invalid(
-                    "--mask-above",
-                    format!("applies to {}: add it to --centroider", takers.join(" or ")),
-                ));
-            }
-        }
-        let mut seen = std::collections::HashSet::new();
-        for s in &specs {
-            if !seen.insert(s.label()) {
-                return Err(Error::invalid(
-                    "--centroider",
-                    format!("{} is given twice", s.label()),
-                ));
-            }
-        }
-        Ok(specs)
+        crate::centroid::parse_specs(&self.centroider, self.mask_above)
     }
 }

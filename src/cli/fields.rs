@@ -67,7 +67,6 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     // Per-sub-aperture noise map (crate::subaps): geometry, shards, part files to merge.
     ("subap_grid", "--subap-grid"),
     // Centroiders (centroid).
-    ("centroider", "--centroider"),
     ("subap_mask", "--subap-mask"),
     ("shard", "--shard"),
     ("parts", "PART"),

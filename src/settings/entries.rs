@@ -340,8 +340,29 @@ pub const RUN: &[&Setting] = &[
     &MAX_EMPTY_FRAC,
 ];
 
+/// Centroiders of a run.
+pub const CENTROIDER: Setting = Setting::new(
+    "centroider",
+    "--centroider",
+    Text,
+    "Centroiders, comma-separated `NAME[:PARAM]` (crate::centroid::CENTROIDERS); a PARAM fixes      the method's parameter instead of sweeping it",
+)
+.default("cog");
+
+/// masked-cog's threshold, times the camera's median sigma.
+pub const MASK_ABOVE: Setting = Setting::new(
+    "mask_above",
+    "--mask-above",
+    POSITIVE,
+    "Mask pixels whose read noise exceeds this many times the camera's median (sets the      parameter of masked-cog in --centroider; times the median sigma)",
+);
+
+/// The centroider settings (`simulate`, `effective`, `report`, `subaps`).
+pub const CENTROID: &[&Setting] = &[&CENTROIDER, &MASK_ABOVE];
+
 /// Every group, named as `--help` headings and Python's `SETTINGS` name them.
-pub const GROUPS: &[(&str, &[&Setting])] = &[("readout", READOUT), ("run", RUN)];
+pub const GROUPS: &[(&str, &[&Setting])] =
+    &[("readout", READOUT), ("run", RUN), ("centroid", CENTROID)];
 
 /// A command whose option for a registry setting takes a default of its own.
 #[derive(Debug, Clone, Copy)]
