@@ -116,6 +116,22 @@ impl SettingsArgs for DetectorArgs {
     fn from_values(values: Values) -> Self {
         DetectorArgs { values }
     }
+    fn add_to(cmd: clap::Command) -> clap::Command {
+        // `--gain` could mean either gain: refused, naming both (clap's tip names only one).
+        let gain = clap::Arg::new("ambiguous_gain")
+            .long("gain")
+            .hide(true)
+            .value_name("VALUE")
+            .value_parser(|_: &str| -> std::result::Result<String, String> {
+                Err(
+                    "which gain? `--em-gain` is the EM gain (e-/e-), `--gain-e-per-adu` the \
+                     conversion gain (e- per adu)"
+                        .into(),
+                )
+            });
+        cmd.args(Self::SETTINGS.iter().map(|s| super::settings::arg(s)))
+            .arg(gain)
+    }
 }
 settings_args!(DetectorArgs);
 
