@@ -453,7 +453,7 @@ fn versus_chart(c: &Centroiders) -> LineChart {
 /// The page's section: the table at the operating point (map and fitted pdf), the best method,
 /// the gap recovered, the chart over sub-aperture sizes and the comparison with an EMCCD.
 pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::ChosenPoint) {
-    use super::page::{figure, num};
+    use super::html::{figure, num, pm};
     use std::fmt::Write as _;
     let _ = write!(
         h,
@@ -476,11 +476,6 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         "<table><tr><th>camera</th><th>centroider</th><th>best parameter</th><th>R (px)</th>\
          <th>σ<sub>eff</sub> (e⁻)</th><th>status</th><th>gap recovered</th></tr>",
     );
-    let pm = |v: Option<f64>, se: Option<f64>, d: usize| match (v, se) {
-        (Some(v), Some(se)) => format!("{} ± {}", num(v, d), num(se, d)),
-        (Some(v), None) => num(v, d),
-        _ => "–".into(),
-    };
     let op = c.rows.first();
     for r in c
         .rows

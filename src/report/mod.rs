@@ -6,13 +6,12 @@
 //! directory is written only when the whole report succeeded.
 
 mod centroiders;
-pub mod charts;
 mod compare;
 mod emccd;
 mod grid;
-pub mod heatmaps;
+mod html;
 mod options;
-pub mod page;
+mod page;
 mod point;
 pub mod qe_factor;
 mod real_noise;

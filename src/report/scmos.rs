@@ -2,12 +2,10 @@
 //! effective read noise over the grid (fitted pdf and measured map), and the comparison.
 
 use super::centroiders::{centroider_section, Inputs as CentroiderInputs, CENTROIDER_FILES};
-use super::charts::effective_heatmaps;
 use super::compare::{
     compare_models, scmos_groups, scmos_labels, write_comparison, COMPARISON_FILES,
 };
 use super::grid::Grid;
-use super::heatmaps::NoiseScale;
 use super::options::{GainSource, ReportOptions};
 use super::page::{index_html, ScmosPage};
 use super::point::{ChosenPoint, OperatingPoint};
@@ -19,6 +17,7 @@ use crate::calib::ptc::chart as ptc_chart;
 use crate::calib::ptc::POINTS_NAMES;
 use crate::calib::ptc::{photon_transfer, write_points, DarkReference, PtcOptions, PtcResult};
 use crate::calib::summary::{inputs, Checksum, InputFile};
+use crate::charts::heatmaps::{effective_heatmaps, NoiseScale};
 use crate::detector::{ModelParams, ModelSpec};
 use crate::effective::{effective_table, Effective, EffectiveRecord, Precision, TABLE_NAMES};
 use crate::fit::pdf_fit::chart as pdf_fit_chart;

@@ -1,9 +1,9 @@
-use super::charts::{comparison_chart, r_against_sweep};
-use super::compare::{emccd_labels, scmos_labels, verdicts};
+use super::compare::{comparison_chart, emccd_labels, scmos_labels, verdicts};
 use super::*;
+use crate::charts::heatmaps::tests::every_status;
+use crate::charts::sweep::tests::sim_record;
 use crate::detector::{ModelParams, ModelSpec};
-use crate::effective::{Effective, Status};
-use crate::montecarlo::{SimConfig, SimResult};
+use crate::effective::Status;
 use crate::spot::Spot;
 use crate::Error;
 use std::path::{Path, PathBuf};
@@ -149,29 +149,9 @@ fn messages_name_other_settings_as_fields() {
 
 /// A comparison record of `spec` at `signal_photons` with R = `r_px` +- `r_se_px`.
 fn compared(spec: ModelSpec, signal_photons: f64, r_px: f64, r_se_px: f64) -> Compared {
-    let cfg = SimConfig {
-        signal_photons,
-        ..SimConfig::paper(8)
-    };
-    let result = SimResult {
-        model: format!("{spec:?}"),
-        centroider: "cog".into(),
-        param_name: None,
-        param_opt: None,
-        best: 0,
-        r_px,
-        r_se_px,
-        b_opt_e: 0.0,
-        b_at_grid_edge: false,
-        no_eligible_level: false,
-        r0_px: r_px,
-        r0_se_px: r_se_px,
-        zero_frames: 0,
-        levels: vec![],
-    };
     Compared {
+        record: sim_record(&format!("{spec:?}"), signal_photons, r_px, r_se_px),
         spec,
-        record: SimRecord::new(&cfg, Some(500.0), result),
     }
 }
 
@@ -214,7 +194,10 @@ fn comparison_chart_labels_each_model_once_in_order_of_appearance() {
         compared(ModelSpec::ScmosConstant(Some(1.5)), 50.0, 0.15, 0.01),
     ];
     let labels = scmos_labels(&ModelParams::default());
-    comparison_chart(&comparison, &path, &labels).unwrap();
+    comparison_chart(&comparison, &labels)
+        .unwrap()
+        .save(&path)
+        .unwrap();
     let svg = std::fs::read_to_string(&path).unwrap();
     let mapped = svg
         .find("this camera (measured map)")
@@ -224,85 +207,13 @@ fn comparison_chart_labels_each_model_once_in_order_of_appearance() {
     assert!(mapped < unlabelled);
     assert_eq!(svg.matches("this camera (measured map)").count(), 1);
     assert!(svg.contains("R against signal, 8x8 px, airy:2"));
-    assert!(comparison_chart(&[], &path, &labels).is_err());
-}
-
-#[test]
-fn r_against_sweep_takes_the_first_axis_that_varies() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("sweep.svg");
-    let records: Vec<SimRecord> = [(20.0, 0.3), (50.0, 0.2)]
-        .iter()
-        .map(|&(s, r)| compared(ModelSpec::ScmosMean, s, r, 0.01).record)
-        .collect();
-    r_against_sweep(&records, &path).unwrap();
-    let svg = std::fs::read_to_string(&path).unwrap();
-    assert!(svg.contains("signal (photons per sub-aperture)"), "{svg}");
-    assert!(svg.contains("ScmosMean"));
-}
-
-/// A record of the fitted pdf at (n px, airy:d, s photons) with sigma_eff +- se and `status`.
-pub(crate) fn record(
-    n: usize,
-    d: f64,
-    s: f64,
-    sigma: f64,
-    se: f64,
-    status: Status,
-) -> EffectiveRecord {
-    let cfg = SimConfig {
-        spot: Spot::Airy { diameter_px: d },
-        signal_photons: s,
-        ..SimConfig::paper(n)
-    };
-    let e = Effective {
-        sigma_eff_e: sigma,
-        sigma_eff_se_e: se,
-        r_px: 0.3,
-        r_se_px: 0.003,
-        b_opt_e: 0.0,
-        param_name: None,
-        param_opt: None,
-        sigma_grid_e: vec![],
-        r_const_px: vec![],
-        iters: cfg.iters,
-        target_se_e: Some(0.05),
-        status,
-    };
-    EffectiveRecord::new("scmos-random".into(), &cfg, &e)
-}
-
-/// Every status over a 4 x 3 grid at two signals: ok cells 1.0, 1.5, ..., 9.0 e- (17 of
-/// them), and non-ok cells with values far above them that must not set the scale.
-pub(crate) fn every_status() -> Vec<EffectiveRecord> {
-    let subaps = [4, 8, 12, 16];
-    let spots = [1.0, 2.0, 6.0];
-    let mut out = Vec::new();
-    let mut ok = (2..=18).map(|k| k as f64 * 0.5);
-    for s in [20.0, 50.0] {
-        for (i, &n) in subaps.iter().enumerate() {
-            for (j, &d) in spots.iter().enumerate() {
-                let r = match (s == 20.0, i, j) {
-                    (true, 3, 2) => record(n, d, s, 67.31, 120.65, Status::Imprecise),
-                    (true, 3, 1) => record(n, d, s, 0.0, 0.2, Status::LowerBound),
-                    (true, 3, 0) => record(n, d, s, f64::NAN, f64::NAN, Status::Unreachable),
-                    (false, 3, 2) => record(n, d, s, f64::NAN, f64::NAN, Status::NoEligibleLevel),
-                    _ => match ok.next() {
-                        Some(v) => record(n, d, s, v, 0.05, Status::Ok),
-                        None => record(n, d, s, 29.71, 18.47, Status::Imprecise),
-                    },
-                };
-                out.push(r);
-            }
-        }
-    }
-    out
+    assert!(comparison_chart(&[], &labels).is_err());
 }
 
 /// The sCMOS page of `effective` with the headline's map value `map` (sigma, se, status).
 fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String {
-    use super::heatmaps::NoiseScale;
     use super::page::{index_html, ScmosPage};
+    use crate::charts::heatmaps::NoiseScale;
     // A smooth spread of per-pixel noise (e-) to fit: the page only prints the fit's numbers.
     let values: Vec<f64> = (1..=300)
         .map(|k| 0.6 + 1.5 * (k as f64 * 0.618_034).fract())
@@ -431,7 +342,7 @@ fn without_unreachable_cells_the_page_gives_no_advice() {
 
 #[test]
 fn articles_before_numbers_follow_how_they_are_read() {
-    use super::page::article;
+    use super::html::article;
     for n in [8, 11, 18, 80, 86, 800, 8000, 11_000, 18_000, 11_000_000] {
         assert_eq!(article(n), "an", "{n}");
     }
