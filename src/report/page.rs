@@ -16,6 +16,9 @@ use crate::plot::Heatmap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+/// Files of the page and its numbers.
+pub(crate) const PAGE_FILES: [&str; 2] = ["summary.json", "index.html"];
+
 /// The legend of the effective-noise status words.
 fn status_legend(h: &mut String) {
     h.push_str("<h3>Status words</h3><dl class=\"legend\">");
