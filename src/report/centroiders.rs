@@ -414,8 +414,23 @@ fn sigma_chart(c: &Centroiders) -> LineChart {
         format!("camera median {:.2} e-", c.median_rms_e),
         [(lo, c.median_rms_e), (hi, c.median_rms_e)],
     ));
+    // Seven lines leave no corner free: the data take the lower part of the axis and the
+    // legend (a third of the plot's height) the upper part.
+    let top = chart
+        .series
+        .iter()
+        .flat_map(|s| &s.points)
+        .map(|p| p.y + p.y_se.unwrap_or(0.0))
+        .filter(|y| y.is_finite())
+        .fold(0.0f64, f64::max);
+    if top > 0.0 {
+        chart.y_range = Some((0.0, top / DATA_HEIGHT_FRACTION));
+    }
     chart
 }
+
+/// The part of the σ_eff chart's height that the data take, the rest left to the legend.
+const DATA_HEIGHT_FRACTION: f64 = 0.6;
 
 /// R against signal: each side with plain cog and at its best centroider.
 fn versus_chart(c: &Centroiders) -> LineChart {

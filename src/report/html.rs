@@ -58,7 +58,8 @@ figure{{margin:1.5em 0}}figure img{{max-width:100%;border:1px solid #e3e3e3}}fig
 table{{border-collapse:collapse;font-size:.88em;margin:.8em 0}}td,th{{border:1px solid #ccc;padding:.25em .55em;text-align:right}}th{{background:#f0f0f0}}\
 .note{{color:#555;font-size:.9em}}.muted{{color:#888}}.status{{font-family:monospace;color:#6a3d00}}\
 dl.legend{{display:grid;grid-template-columns:max-content 1fr;gap:.2em 1em;font-size:.92em}}dl.legend dd{{margin:0}}\
-.advice{{background:#fff6e5;border:1px solid #e8c98a;border-radius:6px;padding:.6em .9em}}</style></head><body>"
+.advice{{background:#fff6e5;border:1px solid #e8c98a;border-radius:6px;padding:.6em .9em}}\
+details{{margin:.8em 0}}summary{{cursor:pointer;color:#0b4f8a}}</style></head><body>"
     );
     h
 }

@@ -212,6 +212,15 @@ fn comparison_chart_labels_each_model_once_in_order_of_appearance() {
 
 /// The sCMOS page of `effective` with the headline's map value `map` (sigma, se, status).
 fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String {
+    scmos_page_with(effective, map, |_| {})
+}
+
+/// [`scmos_page`] with the summary changed by `change` first.
+fn scmos_page_with(
+    effective: &[EffectiveRecord],
+    map: (f64, f64, Status),
+    change: impl Fn(&mut ReportSummary),
+) -> String {
     use super::page::{index_html, ScmosPage};
     use crate::charts::heatmaps::NoiseScale;
     // A smooth spread of per-pixel noise (e-) to fit: the page only prints the fit's numbers.
@@ -220,7 +229,7 @@ fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String 
         .collect();
     let fit = crate::fit::pdf_fit::fit_pdf(&values, &Default::default()).unwrap();
     let at = ChosenPoint::new(&OperatingPoint::default(), false, true);
-    let summary = ReportSummary {
+    let mut summary = ReportSummary {
         tool: "detnoise test".into(),
         inputs: vec![],
         frames: 100,
@@ -263,6 +272,7 @@ fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String 
             versus_emccd: vec![],
         },
     };
+    change(&mut summary);
     let heatmaps = vec![
         PathBuf::from("out/effective_noise_S20.png"),
         PathBuf::from("out/effective_noise_S20.svg"),
@@ -308,7 +318,9 @@ fn the_page_shows_each_status_by_its_word_with_a_legend_and_no_nan() {
         );
     }
     // The headline is unreachable: its word, not a number.
-    assert!(h.contains("(measured map)<b><span class=\"status\">unreachable</span></b>"));
+    assert!(
+        h.contains("(this camera's measured map)<b><span class=\"status\">unreachable</span></b>")
+    );
     // Where a cell is unreachable, the page says what to simulate instead, with this report's
     // files.
     assert!(h.contains("detnoise simulate --model scmos-map --map my-report/rms_e.fits"));
@@ -337,7 +349,7 @@ fn without_unreachable_cells_the_page_gives_no_advice() {
         .collect();
     let h = scmos_page(&ok, (3.55, 0.1, Status::Ok));
     assert!(!h.contains("class=\"advice\""));
-    assert!(h.contains("(measured map)<b>3.55 ± 0.10 e⁻</b>"));
+    assert!(h.contains("(this camera's measured map)<b>3.55 ± 0.10 e⁻</b>"));
 }
 
 #[test]
@@ -371,4 +383,63 @@ fn comparison_labels_state_the_parameters_simulated() {
         label(emccd_labels(&params), ModelSpec::ScmosRandom),
         "sCMOS, pdf paper [0, 10] e-"
     );
+}
+
+#[test]
+fn the_page_explains_its_terms_folds_the_long_table_and_shows_each_chart_once() {
+    let records = every_status();
+    let h = scmos_page(&records, (3.55, 0.1, Status::Ok));
+    // The terms of the fit table, every fitted model, and the spot notation.
+    for term in ["ln L", "ΔAIC", "max CDF distance"] {
+        assert!(h.contains(&format!("<dt>{term}</dt><dd>")), "{term}");
+    }
+    for m in crate::fit::PdfModel::ALL {
+        let term = crate::output::html_escape(m.name());
+        assert!(h.contains(&format!("<dt>{term}</dt><dd>")), "{term}");
+    }
+    assert!(h.contains("<code>airy:D</code> is an Airy spot"));
+    // The effective-noise table folds, saying how long it is; the status legend stays open.
+    let details = h
+        .find("<details><summary>Every configuration: 24 rows")
+        .unwrap();
+    let table_end = h[details..].find("</table></details>").unwrap() + details;
+    assert!(h[details..table_end].matches("<tr>").count() == 25);
+    assert!(h[table_end..].contains("<h3>Status words</h3>"));
+    // The heatmaps' model is named beside the headline's, with both values.
+    assert!(h.contains(
+        "the fitted distribution gives 3.47 ± 0.09 e⁻ and the measured map 3.55 ± 0.10 e⁻"
+    ));
+    // One histogram of the per-pixel noise on the page (the fit's); rms_hist.png is a file.
+    assert!(h.contains("<img src=\"pdf_fit.png\""));
+    assert!(!h.contains("<img src=\"rms_hist.png\"") && h.contains("rms_hist.png ("));
+}
+
+#[test]
+fn the_noise_split_and_the_telegraph_pixels_say_what_there_is() {
+    // No telegraph pixel, no line noise: no dashes for the missing medians, no note.
+    let none = scmos_page(&every_status(), (3.55, 0.1, Status::Ok));
+    assert!(none.contains("Random-telegraph (RTS) pixels: none was flagged"));
+    assert!(!none.contains("median span") && !none.contains("above the total"));
+    // Negative line variances (rms 0) put the pixel part above the total: the page says why.
+    let split = scmos_page_with(&every_status(), (3.55, 0.1, Status::Ok), |s| {
+        let t = &mut s.real_noise.temporal_noise;
+        (t.pixel_rms_e, t.pixel_rms_se_e) = (Some(1.5737), Some(0.0061));
+        (t.total_rms_e, t.total_rms_se_e) = (Some(1.5730), Some(0.0061));
+        let rts = &mut s.real_noise.rts;
+        (rts.flagged, rts.fitted, rts.ok, rts.two_level) = (12, 10, 9, 9);
+        (rts.median_span_e, rts.median_dwell_frames) = (Some(8.04), Some(31.5));
+    });
+    assert!(split.contains("The pixel part is above the total by 0.0007 e⁻"));
+    assert!(split.contains("within the pixel part's SE (0.0061 e⁻)"));
+    assert!(split.contains(
+        "12 flagged, 10 fitted, 9 fitted <span class=\"status\">ok</span> (9 two-level, \
+         0 three-level); median span between a pixel's outer levels 8.04 e⁻, median dwell \
+         time 31.5 frames"
+    ));
+    // Flagged but none ok: no medians to give, said in words.
+    let flagged = scmos_page_with(&every_status(), (3.55, 0.1, Status::Ok), |s| {
+        s.real_noise.rts.flagged = 3;
+    });
+    assert!(flagged.contains("none fitted ok, so no span or dwell time to give"));
+    assert!(!flagged.contains("median span"));
 }
