@@ -8,6 +8,7 @@
 
 pub mod calib;
 pub mod centroid;
+pub mod charts;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod detector;

@@ -394,3 +394,85 @@ fn the_real_noise_section_measures_and_simulates_the_cameras_rts_and_line_noise(
     let page = std::fs::read_to_string(out.join("index.html")).unwrap();
     assert!(page.contains("noise beyond Gaussian pixels") && !page.contains("NaN"));
 }
+
+/// Whether `name` matches the glob `pattern` (only `*` is used in output names).
+fn matches(pattern: &str, name: &str) -> bool {
+    match pattern.split_once('*') {
+        None => pattern == name,
+        Some((head, tail)) => {
+            name.len() >= head.len() + tail.len() && name.starts_with(head) && name.ends_with(tail)
+        }
+    }
+}
+
+#[test]
+fn the_declared_output_names_are_the_files_full_reports_write() {
+    // Every part of a report: the darks with telegraph pixels (their example series), photon
+    // transfer on the flats, a lenslet geometry, every centroider (the default), and an EMCCD
+    // report; on one configuration with few iterations (the files do not depend on them).
+    let dir = tempfile::tempdir().unwrap();
+    let one_config = |stack: &str, out: &str| ReportOptions {
+        subaps_px: Some(vec![8]),
+        spots: Some(vec![Spot::Airy { diameter_px: 2.0 }]),
+        signals_photons: Some(vec![50.0]),
+        ..quick(stack, 0.25, &dir.path().join(out))
+    };
+    let small = |stack: &str, out: &str| ReportOptions {
+        iters: 600,
+        precision: detnoise::effective::Precision::fixed(600),
+        ..one_config(stack, out)
+    };
+    let geometry = detnoise::subaps::Geometry {
+        grid: detnoise::subaps::GridSpec::parse("8").unwrap(),
+        mask: None,
+    };
+    let runs = [
+        ReportOptions {
+            subaps: Some(geometry),
+            ..small("scmos-rts-64x64.fits", "rts")
+        },
+        ReportOptions {
+            gain_e_per_adu: None,
+            flats_paths: [100, 400, 1600, 6400]
+                .iter()
+                .map(|e| data(&format!("scmos-flat-64x64-{e}e.fits")))
+                .collect(),
+            ..small("scmos-darks-64x64.fits", "flats")
+        },
+        // The QE factor's chart needs an `ok` factor: the quick precision target.
+        ReportOptions {
+            detector: DetectorKind::Emccd,
+            gain_e_per_adu: Some(10.0),
+            ..one_config("emccd-lowlight-32x48.fits", "emccd")
+        },
+    ];
+    let declared = report::output_names(true);
+    let mut written: Vec<String> = Vec::new();
+    for options in &runs {
+        report::run(options, &Silent).unwrap();
+        for entry in std::fs::read_dir(&options.out_dir).unwrap() {
+            let name = entry.unwrap().file_name().to_string_lossy().into_owned();
+            // The directory's manifest is the output directory's, not a part's.
+            if name != ".detnoise-manifest.json" {
+                written.push(name);
+            }
+        }
+    }
+    let undeclared: Vec<&String> = written
+        .iter()
+        .filter(|n| !declared.iter().any(|p| matches(p, n)))
+        .collect();
+    assert!(
+        undeclared.is_empty(),
+        "written, not declared: {undeclared:?}"
+    );
+    let unwritten: Vec<&&str> = declared
+        .iter()
+        .filter(|p| !written.iter().any(|n| matches(p, n)))
+        .collect();
+    assert!(unwritten.is_empty(), "declared, not written: {unwritten:?}");
+    // Without a lenslet geometry the per-sub-aperture files are not among the names.
+    let plain = report::output_names(false);
+    assert_eq!(plain.len() + 7, declared.len());
+    assert!(!plain.contains(&"subaps.csv") && declared.contains(&"subaps.csv"));
+}

@@ -153,7 +153,7 @@ impl EffectiveArgs {
 /// Write the table (CSV, JSON) and the heatmaps into `dir`; returns the heatmaps' paths.
 pub fn write_outputs(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
     write_tables(records, &dir.path(""))?;
-    crate::report::charts::effective_heatmaps(records, dir)
+    crate::charts::heatmaps::effective_heatmaps(records, dir)
 }
 
 /// Entry point of `detnoise effective`.

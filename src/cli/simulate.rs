@@ -75,7 +75,7 @@ pub fn run_cli(args: &SimulateArgs) -> Result<()> {
         None => print!("{text}"),
     }
     if let Some(path) = &args.plot {
-        crate::report::charts::r_against_sweep(&records, path)?;
+        crate::charts::sweep::r_against_sweep(&records, path)?;
     }
     Ok(())
 }

@@ -3,13 +3,13 @@
 
 use super::figure::{airy, r_figure, save_line, Ctx, Curve, SIGNALS};
 use super::options::FigureInfo;
+use crate::charts::heatmaps::{save_heatmaps, NoiseScale};
 use crate::detector::ModelSpec;
 use crate::effective::{effective_table, Precision};
 use crate::output::write_atomic;
 use crate::pdf::paper_shape;
 use crate::plot::{HistNorm, Histogram, Image, ImageGrid, Inset, Series};
 use crate::progress::Silent;
-use crate::report::heatmaps::{save_heatmaps, NoiseScale};
 use crate::spot::Spot;
 use crate::Result;
 use std::fmt::Write as _;

@@ -415,8 +415,23 @@ fn sigma_chart(c: &Centroiders) -> LineChart {
         format!("camera median {:.2} e-", c.median_rms_e),
         [(lo, c.median_rms_e), (hi, c.median_rms_e)],
     ));
+    // Seven lines leave no corner free: the data take the lower part of the axis and the
+    // legend (a third of the plot's height) the upper part.
+    let top = chart
+        .series
+        .iter()
+        .flat_map(|s| &s.points)
+        .map(|p| p.y + p.y_se.unwrap_or(0.0))
+        .filter(|y| y.is_finite())
+        .fold(0.0f64, f64::max);
+    if top > 0.0 {
+        chart.y_range = Some((0.0, top / DATA_HEIGHT_FRACTION));
+    }
     chart
 }
+
+/// The part of the σ_eff chart's height that the data take, the rest left to the legend.
+const DATA_HEIGHT_FRACTION: f64 = 0.6;
 
 /// R against signal: each side with plain cog and at its best centroider.
 fn versus_chart(c: &Centroiders) -> LineChart {
@@ -454,7 +469,7 @@ fn versus_chart(c: &Centroiders) -> LineChart {
 /// The page's section: the table at the operating point (map and fitted pdf), the best method,
 /// the gap recovered, the chart over sub-aperture sizes and the comparison with an EMCCD.
 pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::ChosenPoint) {
-    use super::page::{figure, num};
+    use super::html::{figure, num, pm};
     use std::fmt::Write as _;
     let _ = write!(
         h,
@@ -477,11 +492,6 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         "<table><tr><th>camera</th><th>centroider</th><th>best parameter</th><th>R (px)</th>\
          <th>σ<sub>eff</sub> (e⁻)</th><th>status</th><th>gap recovered</th></tr>",
     );
-    let pm = |v: Option<f64>, se: Option<f64>, d: usize| match (v, se) {
-        (Some(v), Some(se)) => format!("{} ± {}", num(v, d), num(se, d)),
-        (Some(v), None) => num(v, d),
-        _ => "–".into(),
-    };
     let op = c.rows.first();
     for r in c
         .rows

@@ -1,15 +1,17 @@
 //! The comparison of a report: R against signal at the operating sub-aperture and spot, for
-//! this camera's models beside the one-number sCMOS models and an EMCCD.
+//! this camera's models beside the one-number sCMOS models and an EMCCD; its table, its chart
+//! and what the chart's caption says of the error bars.
 
-use super::charts::{comparison_line_chart, error_bar_note};
 use super::grid::Grid;
 use super::point::OperatingPoint;
 use super::result::Compared;
+use crate::charts::heatmaps::round_up_2_digits;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::montecarlo::{sweep, SimConfig, SimRecord};
 use crate::output::{render, write_atomic, OutputDir, TableFormat};
+use crate::plot::{LineChart, Series};
 use crate::progress::Silent;
-use crate::Result;
+use crate::{Error, Result};
 
 /// A model and its legend label in the comparison chart.
 pub(crate) type Label = (ModelSpec, String);
@@ -66,10 +68,83 @@ pub(crate) fn write_comparison(
         &dir.path(csv),
         render(&records, TableFormat::Csv)?.as_bytes(),
     )?;
-    let chart = comparison_line_chart(comparison, labels)?;
+    let chart = comparison_chart(comparison, labels)?;
     chart.save(dir.path(png))?;
     chart.save(dir.path(svg))?;
     Ok(error_bar_note(chart.error_bar_extent()?, &records))
+}
+
+/// R against signal at one sub-aperture and spot, one line per model (in order of first
+/// appearance) with error bars of one standard error; `labels` names the models in the legend
+/// (others show their model name).
+pub(crate) fn comparison_chart(
+    comparison: &[Compared],
+    labels: &[(ModelSpec, String)],
+) -> Result<LineChart> {
+    let first = &comparison
+        .first()
+        .ok_or_else(|| Error::Numeric("no comparison records to draw".into()))?
+        .record;
+    let mut chart = LineChart::new(
+        format!(
+            "R against signal, {}x{} px, {}",
+            first.config.subap_px,
+            first.config.subap_px,
+            first.config.spot.label()
+        ),
+        "signal (photons per sub-aperture)",
+        "R, mean radial error (px)",
+    );
+    chart.log_x = true;
+    chart.log_y = true;
+    let mut models: Vec<&Compared> = Vec::new();
+    for c in comparison {
+        if !models.iter().any(|m| m.spec == c.spec) {
+            models.push(c);
+        }
+    }
+    chart.series = models
+        .iter()
+        .map(|m| {
+            let label = labels
+                .iter()
+                .find(|(spec, _)| *spec == m.spec)
+                .map_or(m.record.result.model.as_str(), |(_, l)| l.as_str());
+            Series::with_errors(
+                label,
+                comparison.iter().filter(|c| c.spec == m.spec).map(|c| {
+                    let (cfg, r) = (&c.record.config, &c.record.result);
+                    (cfg.signal_photons, r.r_px, r.r_se_px)
+                }),
+            )
+        })
+        .collect();
+    Ok(chart)
+}
+
+/// What a caption says of a chart's error bars (one standard error): that they are drawn, or
+/// that they hide behind the markers, with the largest standard error (px) and the largest
+/// relative one. `extent` is [`LineChart::error_bar_extent`]; `records` the points drawn.
+pub(crate) fn error_bar_note(extent: Option<(f64, f64)>, records: &[&SimRecord]) -> String {
+    match extent {
+        None => String::new(),
+        Some((arm_px, _)) if arm_px > LineChart::MARKER_HALF_PX => {
+            "Error bars are one standard error.".into()
+        }
+        Some((_, largest_se)) => {
+            let rel = records
+                .iter()
+                .map(|r| r.result.r_se_px / r.result.r_px)
+                .filter(|v| v.is_finite())
+                .fold(0.0, f64::max);
+            format!(
+                "Error bars (one standard error) are smaller than the markers: standard errors \
+                 are at most {} px, {:.1} % of R.",
+                round_up_2_digits(largest_se).1,
+                100.0 * rel
+            )
+        }
+    }
 }
 
 /// Models run together at one quantum efficiency (photo-electrons per photon).

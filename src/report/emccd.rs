@@ -7,11 +7,12 @@ use super::compare::{
 };
 use super::grid::Grid;
 use super::options::{GainSource, ReportOptions};
-use super::page::emccd_html;
+use super::page::{emccd_html, PAGE_FILES};
 use super::point::ChosenPoint;
-use super::qe_factor::{chart_stem, html_section, save_chart, QeSummary};
+use super::qe_factor::{html_section, QeSummary};
 use super::result::{EmccdSummary, ReportInput, ReportResult, Summary};
 use crate::calib::summary::{inputs, Checksum};
+use crate::charts::qe_factor::{chart_stem, save_chart};
 use crate::detector::{EmRegister, ModelSpec};
 use crate::effective::{effective_qe_table, write_qe_tables, QePrecision, QE_TABLE_NAMES};
 use crate::fit::emgain::require_em_signature;
@@ -22,6 +23,22 @@ use crate::output::{write_atomic, write_json, OutputDir};
 use crate::progress::Observer;
 use crate::{Error, Result};
 use std::path::PathBuf;
+
+/// The EM-gain fit's chart.
+const EMGAIN_FILES: [&str; 1] = ["emgain.png"];
+
+/// The effective QE factor's charts, one per spot (see [`chart_stem`]).
+const QE_CHART_FILES: [&str; 2] = ["effective_qe_*.png", "effective_qe_*.svg"];
+
+/// The files an EMCCD report may write (glob patterns), part by part.
+pub(super) fn outputs() -> impl Iterator<Item = &'static str> {
+    EMGAIN_FILES
+        .into_iter()
+        .chain(COMPARISON_FILES)
+        .chain(QE_TABLE_NAMES)
+        .chain(QE_CHART_FILES)
+        .chain(PAGE_FILES)
+}
 
 /// Run the EMCCD report on `stack` into `dir`; `files` of the result are names inside `dir`.
 pub(crate) fn run(
@@ -51,7 +68,7 @@ pub(crate) fn run(
         Error::Numeric(m) => Error::input(&stack.sources[0].path, m),
         other => other,
     })?;
-    emgain_chart(&hist, &fit, &dir.path("emgain.png"))?;
+    emgain_chart(&hist, &fit, &dir.path(EMGAIN_FILES[0]))?;
     let mut params = o.model_params.clone();
     params.em_gain = fit.em_gain.max(1.0);
     params.emccd_read_noise_e = fit.read_noise_adu * conv;
@@ -97,19 +114,20 @@ pub(crate) fn run(
         effective_qe: qe_summary,
         effective_qe_records: qe_records,
     };
-    write_json(&dir.path("summary.json"), &summary)?;
+    let [json, html] = PAGE_FILES;
+    write_json(&dir.path(json), &summary)?;
     write_atomic(
-        &dir.path("index.html"),
+        &dir.path(html),
         emccd_html(&summary, &comparison, &error_bars, &qe_html).as_bytes(),
     )?;
     let qe_files = qe_charts
         .iter()
         .filter_map(|p| p.file_name().map(PathBuf::from));
-    let files = ["emgain.png"]
+    let files = EMGAIN_FILES
         .into_iter()
         .chain(COMPARISON_FILES)
         .chain(QE_TABLE_NAMES)
-        .chain(["summary.json", "index.html"])
+        .chain(PAGE_FILES)
         .map(PathBuf::from)
         .chain(qe_files)
         .collect();

@@ -6,13 +6,12 @@
 //! directory is written only when the whole report succeeded.
 
 mod centroiders;
-pub mod charts;
 mod compare;
 mod emccd;
 mod grid;
-pub mod heatmaps;
+mod html;
 mod options;
-pub mod page;
+mod page;
 mod point;
 pub mod qe_factor;
 mod real_noise;
@@ -36,55 +35,27 @@ pub use result::{
     ReportSummary, Summary,
 };
 
-use crate::calib::ptc::POINTS_NAMES;
 use crate::io::FrameStack;
 use crate::output::{DirPlan, OutputDir};
 use crate::progress::Observer;
 use crate::Result;
 use std::path::PathBuf;
 
-/// Files a report may write into its directory (glob patterns).
-const OUTPUT_NAMES: [&str; 38] = [
-    "offset_adu.fits",
-    "rms_adu.fits",
-    "rms_e.fits",
-    "flags.fits",
-    "rms_hist.png",
-    "excess_kurtosis.fits",
-    "rts.csv",
-    "rts.fits",
-    "rts-series.csv",
-    "rts_series.png",
-    "real_noise.csv",
-    "real_noise.json",
-    "darks_summary.json",
-    "pdf_fit.json",
-    "pdf_fit.png",
-    "effective_noise.csv",
-    "effective_noise.json",
-    "effective_noise_S*.png",
-    "effective_noise_S*.svg",
-    "r_vs_signal.csv",
-    "r_vs_signal.png",
-    "r_vs_signal.svg",
-    "ptc.png",
-    "centroiders.csv",
-    "centroiders.json",
-    "centroiders.png",
-    "centroiders_vs_emccd.csv",
-    "centroiders_vs_emccd.json",
-    "centroiders_vs_emccd.png",
-    POINTS_NAMES[0],
-    POINTS_NAMES[1],
-    "emgain.png",
-    // The EMCCD report's effective QE factor of the simple model (qe_factor).
-    "effective_qe.csv",
-    "effective_qe.json",
-    "effective_qe_*.png",
-    "effective_qe_*.svg",
-    "summary.json",
-    "index.html",
-];
+/// Files a report may write into its directory (glob patterns, `*` for a signal or a spot), as
+/// its parts declare them: an sCMOS report's and an EMCCD report's (either may replace the
+/// other's directory), and with a lenslet geometry the per-sub-aperture map's.
+pub fn output_names(with_subaps: bool) -> Vec<&'static str> {
+    let mut names: Vec<&str> = scmos::outputs().collect();
+    for name in emccd::outputs() {
+        if !names.contains(&name) {
+            names.push(name);
+        }
+    }
+    if with_subaps {
+        names.extend(crate::subaps::OUTPUT_NAMES);
+    }
+    names
+}
 
 /// Run a whole report: check the options, read the frames, compute, and write every output
 /// into `options.out_dir`.
@@ -98,17 +69,7 @@ pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportRes
         .chain(&options.model_input_paths)
         .cloned()
         .collect();
-    // With a lenslet geometry, the per-sub-aperture map's files too.
-    let names: Vec<&str> = OUTPUT_NAMES
-        .iter()
-        .chain(
-            options
-                .subaps
-                .iter()
-                .flat_map(|_| &crate::subaps::OUTPUT_NAMES),
-        )
-        .copied()
-        .collect();
+    let names = output_names(options.subaps.is_some());
     let dir = OutputDir::prepare(
         &options.out_dir,
         DirPlan {

@@ -5,88 +5,24 @@
 //! dash; the page carries a legend of the status words.
 
 use super::compare::verdicts;
-use super::heatmaps::NoiseScale;
+use super::html::{article, figure, fmt_effective, key, num, page_head, pm};
 use super::result::{Compared, EmccdSummary, RealNoise, ReportSummary};
+use crate::calib::darks::{RtsSummary, TemporalNoiseSummary};
+use crate::charts::heatmaps::NoiseScale;
 use crate::detector::ModelSpec;
 use crate::effective::{EffectiveRecord, Status};
 use crate::fit::pdf_fit::PdfFitReport;
+use crate::fit::PdfModel;
 use crate::output::html_escape as esc;
 use crate::plot::Heatmap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-/// "a" or "an" before the number `n` as it is read aloud (an 8, an 11, an 18, an 80, a 16).
-pub fn article(n: u64) -> &'static str {
-    let digits = n.to_string();
-    // Numbers read with a leading vowel sound: eight..., eleven..., eighteen... (the last two
-    // only when they lead a group of three digits: 11, 18, 11,000, 18,000,000).
-    let eleven_or_eighteen =
-        digits.len() % 3 == 2 && (digits.starts_with("11") || digits.starts_with("18"));
-    if digits.starts_with('8') || eleven_or_eighteen {
-        "an"
-    } else {
-        "a"
-    }
-}
+/// How the page writes a spot.
+const SPOT_NOTATION: &str = "<span class=\"note\">Spots: <code>airy:D</code> is an Airy spot whose first dark ring is D px across; <code>gauss:SX,SY</code> a Gaussian spot of standard deviations SX and SY px.</span>";
 
-/// A number with `decimals`, or a dash when it is not finite (never "NaN").
-pub(super) fn num(v: f64, decimals: usize) -> String {
-    if v.is_finite() {
-        format!("{v:.decimals$}")
-    } else {
-        "–".into()
-    }
-}
-
-/// An effective read noise as the page shows it: `ok` as value ± SE, `imprecise` greyed with
-/// its word, any other status as its word alone.
-pub fn fmt_effective(sigma_e: f64, se_e: f64, status: Status) -> String {
-    let word = |s: Status| format!("<span class=\"status\">{}</span>", s.label());
-    match status {
-        Status::Ok => format!("{} ± {} e⁻", num(sigma_e, 2), num(se_e, 2)),
-        Status::Imprecise => format!(
-            "<span class=\"muted\">{} ± {} e⁻ {}</span>",
-            num(sigma_e, 2),
-            num(se_e, 2),
-            word(status)
-        ),
-        s => word(s),
-    }
-}
-
-/// The page's head and style sheet, shared by both kinds of report.
-fn page_head() -> String {
-    let mut h = String::new();
-    let _ = write!(
-        h,
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>detnoise report</title><style>\
-body{{font-family:'DejaVu Sans',Helvetica,Arial,sans-serif;max-width:1100px;margin:1.5em auto;padding:0 1em;color:#1d1d1d;line-height:1.45}}\
-h1{{font-size:1.6em;margin-bottom:.2em}}h2{{margin-top:1.8em;border-bottom:2px solid #ddd;padding-bottom:.2em}}\
-.keys{{display:grid;grid-template-columns:repeat(auto-fill,minmax(230px,1fr));gap:.8em;margin:1em 0}}\
-.key{{background:#f3f6fa;border:1px solid #d5dde8;border-radius:6px;padding:.7em .9em}}.key b{{display:block;font-size:1.45em;color:#0b4f8a}}\
-figure{{margin:1.5em 0}}figure img{{max-width:100%;border:1px solid #e3e3e3}}figcaption{{color:#444;font-size:.93em}}\
-table{{border-collapse:collapse;font-size:.88em;margin:.8em 0}}td,th{{border:1px solid #ccc;padding:.25em .55em;text-align:right}}th{{background:#f0f0f0}}\
-.note{{color:#555;font-size:.9em}}.muted{{color:#888}}.status{{font-family:monospace;color:#6a3d00}}\
-dl.legend{{display:grid;grid-template-columns:max-content 1fr;gap:.2em 1em;font-size:.92em}}dl.legend dd{{margin:0}}\
-.advice{{background:#fff6e5;border:1px solid #e8c98a;border-radius:6px;padding:.6em .9em}}</style></head><body>"
-    );
-    h
-}
-
-/// A figure: the image `src` with plain-text `alt`, and its `caption` (HTML).
-pub(super) fn figure(h: &mut String, src: &str, alt: &str, caption: &str) {
-    let _ = write!(
-        h,
-        "<figure><img src=\"{}\" alt=\"{}\"><figcaption>{caption}</figcaption></figure>",
-        esc(src),
-        esc(alt).replace('"', "&quot;")
-    );
-}
-
-/// A key number: its label and value (both HTML).
-pub(super) fn key(h: &mut String, label: &str, value: &str) {
-    let _ = write!(h, "<div class=\"key\">{label}<b>{value}</b></div>");
-}
+/// Files of the page and its numbers.
+pub(crate) const PAGE_FILES: [&str; 2] = ["summary.json", "index.html"];
 
 /// The legend of the effective-noise status words.
 fn status_legend(h: &mut String) {
@@ -223,7 +159,7 @@ pub fn index_html(p: &ScmosPage) -> String {
         if s.quick { " · <b>quick preview: reduced grid and iterations; run without --quick for full accuracy</b>" } else { "" });
     let _ = write!(
         h,
-        "<p>Operating point of the headline numbers: {}.</p>",
+        "<p>Operating point of the headline numbers: {}. {SPOT_NOTATION}</p>",
         esc(&at.describe())
     );
     h.push_str("<h2>Key numbers</h2><div class=\"keys\">");
@@ -250,7 +186,7 @@ pub fn index_html(p: &ScmosPage) -> String {
     key(
         &mut h,
         &format!(
-            "Effective read noise, {}×{} px, {}, {} photons (measured map)",
+            "Effective read noise, {}×{} px, {}, {} photons (this camera's measured map)",
             at.subap_px,
             at.subap_px,
             esc(&at.spot),
@@ -264,7 +200,7 @@ pub fn index_html(p: &ScmosPage) -> String {
     );
     key(
         &mut h,
-        "Same, from the fitted distribution",
+        "Same, from the fitted distribution (the heatmaps' model)",
         &fmt_effective(
             op.sigma_eff_fitted_pdf_e,
             op.sigma_eff_fitted_pdf_se_e,
@@ -272,7 +208,7 @@ pub fn index_html(p: &ScmosPage) -> String {
         ),
     );
     h.push_str("</div>");
-    let _ = write!(h, "<p>Use the effective read noise, not the median, as the Gaussian read noise of this camera in an AO simulation of {} {}×{} px sub-aperture. The full table below gives it for every sub-aperture size, spot and signal; only values marked <span class=\"status\">ok</span> (shown as value ± SE) are results.</p>", article(at.subap_px as u64), at.subap_px, at.subap_px);
+    let _ = write!(h, "<p>Use the effective read noise, not the median, as the Gaussian read noise of this camera in an AO simulation of {} {}×{} px sub-aperture. It is the constant read noise that gives the same mean centroid error R as the camera itself. Two models of the camera give it: its <b>measured map</b> (scmos-map: random windows of this camera's own per-pixel noise, the headline) and its <b>fitted distribution</b> (scmos-random: each pixel's noise drawn from the fit of the map's values, what the heatmaps below show). The table at the end gives both for every sub-aperture size, spot and signal; only values marked <span class=\"status\">ok</span> (shown as value ± SE) are results.</p>", article(at.subap_px as u64), at.subap_px, at.subap_px);
     let unreachable = p
         .effective
         .iter()
@@ -298,18 +234,9 @@ pub fn index_html(p: &ScmosPage) -> String {
     }
     effective_table(&mut h, p.effective);
     fit_table(&mut h, p.fit);
-    let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with its BLAKE3 checksum), darks_summary.json.</p></body></html>",
+    let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Charts: rms_hist.png (the per-pixel read noise of every pixel, flagged ones included, log counts; the fit's chart above shows the unflagged ones), the heatmaps also as SVG, r_vs_signal.svg. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with its BLAKE3 checksum), darks_summary.json.</p></body></html>",
         if p.has_ptc { ", ptc_points.csv/.json (the photon-transfer points: mean, variance and gain per light level)" } else { "" });
     h
-}
-
-/// A value ± SE (e-) with `decimals`, or a dash when there is none.
-fn pm(v: Option<f64>, se: Option<f64>, decimals: usize) -> String {
-    match (v, se) {
-        (Some(v), Some(se)) => format!("{} ± {}", num(v, decimals), num(se, decimals)),
-        (Some(v), None) => num(v, decimals),
-        _ => "–".into(),
-    }
 }
 
 /// "The camera's noise beyond Gaussian pixels": the pixel/row/column split, the telegraph
@@ -357,12 +284,9 @@ fn real_noise_section(h: &mut String, r: &RealNoise, at: &str) {
         );
     }
     h.push_str("</table>");
-    let rts = &r.rts;
-    let _ = write!(h, "<p>Random-telegraph (RTS) pixels: {} flagged, {} fitted, {} fitted <span class=\"status\">ok</span> ({} two-level, {} three-level); median span between a pixel's outer levels {} e⁻, median dwell time {} frames (per pixel in rts.csv / rts.fits).</p>",
-        rts.flagged, rts.fitted, rts.ok, rts.two_level, rts.three_level,
-        rts.median_span_e.map_or("–".into(), |v| num(v, 2)),
-        rts.median_dwell_frames.map_or("–".into(), |v| num(v, 1)));
-    if !rts.example_pixels.is_empty() {
+    split_note(h, t);
+    rts_sentence(h, &r.rts);
+    if !r.rts.example_pixels.is_empty() {
         figure(h, "rts_series.png", "Example RTS pixel time series", "Example RTS pixels: output less the pixel's mean (e⁻) against frame, stacked apart; data in rts-series.csv (adu).");
     }
     if let Some(d) = &r.dark_frames {
@@ -389,6 +313,36 @@ fn real_noise_section(h: &mut String, r: &RealNoise, at: &str) {
     h.push_str("</table>");
 }
 
+/// Why the pixel part can show above the total: the line parts are differences of variances,
+/// negative by chance without line noise (shown as rms 0), and the pixel part is the total
+/// less both.
+fn split_note(h: &mut String, t: &TemporalNoiseSummary) {
+    let (Some(pixel), Some(total), Some(se)) = (t.pixel_rms_e, t.total_rms_e, t.pixel_rms_se_e)
+    else {
+        return;
+    };
+    if pixel <= total {
+        return;
+    }
+    let _ = write!(h, "<p class=\"note\">The pixel part is above the total by {} e⁻: the row and column parts are estimated as differences of variances, which come out negative by chance about half the time when a camera has no row or column noise (an rms of 0 here, the rms of a negative variance); the pixel part is the total less both, so it is then slightly above the total. The difference is within the pixel part's SE ({} e⁻): this camera shows no measurable row or column noise.</p>", num(pixel - total, 4), num(se, 4));
+}
+
+/// The telegraph pixels: how many, and their median span and dwell time when any was fitted
+/// `ok`.
+fn rts_sentence(h: &mut String, rts: &RtsSummary) {
+    if rts.flagged == 0 {
+        h.push_str("<p>Random-telegraph (RTS) pixels: none was flagged, so there is no span or dwell time to give.</p>");
+        return;
+    }
+    let _ = write!(h, "<p>Random-telegraph (RTS) pixels: {} flagged, {} fitted, {} fitted <span class=\"status\">ok</span> ({} two-level, {} three-level)", rts.flagged, rts.fitted, rts.ok, rts.two_level, rts.three_level);
+    match (rts.median_span_e, rts.median_dwell_frames) {
+        (Some(span), Some(dwell)) => {
+            let _ = write!(h, "; median span between a pixel's outer levels {} e⁻, median dwell time {} frames (per pixel in rts.csv / rts.fits).</p>", num(span, 2), num(dwell, 1));
+        }
+        _ => h.push_str("; none fitted ok, so no span or dwell time to give (per pixel in rts.csv / rts.fits).</p>"),
+    }
+}
+
 /// The page's charts: the pdf fit, the comparison, the heatmaps, the noise histogram and the
 /// photon transfer.
 fn charts(h: &mut String, p: &ScmosPage) {
@@ -396,6 +350,10 @@ fn charts(h: &mut String, p: &ScmosPage) {
     h.push_str("<h2>Charts</h2>");
     figure(h, "pdf_fit.png", "Per-pixel read noise with the fitted distributions", &format!("Per-pixel read noise (e⁻) of the {} unflagged pixels with the fitted distributions; best by AIC: <b>{}</b>. Inset: log scale, showing the tail of noisy pixels.", s.pixels_used, esc(&s.pdf_best_model)));
     figure(h, "r_vs_signal.png", "R against signal for this camera, one-number models and an EMCCD", &format!("Mean radial centroid error R against signal: this camera (random windows of its measured noise map, and its fitted distribution), the one-number models (median, mean) and an EMCCD. Lower is better. {}", esc(p.error_bars)));
+    let op = &s.operating_point;
+    let _ = write!(h, "<p>The heatmaps show the effective read noise of the <b>fitted distribution</b> (scmos-random) over every sub-aperture size and spot, one chart per signal; the headline above is the <b>measured map</b>'s (scmos-map). At the operating point the fitted distribution gives {} and the measured map {}; the measured map's value for every configuration is in the table at the end and in effective_noise.csv.</p>",
+        fmt_effective(op.sigma_eff_fitted_pdf_e, op.sigma_eff_fitted_pdf_se_e, op.sigma_eff_fitted_pdf_status),
+        fmt_effective(op.sigma_eff_map_e, op.sigma_eff_map_se_e, op.sigma_eff_map_status));
     for path in p
         .heatmaps
         .iter()
@@ -410,12 +368,6 @@ fn charts(h: &mut String, p: &ScmosPage) {
             .trim_end_matches(".png");
         figure(h, &name, &format!("Effective read noise by sub-aperture size and spot, {signal} photons"), &format!("Effective Gaussian read noise (e⁻) by sub-aperture size and spot, from the fitted distribution, at {signal} photons per sub-aperture; {}, the same for every signal; {} marks a value above it (drawn in its top colour). Grey hatched cells are not results: they show their status word (see the legend below).", esc(&p.scale.describe()), Heatmap::CLIPPED_MARK));
     }
-    figure(
-        h,
-        "rms_hist.png",
-        "Histogram of the per-pixel read noise",
-        "Histogram of the per-pixel read noise (log counts), all pixels including flagged ones.",
-    );
     if p.has_ptc {
         figure(h, "ptc.png", "Photon transfer: variance against mean of the flats", "Photon transfer: variance against mean signal of the flats (dark-subtracted), with the fit that gives the conversion gain. The points are in ptc_points.csv/.json with each level's own gain.");
     }
@@ -424,7 +376,8 @@ fn charts(h: &mut String, p: &ScmosPage) {
 /// The effective-noise table: value ± SE where `ok`, greyed with its word where `imprecise`,
 /// the status word alone otherwise; then the legend of the words.
 fn effective_table(h: &mut String, effective: &[EffectiveRecord]) {
-    h.push_str("<h2>Effective read noise</h2><table><tr><th>detector model</th><th>sub-aperture (px)</th><th>spot</th><th>signal (photons)</th><th>σ<sub>eff</sub> ± SE (e⁻)</th><th>R ± SE (px)</th></tr>");
+    let _ = write!(h, "<h2>Effective read noise</h2><details><summary>Every configuration: {} rows, the fitted distribution's then the measured map's (also in effective_noise.csv and .json)</summary><table><tr>", effective.len());
+    h.push_str("<th>detector model</th><th>sub-aperture (px)</th><th>spot</th><th>signal (photons)</th><th>σ<sub>eff</sub> ± SE (e⁻)</th><th>R ± SE (px)</th></tr>");
     for r in effective {
         let e = &r.effective;
         let _ = write!(
@@ -439,8 +392,25 @@ fn effective_table(h: &mut String, effective: &[EffectiveRecord]) {
             num(e.r_se_px, 4)
         );
     }
-    h.push_str("</table>");
+    h.push_str("</table></details>");
     status_legend(h);
+}
+
+/// The fit table's columns that need a word.
+const FIT_COLUMNS: [(&str, &str); 3] = [
+    ("ln L", "log-likelihood: the log of the probability density of the map's per-pixel noise values under the model, summed over pixels; higher fits better"),
+    ("ΔAIC", "Akaike information criterion (2 × parameters − 2 ln L) less the best model's: 0 for the best, which the report uses; a model more than about 10 above it is clearly worse"),
+    ("max CDF distance", "the largest gap between the model's cumulative distribution and the measured one (the Kolmogorov–Smirnov statistic): 0 is a perfect match"),
+];
+
+/// A fitted model of the per-pixel noise distribution, in words.
+fn model_meaning(m: PdfModel) -> &'static str {
+    match m {
+        PdfModel::PaperScaled => "the paper's distribution (Basden 2015, Eq. 3) stretched along the noise axis by one fitted factor",
+        PdfModel::PaperFamily => "the paper's functional form with its constants free: the edge and steepness of its core and the weights of its three power-law tail terms",
+        PdfModel::LognormalTail => "a log-normal core plus a power-law tail of noisy pixels",
+        PdfModel::Empirical => "the measured values themselves (no parameters; ln L and ΔAIC do not apply)",
+    }
 }
 
 /// The table of fitted read-noise distributions.
@@ -450,5 +420,13 @@ fn fit_table(h: &mut String, fit: &PdfFitReport) {
         let opt = |v: Option<f64>| v.map_or_else(|| "–".into(), |x| num(x, 1));
         let _ = write!(h, "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} %</td></tr>", esc(name), opt(m.log_likelihood), opt(m.delta_aic), num(m.max_cdf_distance, 4), num(m.median_e, 3), num(m.mean_e, 3), num(m.rms_e, 3), num(100.0 * m.frac_above_3x_median, 2));
     }
-    h.push_str("</table>");
+    h.push_str("</table><h3>What the columns and models mean</h3><dl class=\"legend\">");
+    let terms = FIT_COLUMNS
+        .iter()
+        .copied()
+        .chain(PdfModel::ALL.map(|m| (m.name(), model_meaning(m))));
+    for (term, meaning) in terms {
+        let _ = write!(h, "<dt>{}</dt><dd>{meaning}</dd>", esc(term));
+    }
+    h.push_str("</dl>");
 }

@@ -1,96 +1,16 @@
-//! The simple EMCCD model's effective QE factor in a report: the chart (q against signal per
-//! sub-aperture size, the paper's 0.5 marked), the page's section (a sentence on where the
-//! paper's 0.5 holds, the table) and the key numbers of `summary.json`.
+//! The simple EMCCD model's effective QE factor in a report: the page's section (a sentence on
+//! where the paper's 0.5 holds, the chart of [`crate::charts::qe_factor`], the table) and the
+//! key numbers of `summary.json`.
 
-use super::page::{figure, num};
+use super::html::{figure, num};
 use crate::detector::EmccdSimple;
 use crate::effective::{QeRecord, QeStatus};
 use crate::output::html_escape as esc;
-use crate::output::OutputDir;
-use crate::plot::{LineChart, RefLine, Series};
 use crate::spot::Spot;
-use crate::Result;
 use std::fmt::Write as _;
-use std::path::PathBuf;
 
 /// Standard errors within which a factor agrees with the paper's 0.5.
 pub const HOLDS_WITHIN_SE: f64 = 2.0;
-
-/// The chart's file stem for `spot`: `effective_qe_airy-2` (`:` and `,` become `-`).
-pub fn chart_stem(spot: &Spot) -> String {
-    format!("effective_qe_{}", spot.label().replace([':', ','], "-"))
-}
-
-/// The `ok` factors of the records at `spot`, one line per sub-aperture size (ascending), as
-/// (signal photons, q, SE) with error bars; None when no factor there is `ok`.
-fn chart(records: &[QeRecord], spot: &Spot) -> Option<LineChart> {
-    let at: Vec<&QeRecord> = records
-        .iter()
-        .filter(|r| r.config.spot == *spot && r.qe.status == QeStatus::Ok)
-        .collect();
-    let mut sizes: Vec<usize> = at.iter().map(|r| r.config.subap_px).collect();
-    sizes.sort_unstable();
-    sizes.dedup();
-    if sizes.is_empty() {
-        return None;
-    }
-    let model = &at[0].model;
-    let mut chart = LineChart::new(
-        format!(
-            "Effective QE factor of emccd-simple for {model}, {}",
-            spot.label()
-        ),
-        "signal (photons per sub-aperture)",
-        "QE factor q of the simple model",
-    );
-    chart.log_x = true;
-    chart.series = sizes
-        .iter()
-        .map(|&n| {
-            let points = at
-                .iter()
-                .filter(|r| r.config.subap_px == n)
-                .map(|r| (r.config.signal_photons, r.qe.qe_factor, r.qe.qe_factor_se));
-            Series::with_errors(format!("{n}x{n} px"), points)
-        })
-        .collect();
-    chart.reference.push(RefLine {
-        y: EmccdSimple::PAPER_FACTOR,
-        label: "the paper's 0.5".into(),
-    });
-    Some(chart)
-}
-
-/// Draw the chart of `spot` into `dir` as PNG and SVG ([`chart_stem`]); returns the paths, or
-/// none when no factor at that spot is `ok`.
-pub fn save_chart(records: &[QeRecord], spot: &Spot, dir: &OutputDir) -> Result<Vec<PathBuf>> {
-    let Some(chart) = chart(records, spot) else {
-        return Ok(Vec::new());
-    };
-    let stem = chart_stem(spot);
-    let mut written = Vec::new();
-    for ext in ["png", "svg"] {
-        let path = dir.path(&format!("{stem}.{ext}"));
-        chart.save(&path)?;
-        written.push(path);
-    }
-    Ok(written)
-}
-
-/// One chart per spot of the records (in order of first appearance); returns the paths.
-pub fn save_charts(records: &[QeRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
-    let mut spots: Vec<Spot> = Vec::new();
-    for r in records {
-        if !spots.contains(&r.config.spot) {
-            spots.push(r.config.spot);
-        }
-    }
-    let mut written = Vec::new();
-    for spot in &spots {
-        written.extend(save_chart(records, spot, dir)?);
-    }
-    Ok(written)
-}
 
 /// One configuration's factor in `summary.json`.
 #[derive(Debug, Clone, serde::Serialize)]

@@ -16,6 +16,11 @@ use crate::plot::{LineChart, Series};
 use crate::progress::Observer;
 use crate::Result;
 
+/// Files of the section: its table, and the example telegraph series (only with telegraph
+/// pixels).
+pub(crate) const REAL_NOISE_FILES: [&str; 3] =
+    ["real_noise.csv", "real_noise.json", "rts_series.png"];
+
 /// The camera's noise beyond Gaussian pixels, as summary.json's `real_noise` records it.
 #[derive(Debug, Clone, Serialize)]
 pub struct RealNoise {

@@ -4,8 +4,8 @@
 //! report directory and its part of the page.
 
 use super::grid::Grid;
+use super::html::{figure, key, num};
 use super::options::ReportOptions;
-use super::page::{figure, key, num};
 use crate::calib::Map;
 use crate::effective::Status;
 use crate::output::html_escape as esc;

@@ -1,9 +1,9 @@
-use super::charts::{comparison_chart, r_against_sweep};
-use super::compare::{emccd_labels, scmos_labels, verdicts};
+use super::compare::{comparison_chart, emccd_labels, scmos_labels, verdicts};
 use super::*;
+use crate::charts::heatmaps::tests::every_status;
+use crate::charts::sweep::tests::sim_record;
 use crate::detector::{ModelParams, ModelSpec};
-use crate::effective::{Effective, Status};
-use crate::montecarlo::{SimConfig, SimResult};
+use crate::effective::Status;
 use crate::spot::Spot;
 use crate::Error;
 use std::path::{Path, PathBuf};
@@ -149,29 +149,9 @@ fn messages_name_other_settings_as_fields() {
 
 /// A comparison record of `spec` at `signal_photons` with R = `r_px` +- `r_se_px`.
 fn compared(spec: ModelSpec, signal_photons: f64, r_px: f64, r_se_px: f64) -> Compared {
-    let cfg = SimConfig {
-        signal_photons,
-        ..SimConfig::paper(8)
-    };
-    let result = SimResult {
-        model: format!("{spec:?}"),
-        centroider: "cog".into(),
-        param_name: None,
-        param_opt: None,
-        best: 0,
-        r_px,
-        r_se_px,
-        b_opt_e: 0.0,
-        b_at_grid_edge: false,
-        no_eligible_level: false,
-        r0_px: r_px,
-        r0_se_px: r_se_px,
-        zero_frames: 0,
-        levels: vec![],
-    };
     Compared {
+        record: sim_record(&format!("{spec:?}"), signal_photons, r_px, r_se_px),
         spec,
-        record: SimRecord::new(&cfg, Some(500.0), result),
     }
 }
 
@@ -214,7 +194,10 @@ fn comparison_chart_labels_each_model_once_in_order_of_appearance() {
         compared(ModelSpec::ScmosConstant(Some(1.5)), 50.0, 0.15, 0.01),
     ];
     let labels = scmos_labels(&ModelParams::default());
-    comparison_chart(&comparison, &path, &labels).unwrap();
+    comparison_chart(&comparison, &labels)
+        .unwrap()
+        .save(&path)
+        .unwrap();
     let svg = std::fs::read_to_string(&path).unwrap();
     let mapped = svg
         .find("this camera (measured map)")
@@ -224,92 +207,29 @@ fn comparison_chart_labels_each_model_once_in_order_of_appearance() {
     assert!(mapped < unlabelled);
     assert_eq!(svg.matches("this camera (measured map)").count(), 1);
     assert!(svg.contains("R against signal, 8x8 px, airy:2"));
-    assert!(comparison_chart(&[], &path, &labels).is_err());
-}
-
-#[test]
-fn r_against_sweep_takes_the_first_axis_that_varies() {
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("sweep.svg");
-    let records: Vec<SimRecord> = [(20.0, 0.3), (50.0, 0.2)]
-        .iter()
-        .map(|&(s, r)| compared(ModelSpec::ScmosMean, s, r, 0.01).record)
-        .collect();
-    r_against_sweep(&records, &path).unwrap();
-    let svg = std::fs::read_to_string(&path).unwrap();
-    assert!(svg.contains("signal (photons per sub-aperture)"), "{svg}");
-    assert!(svg.contains("ScmosMean"));
-}
-
-/// A record of the fitted pdf at (n px, airy:d, s photons) with sigma_eff +- se and `status`.
-pub(crate) fn record(
-    n: usize,
-    d: f64,
-    s: f64,
-    sigma: f64,
-    se: f64,
-    status: Status,
-) -> EffectiveRecord {
-    let cfg = SimConfig {
-        spot: Spot::Airy { diameter_px: d },
-        signal_photons: s,
-        ..SimConfig::paper(n)
-    };
-    let e = Effective {
-        sigma_eff_e: sigma,
-        sigma_eff_se_e: se,
-        r_px: 0.3,
-        r_se_px: 0.003,
-        b_opt_e: 0.0,
-        param_name: None,
-        param_opt: None,
-        sigma_grid_e: vec![],
-        r_const_px: vec![],
-        iters: cfg.iters,
-        target_se_e: Some(0.05),
-        status,
-    };
-    EffectiveRecord::new("scmos-random".into(), &cfg, &e)
-}
-
-/// Every status over a 4 x 3 grid at two signals: ok cells 1.0, 1.5, ..., 9.0 e- (17 of
-/// them), and non-ok cells with values far above them that must not set the scale.
-pub(crate) fn every_status() -> Vec<EffectiveRecord> {
-    let subaps = [4, 8, 12, 16];
-    let spots = [1.0, 2.0, 6.0];
-    let mut out = Vec::new();
-    let mut ok = (2..=18).map(|k| k as f64 * 0.5);
-    for s in [20.0, 50.0] {
-        for (i, &n) in subaps.iter().enumerate() {
-            for (j, &d) in spots.iter().enumerate() {
-                let r = match (s == 20.0, i, j) {
-                    (true, 3, 2) => record(n, d, s, 67.31, 120.65, Status::Imprecise),
-                    (true, 3, 1) => record(n, d, s, 0.0, 0.2, Status::LowerBound),
-                    (true, 3, 0) => record(n, d, s, f64::NAN, f64::NAN, Status::Unreachable),
-                    (false, 3, 2) => record(n, d, s, f64::NAN, f64::NAN, Status::NoEligibleLevel),
-                    _ => match ok.next() {
-                        Some(v) => record(n, d, s, v, 0.05, Status::Ok),
-                        None => record(n, d, s, 29.71, 18.47, Status::Imprecise),
-                    },
-                };
-                out.push(r);
-            }
-        }
-    }
-    out
+    assert!(comparison_chart(&[], &labels).is_err());
 }
 
 /// The sCMOS page of `effective` with the headline's map value `map` (sigma, se, status).
 fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String {
-    use super::heatmaps::NoiseScale;
+    scmos_page_with(effective, map, |_| {})
+}
+
+/// [`scmos_page`] with the summary changed by `change` first.
+fn scmos_page_with(
+    effective: &[EffectiveRecord],
+    map: (f64, f64, Status),
+    change: impl Fn(&mut ReportSummary),
+) -> String {
     use super::page::{index_html, ScmosPage};
+    use crate::charts::heatmaps::NoiseScale;
     // A smooth spread of per-pixel noise (e-) to fit: the page only prints the fit's numbers.
     let values: Vec<f64> = (1..=300)
         .map(|k| 0.6 + 1.5 * (k as f64 * 0.618_034).fract())
         .collect();
     let fit = crate::fit::pdf_fit::fit_pdf(&values, &Default::default()).unwrap();
     let at = ChosenPoint::new(&OperatingPoint::default(), false, true);
-    let summary = ReportSummary {
+    let mut summary = ReportSummary {
         tool: "detnoise test".into(),
         inputs: vec![],
         frames: 100,
@@ -352,6 +272,7 @@ fn scmos_page(effective: &[EffectiveRecord], map: (f64, f64, Status)) -> String 
             versus_emccd: vec![],
         },
     };
+    change(&mut summary);
     let heatmaps = vec![
         PathBuf::from("out/effective_noise_S20.png"),
         PathBuf::from("out/effective_noise_S20.svg"),
@@ -397,7 +318,9 @@ fn the_page_shows_each_status_by_its_word_with_a_legend_and_no_nan() {
         );
     }
     // The headline is unreachable: its word, not a number.
-    assert!(h.contains("(measured map)<b><span class=\"status\">unreachable</span></b>"));
+    assert!(
+        h.contains("(this camera's measured map)<b><span class=\"status\">unreachable</span></b>")
+    );
     // Where a cell is unreachable, the page says what to simulate instead, with this report's
     // files.
     assert!(h.contains("detnoise simulate --model scmos-map --map my-report/rms_e.fits"));
@@ -426,12 +349,12 @@ fn without_unreachable_cells_the_page_gives_no_advice() {
         .collect();
     let h = scmos_page(&ok, (3.55, 0.1, Status::Ok));
     assert!(!h.contains("class=\"advice\""));
-    assert!(h.contains("(measured map)<b>3.55 ± 0.10 e⁻</b>"));
+    assert!(h.contains("(this camera's measured map)<b>3.55 ± 0.10 e⁻</b>"));
 }
 
 #[test]
 fn articles_before_numbers_follow_how_they_are_read() {
-    use super::page::article;
+    use super::html::article;
     for n in [8, 11, 18, 80, 86, 800, 8000, 11_000, 18_000, 11_000_000] {
         assert_eq!(article(n), "an", "{n}");
     }
@@ -460,4 +383,63 @@ fn comparison_labels_state_the_parameters_simulated() {
         label(emccd_labels(&params), ModelSpec::ScmosRandom),
         "sCMOS, pdf paper [0, 10] e-"
     );
+}
+
+#[test]
+fn the_page_explains_its_terms_folds_the_long_table_and_shows_each_chart_once() {
+    let records = every_status();
+    let h = scmos_page(&records, (3.55, 0.1, Status::Ok));
+    // The terms of the fit table, every fitted model, and the spot notation.
+    for term in ["ln L", "ΔAIC", "max CDF distance"] {
+        assert!(h.contains(&format!("<dt>{term}</dt><dd>")), "{term}");
+    }
+    for m in crate::fit::PdfModel::ALL {
+        let term = crate::output::html_escape(m.name());
+        assert!(h.contains(&format!("<dt>{term}</dt><dd>")), "{term}");
+    }
+    assert!(h.contains("<code>airy:D</code> is an Airy spot"));
+    // The effective-noise table folds, saying how long it is; the status legend stays open.
+    let details = h
+        .find("<details><summary>Every configuration: 24 rows")
+        .unwrap();
+    let table_end = h[details..].find("</table></details>").unwrap() + details;
+    assert!(h[details..table_end].matches("<tr>").count() == 25);
+    assert!(h[table_end..].contains("<h3>Status words</h3>"));
+    // The heatmaps' model is named beside the headline's, with both values.
+    assert!(h.contains(
+        "the fitted distribution gives 3.47 ± 0.09 e⁻ and the measured map 3.55 ± 0.10 e⁻"
+    ));
+    // One histogram of the per-pixel noise on the page (the fit's); rms_hist.png is a file.
+    assert!(h.contains("<img src=\"pdf_fit.png\""));
+    assert!(!h.contains("<img src=\"rms_hist.png\"") && h.contains("rms_hist.png ("));
+}
+
+#[test]
+fn the_noise_split_and_the_telegraph_pixels_say_what_there_is() {
+    // No telegraph pixel, no line noise: no dashes for the missing medians, no note.
+    let none = scmos_page(&every_status(), (3.55, 0.1, Status::Ok));
+    assert!(none.contains("Random-telegraph (RTS) pixels: none was flagged"));
+    assert!(!none.contains("median span") && !none.contains("above the total"));
+    // Negative line variances (rms 0) put the pixel part above the total: the page says why.
+    let split = scmos_page_with(&every_status(), (3.55, 0.1, Status::Ok), |s| {
+        let t = &mut s.real_noise.temporal_noise;
+        (t.pixel_rms_e, t.pixel_rms_se_e) = (Some(1.5737), Some(0.0061));
+        (t.total_rms_e, t.total_rms_se_e) = (Some(1.5730), Some(0.0061));
+        let rts = &mut s.real_noise.rts;
+        (rts.flagged, rts.fitted, rts.ok, rts.two_level) = (12, 10, 9, 9);
+        (rts.median_span_e, rts.median_dwell_frames) = (Some(8.04), Some(31.5));
+    });
+    assert!(split.contains("The pixel part is above the total by 0.0007 e⁻"));
+    assert!(split.contains("within the pixel part's SE (0.0061 e⁻)"));
+    assert!(split.contains(
+        "12 flagged, 10 fitted, 9 fitted <span class=\"status\">ok</span> (9 two-level, \
+         0 three-level); median span between a pixel's outer levels 8.04 e⁻, median dwell \
+         time 31.5 frames"
+    ));
+    // Flagged but none ok: no medians to give, said in words.
+    let flagged = scmos_page_with(&every_status(), (3.55, 0.1, Status::Ok), |s| {
+        s.real_noise.rts.flagged = 3;
+    });
+    assert!(flagged.contains("none fitted ok, so no span or dwell time to give"));
+    assert!(!flagged.contains("median span"));
 }

@@ -18,7 +18,7 @@ pub(super) fn run(
 ) -> Result<()> {
     let records = effective_qe_table(configs, specs, params, precision, &Terminal::default())?;
     write_qe_tables(&records, &dir.path(""))?;
-    crate::report::qe_factor::save_charts(&records, dir)?;
+    crate::charts::qe_factor::save_charts(&records, dir)?;
     print!("{}", qe_terminal_table(&records));
     Ok(())
 }

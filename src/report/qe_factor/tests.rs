@@ -1,52 +1,5 @@
 use super::*;
-use crate::effective::QeFactor;
-use crate::montecarlo::SimConfig;
-use crate::output::DirPlan;
-
-fn airy(d: f64) -> Spot {
-    Spot::Airy { diameter_px: d }
-}
-
-/// A record at (n px, spot, S photons) with factor q ± se and `status`.
-fn record(n: usize, spot: Spot, s: f64, (q, se): (f64, f64), status: QeStatus) -> QeRecord {
-    QeRecord {
-        model: "emccd-stochastic".into(),
-        config: SimConfig {
-            spot,
-            signal_photons: s,
-            ..SimConfig::paper(n)
-        },
-        em_gain: 300.0,
-        emccd_read_noise_e: 50.0,
-        qe: QeFactor {
-            qe_factor: q,
-            qe_factor_se: se,
-            target_se: Some(0.0125),
-            read_noise_e: 50.0 / 300.0,
-            iters: 10_240,
-            r_px: 0.2,
-            r_se_px: 0.002,
-            b_opt_e: 0.4,
-            qe_grid: vec![],
-            r_simple_px: vec![],
-            status,
-        },
-    }
-}
-
-/// Three ok factors (one within 2 SE of 0.5, one below, one above), an imprecise one, one
-/// out of range and one at the second spot.
-fn records() -> Vec<QeRecord> {
-    let d2 = airy(2.0);
-    vec![
-        record(8, d2, 20.0, (0.45, 0.01), QeStatus::Ok),
-        record(8, d2, 50.0, (0.515, 0.01), QeStatus::Ok),
-        record(8, d2, 500.0, (0.56, 0.02), QeStatus::Ok),
-        record(16, d2, 20.0, (0.3, 0.2), QeStatus::Imprecise),
-        record(16, d2, 50.0, (f64::NAN, f64::NAN), QeStatus::BelowRange),
-        record(16, airy(6.0), 50.0, (1.0, 0.3), QeStatus::AboveRange),
-    ]
-}
+use crate::charts::qe_factor::tests::{airy, records};
 
 #[test]
 fn the_summary_counts_where_the_papers_factor_holds_within_two_se() {
@@ -119,46 +72,4 @@ fn the_section_shows_values_bounds_and_status_words_never_nan() {
     for st in QeStatus::ALL {
         assert!(h.contains(st.meaning()), "{}", st.label());
     }
-}
-
-#[test]
-fn the_chart_draws_the_ok_factors_per_sub_aperture_with_the_papers_line() {
-    let recs = records();
-    let chart = chart(&recs, &airy(2.0)).unwrap();
-    // Only 8x8 px has ok factors at airy:2.
-    assert_eq!(chart.series.len(), 1);
-    assert_eq!(chart.series[0].name, "8x8 px");
-    let ys: Vec<f64> = chart.series[0].points.iter().map(|p| p.y).collect();
-    assert_eq!(ys, [0.45, 0.515, 0.56]);
-    assert_eq!(chart.series[0].points[2].y_se, Some(0.02));
-    assert_eq!(chart.reference[0].y, 0.5);
-    assert!(super::chart(&recs, &airy(6.0)).is_none());
-    assert_eq!(
-        chart_stem(&Spot::Gauss {
-            sigma_x_px: 1.0,
-            sigma_y_px: 3.0
-        }),
-        "effective_qe_gauss-1-3"
-    );
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = OutputDir::prepare(
-        &tmp.path().join("out"),
-        DirPlan {
-            command: "test",
-            force: false,
-            inputs: &[],
-            names: &["effective_qe_*.png", "effective_qe_*.svg"],
-        },
-    )
-    .unwrap();
-    let written = save_charts(&recs, &dir).unwrap();
-    let names: Vec<String> = written
-        .iter()
-        .map(|p| p.file_name().unwrap().to_string_lossy().into_owned())
-        .collect();
-    assert_eq!(
-        names,
-        ["effective_qe_airy-2.png", "effective_qe_airy-2.svg"]
-    );
-    assert!(written.iter().all(|p| p.is_file()));
 }

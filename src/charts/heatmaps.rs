@@ -3,6 +3,7 @@
 //! cells that are not `ok` drawn grey and hatched with their status word.
 
 use crate::effective::{EffectiveRecord, Status};
+use crate::output::OutputDir;
 use crate::plot::Heatmap;
 use crate::spot::Spot;
 use crate::stats::percentile;
@@ -202,10 +203,109 @@ pub fn save_heatmaps(
     Ok(written)
 }
 
+/// One heatmap per signal level (PNG and SVG, `effective_noise_S<signal>`): sub-aperture size x
+/// spot, colour = sigma_eff_e on one scale for every signal ([`NoiseScale::from_ok`]), cells that
+/// are not `ok` grey with their status. The records must be of one model.
+pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
+    let model = records.first().map_or("", |r| r.model.as_str());
+    let scale = NoiseScale::from_ok(records);
+    let mut centroiders: Vec<&str> = Vec::new();
+    for r in records {
+        if !centroiders.contains(&r.centroider.as_str()) {
+            centroiders.push(&r.centroider);
+        }
+    }
+    let mut paths = Vec::new();
+    for c in centroiders {
+        // The paper's centroider keeps the plain names; the others are named in the file.
+        let (suffix, named) = match c {
+            "cog" => (String::new(), String::new()),
+            c => (format!("_{}", c.replace(':', "_")), format!(", {c}")),
+        };
+        let mine: Vec<EffectiveRecord> = records
+            .iter()
+            .filter(|r| r.centroider == c)
+            .cloned()
+            .collect();
+        paths.extend(save_heatmaps(
+            &mine,
+            &scale,
+            &|s| {
+                format!(
+                    "Effective read noise (e-), {model}{named}, S = {s} photons per sub-aperture"
+                )
+            },
+            &|s, ext| dir.path(&format!("effective_noise_S{s}{suffix}.{ext}")),
+        )?);
+    }
+    Ok(paths)
+}
+
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
-    use crate::report::tests::every_status;
+    use crate::effective::Effective;
+    use crate::montecarlo::SimConfig;
+
+    /// A record of the fitted pdf at (n px, airy:d, s photons) with sigma_eff +- se and `status`.
+    pub(crate) fn record(
+        n: usize,
+        d: f64,
+        s: f64,
+        sigma: f64,
+        se: f64,
+        status: Status,
+    ) -> EffectiveRecord {
+        let cfg = SimConfig {
+            spot: Spot::Airy { diameter_px: d },
+            signal_photons: s,
+            ..SimConfig::paper(n)
+        };
+        let e = Effective {
+            sigma_eff_e: sigma,
+            sigma_eff_se_e: se,
+            r_px: 0.3,
+            r_se_px: 0.003,
+            b_opt_e: 0.0,
+            param_name: None,
+            param_opt: None,
+            sigma_grid_e: vec![],
+            r_const_px: vec![],
+            iters: cfg.iters,
+            target_se_e: Some(0.05),
+            status,
+        };
+        EffectiveRecord::new("scmos-random".into(), &cfg, &e)
+    }
+
+    /// Every status over a 4 x 3 grid at two signals: ok cells 1.0, 1.5, ..., 9.0 e- (17 of
+    /// them), and non-ok cells with values far above them that must not set the scale.
+    pub(crate) fn every_status() -> Vec<EffectiveRecord> {
+        let subaps = [4, 8, 12, 16];
+        let spots = [1.0, 2.0, 6.0];
+        let mut out = Vec::new();
+        let mut ok = (2..=18).map(|k| k as f64 * 0.5);
+        for s in [20.0, 50.0] {
+            for (i, &n) in subaps.iter().enumerate() {
+                for (j, &d) in spots.iter().enumerate() {
+                    let r = match (s == 20.0, i, j) {
+                        (true, 3, 2) => record(n, d, s, 67.31, 120.65, Status::Imprecise),
+                        (true, 3, 1) => record(n, d, s, 0.0, 0.2, Status::LowerBound),
+                        (true, 3, 0) => record(n, d, s, f64::NAN, f64::NAN, Status::Unreachable),
+                        (false, 3, 2) => {
+                            record(n, d, s, f64::NAN, f64::NAN, Status::NoEligibleLevel)
+                        }
+                        _ => match ok.next() {
+                            Some(v) => record(n, d, s, v, 0.05, Status::Ok),
+                            None => record(n, d, s, 29.71, 18.47, Status::Imprecise),
+                        },
+                    };
+                    out.push(r);
+                }
+            }
+        }
+        out
+    }
 
     #[test]
     fn readable_tops_round_up_to_two_significant_digits() {
