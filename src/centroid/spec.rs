@@ -4,7 +4,6 @@
 //! depends on the spot, the sub-aperture and the camera).
 
 use super::centroider::Centroider;
-use super::registry;
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
 
@@ -108,13 +107,6 @@ fn entry_name<S: serde::Serializer>(
     s.serialize_str(entry.name)
 }
 
-impl Default for CentroiderSpec {
-    /// Plain `cog`, the paper's.
-    fn default() -> Self {
-        CentroiderSpec::of(&super::thresholded::COG)
-    }
-}
-
 /// What building a centroider for a run needs to know.
 #[derive(Clone, Copy)]
 pub struct CentroidContext<'a> {
@@ -136,11 +128,6 @@ impl CentroiderSpec {
     /// `entry` with its parameter swept.
     pub fn of(entry: &'static CentroiderEntry) -> Self {
         CentroiderSpec { entry, param: None }
-    }
-
-    /// Parse `NAME[:PARAM]` (e.g. `masked-cog:3`); errors name the `centroider` field.
-    pub fn parse(text: &str) -> Result<Self> {
-        registry::parse(super::CENTROIDERS, text)
     }
 
     /// Check a given parameter's range.
@@ -174,48 +161,5 @@ impl CentroiderSpec {
             (None, None) => Vec::new(),
         };
         (self.entry.build)(self.entry, &values, ctx)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::centroid::CENTROIDERS;
-
-    #[test]
-    fn names_parse_with_and_without_parameters() {
-        for e in CENTROIDERS {
-            assert_eq!(
-                CentroiderSpec::parse(e.name).unwrap(),
-                CentroiderSpec::of(e)
-            );
-        }
-        let m = CentroiderSpec::parse("masked-cog:3").unwrap();
-        assert_eq!((m.entry.name, m.param), ("masked-cog", Some(3.0)));
-        assert_eq!(m.label(), "masked-cog:3");
-        assert_eq!(CentroiderSpec::default().label(), "cog");
-        for (bad, why) in [
-            (
-                "cg",
-                "'cg': unknown; known: cog, tcog, masked-cog, ivw-cog, wcog, brightest-n",
-            ),
-            ("cog:2", "'cog:2': cog takes no parameter"),
-            ("ivw-cog:1", "'ivw-cog:1': ivw-cog takes no parameter"),
-            ("tcog:-1", "tcog:-1: K must be >= 0 (sigmas)"),
-            (
-                "masked-cog:0",
-                "masked-cog:0: M must be > 0 (times the median sigma)",
-            ),
-            (
-                "brightest-n:2.5",
-                "brightest-n:2.5: N must be a whole number >= 1",
-            ),
-            ("wcog:0", "wcog:0: W must be > 0 (px)"),
-            ("tcog:x", "'tcog:x': parameter must be a number"),
-            ("tcog:inf", "'tcog:inf': parameter must be a number"),
-        ] {
-            let e = CentroiderSpec::parse(bad).unwrap_err().to_string();
-            assert_eq!(e, format!("invalid `centroider`: {why}"));
-        }
     }
 }

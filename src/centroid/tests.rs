@@ -471,3 +471,40 @@ fn every_registered_centroider_builds_sweeps_and_fixes_its_parameter() {
         }
     }
 }
+
+#[test]
+fn names_parse_with_and_without_parameters() {
+    for e in CENTROIDERS {
+        assert_eq!(
+            CentroiderSpec::parse(e.name).unwrap(),
+            CentroiderSpec::of(e)
+        );
+    }
+    let m = CentroiderSpec::parse("masked-cog:3").unwrap();
+    assert_eq!((m.entry.name, m.param), ("masked-cog", Some(3.0)));
+    assert_eq!(m.label(), "masked-cog:3");
+    assert_eq!(CentroiderSpec::default().label(), "cog");
+    for (bad, why) in [
+        (
+            "cg",
+            "'cg': unknown; known: cog, tcog, masked-cog, ivw-cog, wcog, brightest-n",
+        ),
+        ("cog:2", "'cog:2': cog takes no parameter"),
+        ("ivw-cog:1", "'ivw-cog:1': ivw-cog takes no parameter"),
+        ("tcog:-1", "tcog:-1: K must be >= 0 (sigmas)"),
+        (
+            "masked-cog:0",
+            "masked-cog:0: M must be > 0 (times the median sigma)",
+        ),
+        (
+            "brightest-n:2.5",
+            "brightest-n:2.5: N must be a whole number >= 1",
+        ),
+        ("wcog:0", "wcog:0: W must be > 0 (px)"),
+        ("tcog:x", "'tcog:x': parameter must be a number"),
+        ("tcog:inf", "'tcog:inf': parameter must be a number"),
+    ] {
+        let e = CentroiderSpec::parse(bad).unwrap_err().to_string();
+        assert_eq!(e, format!("invalid `centroider`: {why}"));
+    }
+}

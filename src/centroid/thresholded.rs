@@ -218,7 +218,7 @@ impl Weighting {
         let mut centroid = |w: &[f64], x0: f64, y0: f64| {
             renderer.render(x0, y0, &mut img);
             let wimg: Vec<f64> = img.iter().zip(w).map(|(v, w)| v * w).collect();
-            super::cog(&wimg, n)
+            super::image::cog(&wimg, n)
         };
         // The response is taken against the centroid of the unweighted noiseless image, the
         // engine's truth (for a narrow point-sampled spot that differs from the spot's offset).

@@ -4,6 +4,7 @@ use super::*;
 use crate::detector::{ModelParams, MODELS};
 use crate::montecarlo::SimConfig;
 use std::collections::BTreeSet;
+use std::ops::Bound::{Excluded, Included, Unbounded};
 
 #[test]
 fn fields_keys_and_flags_are_unique() {
