@@ -20,7 +20,8 @@ pub struct PtcArgs {
     /// Dark read-noise map (adu; FITS/TIFF/EXR), used with --dark-offset.
     #[arg(long, requires = "dark_offset")]
     pub dark_rms: Option<PathBuf>,
-    /// Flat stacks, one per light level (each a file, directory or glob).
+    /// Flat stacks: one path per light level (a file, directory or glob; several after one
+    /// --flats), or one stack holding several levels, split by its frames' mean signal.
     #[arg(long, required = true, num_args = 1..)]
     pub flats: Vec<PathBuf>,
     /// Output directory, written only when the run succeeds; an existing directory is replaced

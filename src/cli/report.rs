@@ -32,7 +32,9 @@ pub struct ReportArgs {
     /// Dark frames: files, a directory or a glob (FITS, TIFF, OpenEXR).
     #[arg(long, num_args = 1.., required = true)]
     pub darks: Vec<PathBuf>,
-    /// Flat stacks at several light levels, one option per level (photon transfer gives the gain).
+    /// Flat stacks at several light levels for photon transfer (it gives the gain): one path per
+    /// level (a file, directory or glob; several after one --flats), or one stack holding
+    /// several levels, split by its frames' mean signal.
     #[arg(long, num_args = 1..)]
     pub flats: Vec<PathBuf>,
     /// Sub-aperture sizes of the effective-noise table, px per side (2 to 128), comma-separated.
@@ -77,8 +79,8 @@ pub struct ReportArgs {
     pub accept_illuminated: bool,
     /// Fast preview (seconds for a small camera): at most 2,000 starting iterations and 24,000
     /// per configuration (--max-iters), and where left at their defaults, sub-apertures 4,8,16,
-    /// spots airy:2,6 and signals 20,50,500 (stated in the report). The full grid takes a few
-    /// minutes.
+    /// spots airy:2,6 and signals 20,50,500 (stated in the report). The full grid takes about
+    /// 30 s on two cores for the bundled 64x64 camera (docs/performance.md).
     #[arg(long)]
     pub quick: bool,
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.

@@ -162,6 +162,16 @@ fn errors_name_the_model_and_map_fields() {
         unknown,
         format!("invalid `model`: unknown model 'ccd-magic' (known: {MODEL_NAMES})")
     );
+    // A typo near one name is told which it was (as clap does for option values).
+    for (typo, near) in [
+        ("scmos-randm", "scmos-random"),
+        ("emccd-stochastc", "emccd-stochastic"),
+    ] {
+        let e = ModelSpec::parse(typo).unwrap_err().to_string();
+        assert!(e.contains(&format!("; did you mean '{near}'?")), "{e}");
+    }
+    let e = ModelSpec::parse("scmos-median:1").unwrap_err().to_string();
+    assert!(e.contains("scmos-median takes no :ARG"), "{e}");
     let bad = ModelSpec::parse("scmos-constant:-1")
         .unwrap_err()
         .to_string();
