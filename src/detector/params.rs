@@ -67,7 +67,7 @@ impl ModelParams {
         if values.is_given(&s::PDF_MODEL) && !pdf_is_file {
             return Err(Error::invalid(
                 "pdf_model",
-                "applies only with `pdf` a pdf_fit.json (or a PdfFit)",
+                "applies only with `pdf` FILE, a pdf_fit.json (or a fitted pdf)",
             ));
         }
         for spec in specs {
