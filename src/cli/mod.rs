@@ -13,6 +13,7 @@ pub mod report;
 pub mod simulate;
 pub mod subaps;
 pub mod synth;
+pub mod table;
 
 use crate::error::{EXIT_CODES_HELP, EXIT_OK, EXIT_USAGE};
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};
