@@ -7,7 +7,7 @@ use detnoise::calib::darks::{
     dark_maps, Clip, DarkOptions, FLAG_DEAD, FLAG_HOT, FLAG_RTS, FLAG_SATURATED,
 };
 use detnoise::io::FrameStack;
-use detnoise::io::StackFormat;
+use detnoise::synth::SynthFormat;
 use detnoise::synth::{draw_truth, frame, write_synthetic, Camera, ScmosParams, SynthSpec};
 
 fn spec(frames: usize, u16_samples: bool) -> SynthSpec {
@@ -49,7 +49,7 @@ fn darks_recover_truth_within_statistical_error() {
     let sp = spec(n, false);
     let pdf = detnoise::pdf::paper();
     let p = d.path().join("darks.fits");
-    write_synthetic(&sp, &pdf, StackFormat::Fits, &p).unwrap();
+    write_synthetic(&sp, &pdf, SynthFormat::Fits, &p).unwrap();
     let truth = draw_truth(&sp, &pdf);
     let sigma = truth.rms_adu();
     let maps = dark_maps(&stack(&[p]), &DarkOptions::default()).unwrap();
@@ -117,9 +117,9 @@ fn every_format_gives_identical_maps() {
     let pdf = detnoise::pdf::paper();
     let mut results = Vec::new();
     for (f, ext) in [
-        (StackFormat::Fits, "fits"),
-        (StackFormat::Tiff, "tif"),
-        (StackFormat::Exr, "exr"),
+        (SynthFormat::Fits, "fits"),
+        (SynthFormat::Tiff, "tif"),
+        (SynthFormat::Exr, "exr"),
     ] {
         let p = d.path().join(format!("s.{ext}"));
         write_synthetic(&sp, &pdf, f, &p).unwrap();

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use detnoise::calib::darks::{pixel_stats, Clip};
 use detnoise::calib::ptc::{photon_transfer, write_points, DarkReference, PtcOptions};
 use detnoise::io::FrameStack;
-use detnoise::io::StackFormat;
+use detnoise::synth::SynthFormat;
 use detnoise::synth::{draw_truth, frame, write_synthetic, Camera, ScmosParams, SynthSpec};
 
 const LEVELS: [f64; 4] = [100.0, 400.0, 1600.0, 6400.0];
@@ -30,12 +30,12 @@ fn spec(frames: usize, light_e: f64) -> SynthSpec {
 fn series(dir: &Path, frames: usize) -> (PathBuf, Vec<PathBuf>) {
     let pdf = detnoise::pdf::paper();
     let dark = dir.join("dark.fits");
-    write_synthetic(&spec(frames, 0.0), &pdf, StackFormat::Fits, &dark).unwrap();
+    write_synthetic(&spec(frames, 0.0), &pdf, SynthFormat::Fits, &dark).unwrap();
     let flats = LEVELS
         .iter()
         .map(|l| {
             let p = dir.join(format!("flat-{l}.fits"));
-            write_synthetic(&spec(frames, *l), &pdf, StackFormat::Fits, &p).unwrap();
+            write_synthetic(&spec(frames, *l), &pdf, SynthFormat::Fits, &p).unwrap();
             p
         })
         .collect();
@@ -86,7 +86,7 @@ fn lamp_flicker_is_removed() {
     let frames = 100;
     let pdf = detnoise::pdf::paper();
     let dark = d.path().join("dark.fits");
-    write_synthetic(&spec(frames, 0.0), &pdf, StackFormat::Fits, &dark).unwrap();
+    write_synthetic(&spec(frames, 0.0), &pdf, SynthFormat::Fits, &dark).unwrap();
     let truth = draw_truth(&spec(frames, 0.0), &pdf);
     // Each frame's signal scaled by 1 + 2 % x (a fixed pseudo-random pattern): the
     // flicker adds (0.02 m)^2 to every variance, 8x the shot noise at m = 6400 e- / 0.25.
@@ -153,7 +153,7 @@ fn saturated_pixels_are_masked() {
     // 60000 e- at 0.25 e/adu is 240000 adu: every pixel saturates the uint16 range.
     let sp = spec(20, 60000.0);
     let p = d.path().join("bright.fits");
-    write_synthetic(&sp, &detnoise::pdf::paper(), StackFormat::Fits, &p).unwrap();
+    write_synthetic(&sp, &detnoise::pdf::paper(), SynthFormat::Fits, &p).unwrap();
     let dref = DarkReference::from_stats(&pixel_stats(&open(&dark), Clip::None, None).unwrap());
     let e = photon_transfer(&[open(&p)], &dref, &PtcOptions::default())
         .unwrap_err()

@@ -6,7 +6,8 @@
 use std::collections::HashMap;
 
 use detnoise::calib::darks::{dark_maps, kurtosis_se, DarkOptions, FitStatus, FLAG_HOT};
-use detnoise::io::{FrameStack, StackFormat};
+use detnoise::io::FrameStack;
+use detnoise::synth::SynthFormat;
 use detnoise::synth::{
     draw_truth, write_synthetic, Camera, Defects, RtsParams, ScmosParams, SynthSpec,
 };
@@ -60,7 +61,7 @@ fn darks_recovers_the_injected_rts_row_column_and_hot_pixels() {
     let sp = spec();
     let pdf = detnoise::synth::rms_pdf(&PIXEL_E.to_string()).unwrap();
     let path = d.path().join("rts.fits");
-    write_synthetic(&sp, pdf.as_ref(), StackFormat::Fits, &path).unwrap();
+    write_synthetic(&sp, pdf.as_ref(), SynthFormat::Fits, &path).unwrap();
     let truth = draw_truth(&sp, pdf.as_ref());
     let stack = FrameStack::open(std::slice::from_ref(&path)).unwrap();
     let maps = dark_maps(&stack, &DarkOptions::default()).unwrap();
@@ -173,7 +174,7 @@ fn rts_outputs_follow_the_shared_table_format() {
     sp.shape = (24, 20);
     let pdf = detnoise::synth::rms_pdf("1.5").unwrap();
     let path = d.path().join("s.fits");
-    write_synthetic(&sp, pdf.as_ref(), StackFormat::Fits, &path).unwrap();
+    write_synthetic(&sp, pdf.as_ref(), SynthFormat::Fits, &path).unwrap();
     let stack = FrameStack::open(std::slice::from_ref(&path)).unwrap();
     let opts = DarkOptions::default();
     let maps = dark_maps(&stack, &opts).unwrap();

@@ -5,7 +5,7 @@ use std::process::Command;
 
 use detnoise::calib::darks::{dark_maps, DarkOptions};
 use detnoise::io::FrameStack;
-use detnoise::io::StackFormat;
+use detnoise::synth::SynthFormat;
 use detnoise::synth::{write_synthetic, Camera, ScmosParams, SynthSpec};
 
 const SCRIPT: &str = r#"
@@ -42,7 +42,7 @@ fn astropy_reads_our_maps() {
         u16_samples: true,
     };
     let stack_path = d.path().join("s.fits");
-    write_synthetic(&sp, &detnoise::pdf::paper(), StackFormat::Fits, &stack_path).unwrap();
+    write_synthetic(&sp, &detnoise::pdf::paper(), SynthFormat::Fits, &stack_path).unwrap();
     let stack = FrameStack::open(std::slice::from_ref(&stack_path)).unwrap();
     let opts = DarkOptions::default();
     let maps = dark_maps(&stack, &opts).unwrap();

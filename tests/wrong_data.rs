@@ -12,7 +12,7 @@ use detnoise::calib::darks::{dark_maps, pixel_stats, Clip, DarkOptions, Illumina
 use detnoise::calib::ptc::{light_levels, photon_transfer, DarkReference, PtcOptions};
 use detnoise::fit::emgain::{EmSignature, Verdict};
 use detnoise::io::FrameStack;
-use detnoise::io::StackFormat;
+use detnoise::synth::SynthFormat;
 use detnoise::synth::{
     draw_truth, frame, write_synthetic, Camera, EmccdParams, ScmosParams, SynthSpec,
 };
@@ -82,7 +82,7 @@ fn emccd(frames: usize, light_e: f64, cic_e: f64) -> SynthSpec {
 }
 
 fn write(spec: &SynthSpec, path: &Path) -> PathBuf {
-    write_synthetic(spec, &detnoise::pdf::paper(), StackFormat::Fits, path).unwrap();
+    write_synthetic(spec, &detnoise::pdf::paper(), SynthFormat::Fits, path).unwrap();
     path.to_path_buf()
 }
 

@@ -195,61 +195,9 @@ pub fn run_cli(args: &EffectiveArgs) -> Result<()> {
     Ok(())
 }
 
-/// The records as the terminal shows them (under 100 columns): the configuration, the value
-/// and its SE, the target, the iterations spent and the status word; no value is printed for
-/// a status that has none.
-pub fn terminal_table(records: &[EffectiveRecord]) -> String {
-    let mut out = String::new();
-    if let Some(first) = records.first() {
-        let c = &first.config;
-        let _ = writeln!(
-            out,
-            "{}: effective read noise (e-), {} sampling, QE {}, seed {}",
-            first.model,
-            c.sampling.label(),
-            c.qe,
-            c.seed
-        );
-    }
-    let _ = writeln!(
-        out,
-        "{:>5}  {:<12} {:>8} {:>9} {:>10} {:>8} {:>8}  status",
-        "subap", "spot", "photons", "iters", "sigma_eff", "SE", "target"
-    );
-    let several = records
-        .iter()
-        .any(|r| r.centroider != records[0].centroider);
-    for (k, r) in records.iter().enumerate() {
-        if several && (k == 0 || records[k - 1].centroider != r.centroider) {
-            let _ = writeln!(out, "centroider {}:", r.centroider);
-        }
-        let (c, e) = (&r.config, &r.effective);
-        let num = |v: f64, ok: bool| {
-            if ok && v.is_finite() {
-                format!("{v:.3}")
-            } else {
-                "-".to_string()
-            }
-        };
-        let valued = !matches!(e.status, Status::Unreachable | Status::NoEligibleLevel);
-        let _ = writeln!(
-            out,
-            "{:>5}  {:<12} {:>8} {:>9} {:>10} {:>8} {:>8}  {}",
-            c.subap_px,
-            c.spot.label(),
-            c.signal_photons,
-            e.iters,
-            num(e.sigma_eff_e, valued),
-            num(e.sigma_eff_se_e, valued),
-            e.target_se_e.map_or("-".into(), |t| format!("{t:.3}")),
-            e.status.label()
-        );
-    }
-    out
-}
-
 mod qe;
-pub use qe::qe_terminal_table;
+mod table;
+pub use table::{qe_terminal_table, terminal_table};
 
 /// The long help of `--simple-qe`: what it solves, its files, and every status.
 fn simple_qe_long_help() -> String {

@@ -14,6 +14,7 @@ pub mod settings;
 pub mod simulate;
 pub mod subaps;
 pub mod synth;
+pub mod table;
 
 use crate::error::{EXIT_CODES_HELP, EXIT_OK, EXIT_USAGE};
 use clap::{CommandFactory, FromArgMatches, Parser, Subcommand};

@@ -7,11 +7,10 @@ use super::args::{real, whole};
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
 use crate::detector::EmRegister;
 use crate::error::Result;
-use crate::io::StackFormat;
 use crate::output::{FileOut, StagedFiles};
 use crate::synth::{
     output_files_for, parse_shape, rms_pdf, write_synthetic_in, Camera, Defects, EmccdParams,
-    RtsParams, ScmosParams, SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
+    RtsParams, ScmosParams, SynthFormat, SynthSpec, MAX_FRAMES, MAX_LIGHT_E,
 };
 
 /// sCMOS conversion gain without `--gain-e-per-adu`, e- per adu (stated in its help).
@@ -42,7 +41,7 @@ pub struct SynthArgs {
     pub frames: usize,
     /// Output file format.
     #[arg(long, value_enum, default_value = "fits")]
-    pub format: StackFormat,
+    pub format: SynthFormat,
     /// Output stack path (.fits/.fit, .tif/.tiff or .exr as --format); the manifest and truth
     /// maps go beside it. All are written only when the run succeeds.
     #[arg(long)]
@@ -217,9 +216,9 @@ pub fn run(args: &SynthArgs) -> Result<()> {
 /// Check the stack path and the files beside it before any work, and stage them.
 fn prepare_outputs(args: &SynthArgs, spec: &SynthSpec) -> Result<StagedFiles> {
     let what = match args.format {
-        StackFormat::Fits => "a FITS stack (--format fits)",
-        StackFormat::Tiff => "a TIFF stack (--format tiff)",
-        StackFormat::Exr => "an OpenEXR stack (--format exr)",
+        SynthFormat::Fits => "a FITS stack (--format fits)",
+        SynthFormat::Tiff => "a TIFF stack (--format tiff)",
+        SynthFormat::Exr => "an OpenEXR stack (--format exr)",
     };
     let exts = args.format.extensions();
     let files = output_files_for(&args.out, spec);

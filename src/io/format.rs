@@ -56,12 +56,12 @@ impl SampleType {
     }
 }
 
-/// File format of a stack: recognised by its magic bytes when read, chosen when written.
+/// File format of a stack as the reader detects it from a file's first bytes (what `synth`
+/// writes is [`SynthFormat`](crate::synth::SynthFormat)).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum StackFormat {
-    /// FITS: read plain, gzip- or tile-compressed (CFITSIO); written as one cube (NAXIS3 = frames).
+    /// FITS: plain, gzip- or tile-compressed (CFITSIO).
     Fits,
     /// TIFF or BigTIFF, one page per frame.
     Tiff,
@@ -70,18 +70,6 @@ pub enum StackFormat {
 }
 
 impl StackFormat {
-    /// Every format.
-    pub const ALL: [StackFormat; 3] = [StackFormat::Fits, StackFormat::Tiff, StackFormat::Exr];
-
-    /// File extensions a stack written in this format takes (lower case, without the dot).
-    pub fn extensions(self) -> &'static [&'static str] {
-        match self {
-            StackFormat::Fits => &["fits", "fit"],
-            StackFormat::Tiff => &["tif", "tiff"],
-            StackFormat::Exr => &["exr"],
-        }
-    }
-
     /// Detect the format of `path` from its first bytes.
     pub fn detect(path: &Path) -> Result<StackFormat> {
         use std::io::Read;

@@ -34,5 +34,7 @@ pub use format::{SampleType, StackFormat};
 pub use frame::{FrameData, FrameOrigin, RawKind, RawLayout};
 pub use inputs::expand_inputs;
 pub use reader::StackReader;
+#[cfg(test)]
+pub(crate) use stack::named_as_truth_map;
 pub use stack::FrameStack;
 pub use stream::{read_batches, FrameBatch};

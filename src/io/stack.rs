@@ -109,16 +109,44 @@ impl FrameStack {
     /// Fail unless the stack has at least `n` frames (variances need 2).
     pub fn require_frames(&self, n: usize, what: &str) -> Result<()> {
         if self.frames < n {
-            return Err(Error::input(
-                &self.sources[0].path,
-                format!(
-                    "frame {}: stack has {} frame(s), {what} needs at least {n}",
-                    self.frames, self.frames
-                ),
-            ));
+            let message = format!(
+                "frame {}: stack has {} frame(s), {what} needs at least {n}",
+                self.frames, self.frames
+            );
+            return Err(match truth_map(&self.sources) {
+                Some(map) => Error::input(map, format!("{message}; {}", truth_map_note(map))),
+                None => Error::input(&self.sources[0].path, message),
+            });
         }
         Ok(())
     }
+}
+
+/// True when `path` is named as `synth` names the truth maps it writes beside a stack
+/// (`<stem>.truth-<quantity>.fits`).
+pub(crate) fn named_as_truth_map(path: &Path) -> bool {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy())
+        .unwrap_or_default();
+    name.ends_with(".fits") && name.contains(".truth-")
+}
+
+/// The first of `sources` that is one of `synth`'s truth maps (named as they are, one frame):
+/// a glob such as `*e.fits` picks up `x.truth-rms_e.fits` beside the stack `x.fits`.
+fn truth_map(sources: &[SourceFile]) -> Option<&Path> {
+    sources
+        .iter()
+        .find(|s| s.frames == 1 && named_as_truth_map(&s.path))
+        .map(|s| s.path.as_path())
+}
+
+/// What an error says about the truth map `path` found among a stack's files.
+fn truth_map_note(path: &Path) -> String {
+    format!(
+        "{} is a truth map written by `detnoise synth` beside its stack, not a frame stack: leave it out of the inputs (a pattern such as *e.fits also matches the truth maps)",
+        path.display()
+    )
 }
 
 /// The stack arguments for a message: the first three, then how many more.
@@ -196,14 +224,68 @@ fn check_uniform(inputs: &[PathBuf], sources: &[SourceFile]) -> Result<()> {
         })
         .expect("some file differs");
     let start: usize = sources[..odd].iter().map(|s| s.frames).sum();
+    let truth = truth_map(sources)
+        .map(|map| format!(". {}", truth_map_note(map)))
+        .unwrap_or_default();
     Err(Error::input(
         &sources[odd].path,
         format!(
-            "frame 0 (stack frame {start}): differs from {}; the {} files of {} are not one stack: {}. A stack is frames of one camera in one format, shape and sample type (the same frames saved as .fits, .tif and .exr would be read three times): give one kind, e.g. DIR/*.fits",
+            "frame 0 (stack frame {start}): differs from {}; the {} files of {} are not one stack: {}. A stack is frames of one camera in one format, shape and sample type (the same frames saved as .fits, .tif and .exr would be read three times): give one kind, e.g. DIR/*.fits{truth}",
             first.path.display(),
             sources.len(),
             shown(inputs),
             found.join("; ")
         ),
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::fits::{write_cube, write_image, ImageData};
+
+    /// A stack `x.fits` of 3 frames, its truth map `x.truth-rms_e.fits` and a one-frame
+    /// `y.fits`, all 4x4, in `dir`.
+    fn files(dir: &Path) -> [PathBuf; 3] {
+        let [stack, truth, single] =
+            ["x.fits", "x.truth-rms_e.fits", "y.fits"].map(|n| dir.join(n));
+        let mut next = || vec![100.0; 16];
+        write_cube(&stack, (4, 4), 3, true, &mut next, &[]).unwrap();
+        for p in [&truth, &single] {
+            write_image(p, (4, 4), ImageData::F64(&[1.5; 16]), "electron", &[]).unwrap();
+        }
+        [stack, truth, single]
+    }
+
+    fn message(e: Error) -> (PathBuf, String) {
+        match e {
+            Error::Input { path, message } => (path, message),
+            other => panic!("not an input error: {other}"),
+        }
+    }
+
+    #[test]
+    fn a_truth_map_among_the_inputs_is_named_as_one() {
+        let d = tempfile::tempdir().unwrap();
+        let [stack, truth, single] = files(d.path());
+        let note = "is a truth map written by `detnoise synth`";
+        // Alone (one --flats per file): too few frames, and why.
+        let alone = FrameStack::open(std::slice::from_ref(&truth)).unwrap();
+        let (path, m) = message(alone.require_frames(2, "a flat variance").unwrap_err());
+        assert_eq!(path, truth);
+        assert!(m.starts_with("frame 1: stack has 1 frame(s), a flat variance needs at least 2; "));
+        assert!(m.contains(note), "{m}");
+        // With its stack (a glob matching both): not one stack, and why.
+        let mixed = FrameStack::open(&[stack.clone(), truth.clone()]).unwrap_err();
+        let (path, m) = message(mixed);
+        assert_eq!(path, truth);
+        assert!(m.contains("sample types") && m.contains(note), "{m}");
+        // A one-frame file named otherwise is not called a truth map.
+        let other = FrameStack::open(std::slice::from_ref(&single)).unwrap();
+        let (path, m) = message(other.require_frames(2, "a variance").unwrap_err());
+        assert_eq!(path, single);
+        assert!(!m.contains("truth map"), "{m}");
+        let (_, m) = message(FrameStack::open(&[stack, single]).unwrap_err());
+        assert!(!m.contains("truth map"), "{m}");
+    }
 }

@@ -279,15 +279,47 @@ struct Scan {
     contiguous: Option<Contiguous>,
 }
 
+/// Frames, shape and sample type of a TIFF file: one frame per page (each page's header
+/// checked), or the frames of an ImageJ stack stored contiguously after its single page.
 fn scan_pages(path: &Path) -> Result<Scan> {
     let mut dec = open_decoder(path)?;
     let (shape, sample_type) = page_info(path, 0, &mut dec)?;
     let imagej = imagej_images(&mut dec);
+    let pages = count_pages(path, &mut dec, shape, sample_type)?;
+    let mut contiguous = None;
+    let mut frames = pages;
+    if let Some(n) = imagej.filter(|&n| n > pages) {
+        if pages != 1 {
+            return Err(frame_error(
+                path,
+                pages,
+                format!("ImageJ description says {n} images but file has {pages} pages"),
+            ));
+        }
+        contiguous = Some(imagej_frames(path, n, shape, sample_type)?);
+        frames = n;
+    }
+    Ok(Scan {
+        frames,
+        shape,
+        sample_type,
+        contiguous,
+    })
+}
+
+/// The pages of the file `dec` reads (at its first page), each of page 0's `shape` and
+/// `sample_type`.
+fn count_pages(
+    path: &Path,
+    dec: &mut Dec,
+    shape: (usize, usize),
+    sample_type: SampleType,
+) -> Result<usize> {
     let mut pages = 1;
     while dec.more_images() {
         dec.next_image()
             .map_err(|e| frame_error(path, pages, format!("cannot read page header: {e}")))?;
-        let (s, t) = page_info(path, pages, &mut dec)?;
+        let (s, t) = page_info(path, pages, dec)?;
         if s != shape {
             return Err(frame_error(
                 path,
@@ -307,63 +339,56 @@ fn scan_pages(path: &Path) -> Result<Scan> {
         }
         pages += 1;
     }
-    let mut contiguous = None;
-    let mut frames = pages;
-    if let Some(n) = imagej.filter(|&n| n > pages) {
-        if pages != 1 {
-            return Err(frame_error(
-                path,
-                pages,
-                format!("ImageJ description says {n} images but file has {pages} pages"),
-            ));
-        }
-        let mut dec = open_decoder(path)?;
-        let compression = dec
-            .find_tag_unsigned::<u16>(Tag::Compression)
-            .ok()
-            .flatten()
-            .unwrap_or(1);
-        if compression != CompressionMethod::None.to_u16() {
-            return Err(frame_error(
-                path,
-                1,
-                "compressed ImageJ stack with one IFD is not supported",
-            ));
-        }
-        let offsets = dec
-            .find_tag_unsigned_vec::<u64>(Tag::StripOffsets)
-            .map_err(|e| frame_error(path, 0, e))?
-            .ok_or_else(|| frame_error(path, 0, "no StripOffsets"))?;
-        let offset = offsets[0];
-        let frame_bytes = (shape.0 * shape.1 * bytes_of(sample_type)) as u64;
-        let len = std::fs::metadata(path)
-            .map_err(|e| Error::io(path, e))?
-            .len();
-        let needed = frame_bytes
-            .checked_mul(n as u64)
-            .and_then(|b| b.checked_add(offset));
-        if needed.is_none_or(|b| b > len) {
-            let complete = len.saturating_sub(offset) / frame_bytes.max(1);
-            return Err(frame_error(
-                path,
-                complete as usize,
-                format!(
-                    "file truncated: ImageJ stack of {n} frames needs {} bytes, file has {len}",
-                    needed.map_or("more than 2^64".to_string(), |b| b.to_string())
-                ),
-            ));
-        }
-        contiguous = Some(Contiguous {
-            offset,
-            big_endian: dec.byte_order() == ByteOrder::BigEndian,
-        });
-        frames = n;
+    Ok(pages)
+}
+
+/// Where the `n` frames of an ImageJ stack with one page lie: uncompressed, one after the
+/// other from the page's first strip, all within the file.
+fn imagej_frames(
+    path: &Path,
+    n: usize,
+    shape: (usize, usize),
+    sample_type: SampleType,
+) -> Result<Contiguous> {
+    let mut dec = open_decoder(path)?;
+    let compression = dec
+        .find_tag_unsigned::<u16>(Tag::Compression)
+        .ok()
+        .flatten()
+        .unwrap_or(1);
+    if compression != CompressionMethod::None.to_u16() {
+        return Err(frame_error(
+            path,
+            1,
+            "compressed ImageJ stack with one IFD is not supported",
+        ));
     }
-    Ok(Scan {
-        frames,
-        shape,
-        sample_type,
-        contiguous,
+    let offsets = dec
+        .find_tag_unsigned_vec::<u64>(Tag::StripOffsets)
+        .map_err(|e| frame_error(path, 0, e))?
+        .ok_or_else(|| frame_error(path, 0, "no StripOffsets"))?;
+    let offset = offsets[0];
+    let frame_bytes = (shape.0 * shape.1 * bytes_of(sample_type)) as u64;
+    let len = std::fs::metadata(path)
+        .map_err(|e| Error::io(path, e))?
+        .len();
+    let needed = frame_bytes
+        .checked_mul(n as u64)
+        .and_then(|b| b.checked_add(offset));
+    if needed.is_none_or(|b| b > len) {
+        let complete = len.saturating_sub(offset) / frame_bytes.max(1);
+        return Err(frame_error(
+            path,
+            complete as usize,
+            format!(
+                "file truncated: ImageJ stack of {n} frames needs {} bytes, file has {len}",
+                needed.map_or("more than 2^64".to_string(), |b| b.to_string())
+            ),
+        ));
+    }
+    Ok(Contiguous {
+        offset,
+        big_endian: dec.byte_order() == ByteOrder::BigEndian,
     })
 }
 

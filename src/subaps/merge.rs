@@ -2,7 +2,7 @@
 //! sub-aperture exactly once; the result is the job's records in index order.
 
 use super::geometry::layout_digest;
-use super::part::{read_part, PartHeader, PartRecord};
+use super::part::{read_part, PartContent, PartHeader, PartRecord};
 use crate::{Error, Result};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -64,90 +64,138 @@ pub fn is_part_name(path: &Path) -> bool {
 /// exactly once. A missing one is an error naming how many are missing and the incomplete
 /// parts; a duplicate names both files.
 pub fn merge_parts(paths: &[PathBuf]) -> Result<Merged> {
-    let mut header: Option<(PartHeader, &PathBuf)> = None;
-    let mut by_index: BTreeMap<usize, (PartRecord, &PathBuf)> = BTreeMap::new();
+    let mut first: Option<(PartHeader, &PathBuf)> = None;
+    let mut by_index: ByIndex = BTreeMap::new();
     let mut incomplete = Vec::new();
     for path in paths {
         let content = read_part(path)?;
-        match &header {
-            None => header = Some((content.header.clone(), path)),
-            Some((h, first)) if h.binding_blake3 != content.header.binding_blake3 => {
-                let differ = h.binding.differences(&content.header.binding);
-                return Err(Error::input(
-                    path,
-                    format!(
-                        "belongs to another job than {} (differing: {}): merge only the parts \
-                         of one run",
-                        first.display(),
-                        if differ.is_empty() {
-                            "binding checksum".to_string()
-                        } else {
-                            differ.join(", ")
-                        }
-                    ),
-                ));
-            }
-            Some(_) => {}
+        match &first {
+            None => first = Some((content.header.clone(), path)),
+            Some((h, first)) => same_job(h, first, &content.header, path)?,
         }
-        let total = content.header.binding.subaps;
-        if content.records.len() < content.header.subaps_in_shard {
-            incomplete.push(format!(
-                "{} ({} of {} done{})",
-                path.display(),
-                content.records.len(),
-                content.header.subaps_in_shard,
-                if content.torn {
-                    ", a torn last line"
-                } else {
-                    ""
-                }
+        incomplete.extend(incomplete_note(&content, path));
+        add_records(
+            &mut by_index,
+            content.records,
+            content.header.binding.subaps,
+            path,
+        )?;
+    }
+    let (header, _) = first.ok_or_else(|| Error::invalid("parts", "no part file given"))?;
+    require_all(&by_index, &header, &incomplete)?;
+    let records: Vec<PartRecord> = by_index.into_values().map(|(r, _)| r).collect();
+    check_layout(&header, &records, &paths[0])?;
+    Ok(Merged {
+        header,
+        parts: paths.to_vec(),
+        records,
+    })
+}
+
+/// Records by sub-aperture index, with the part file each came from.
+type ByIndex<'a> = BTreeMap<usize, (PartRecord, &'a PathBuf)>;
+
+/// Fail unless the part at `path` (header `h`) belongs to the job of `first` (header
+/// `first_h`), naming what differs.
+fn same_job(first_h: &PartHeader, first: &Path, h: &PartHeader, path: &Path) -> Result<()> {
+    if first_h.binding_blake3 == h.binding_blake3 {
+        return Ok(());
+    }
+    let differ = first_h.binding.differences(&h.binding);
+    Err(Error::input(
+        path,
+        format!(
+            "belongs to another job than {} (differing: {}): merge only the parts \
+             of one run",
+            first.display(),
+            if differ.is_empty() {
+                "binding checksum".to_string()
+            } else {
+                differ.join(", ")
+            }
+        ),
+    ))
+}
+
+/// "path (k of n done)" for a part short of its shard's sub-apertures, for the error on
+/// missing ones.
+fn incomplete_note(content: &PartContent, path: &Path) -> Option<String> {
+    (content.records.len() < content.header.subaps_in_shard).then(|| {
+        format!(
+            "{} ({} of {} done{})",
+            path.display(),
+            content.records.len(),
+            content.header.subaps_in_shard,
+            if content.torn {
+                ", a torn last line"
+            } else {
+                ""
+            }
+        )
+    })
+}
+
+/// Add the records of the part at `path` (of a job of `total` sub-apertures), refusing an
+/// index out of range or already held by another part.
+fn add_records<'a>(
+    by_index: &mut ByIndex<'a>,
+    records: Vec<PartRecord>,
+    total: usize,
+    path: &'a PathBuf,
+) -> Result<()> {
+    for r in records {
+        if r.index >= total {
+            return Err(Error::input(
+                path,
+                format!("holds sub-aperture {} of a job of {total}", r.index),
             ));
         }
-        for r in content.records {
-            if r.index >= total {
-                return Err(Error::input(
-                    path,
-                    format!("holds sub-aperture {} of a job of {total}", r.index),
-                ));
-            }
-            if let Some((_, other)) = by_index.get(&r.index) {
-                return Err(Error::input(
-                    path,
-                    format!(
-                        "holds sub-aperture {} which {} holds too: give each shard's part once",
-                        r.index,
-                        other.display()
-                    ),
-                ));
-            }
-            by_index.insert(r.index, (r, path));
+        if let Some((_, other)) = by_index.get(&r.index) {
+            return Err(Error::input(
+                path,
+                format!(
+                    "holds sub-aperture {} which {} holds too: give each shard's part once",
+                    r.index,
+                    other.display()
+                ),
+            ));
         }
+        by_index.insert(r.index, (r, path));
     }
-    let (header, _) = header.ok_or_else(|| Error::invalid("parts", "no part file given"))?;
+    Ok(())
+}
+
+/// Fail unless every sub-aperture of the job is held, naming up to 5 missing ones and the
+/// `incomplete` parts.
+fn require_all(by_index: &ByIndex, header: &PartHeader, incomplete: &[String]) -> Result<()> {
     let total = header.binding.subaps;
-    if by_index.len() < total {
-        let missing: Vec<String> = (0..total)
-            .filter(|i| !by_index.contains_key(i))
-            .take(5)
-            .map(|i| i.to_string())
-            .collect();
-        let shards = header.shard.n;
-        return Err(Error::invalid(
-            "parts",
-            format!(
-                "{} of {total} sub-apertures are missing (e.g. {}){}: run or resume every \
-                 shard of 1..{shards}/{shards} and merge all their parts",
-                total - by_index.len(),
-                missing.join(", "),
-                if incomplete.is_empty() {
-                    String::new()
-                } else {
-                    format!("; incomplete parts: {}", incomplete.join(", "))
-                }
-            ),
-        ));
+    if by_index.len() >= total {
+        return Ok(());
     }
-    let records: Vec<PartRecord> = by_index.into_values().map(|(r, _)| r).collect();
+    let missing: Vec<String> = (0..total)
+        .filter(|i| !by_index.contains_key(i))
+        .take(5)
+        .map(|i| i.to_string())
+        .collect();
+    let shards = header.shard.n;
+    Err(Error::invalid(
+        "parts",
+        format!(
+            "{} of {total} sub-apertures are missing (e.g. {}){}: run or resume every \
+             shard of 1..{shards}/{shards} and merge all their parts",
+            total - by_index.len(),
+            missing.join(", "),
+            if incomplete.is_empty() {
+                String::new()
+            } else {
+                format!("; incomplete parts: {}", incomplete.join(", "))
+            }
+        ),
+    ))
+}
+
+/// Fail unless the records' cells are the job's layout (naming the first part, `first`).
+fn check_layout(header: &PartHeader, records: &[PartRecord], first: &Path) -> Result<()> {
     let b = &header.binding;
     let digest = layout_digest(
         (b.grid_shape[0], b.grid_shape[1]),
@@ -155,13 +203,9 @@ pub fn merge_parts(paths: &[PathBuf]) -> Result<Merged> {
     );
     if digest != b.layout_blake3 {
         return Err(Error::input(
-            &paths[0],
+            first,
             "the records' sub-aperture cells do not match the job's layout: a part was altered",
         ));
     }
-    Ok(Merged {
-        header,
-        parts: paths.to_vec(),
-        records,
-    })
+    Ok(())
 }

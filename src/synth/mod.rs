@@ -9,15 +9,17 @@
 //!
 //! Layout: `spec` says what to simulate, `truth` draws the pixels and frames, `defects` adds
 //! RTS pixels (`rts`: their Markov chain), row and column noise and hot pixels, `write`
-//! writes the stack, its truth maps and table, and its manifest.
+//! writes the stack (in a `format`), its truth maps and table, and its manifest.
 
 mod defects;
+mod format;
 mod rts;
 mod spec;
 mod truth;
 mod write;
 
 pub use defects::{add_defects, ChainStates, DefectTruth, Defects, RtsParams, RtsPixelTruth};
+pub use format::SynthFormat;
 pub use rts::RtsChain;
 pub use spec::{
     parse_shape, rms_pdf, Camera, EmccdParams, ScmosParams, SynthSpec, MAX_FRAMES, MAX_LIGHT_E,

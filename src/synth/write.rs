@@ -1,20 +1,21 @@
 //! A synthetic stack written to disk: the frames in the chosen format, the truth maps beside
 //! it and a manifest of what was simulated.
 
+use std::collections::{BTreeMap, VecDeque};
 use std::path::{Path, PathBuf};
 
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::defects::ChainStates;
+use super::format::SynthFormat;
 use super::spec::{Camera, SynthSpec};
 use super::truth::{draw_truth, frame_with, Truth};
 use crate::calib::darks::{write_rts_csv, RtsLevelRow, RtsRow};
 use crate::calib::{Map, Unit};
 use crate::detector::register::EmRegister;
 use crate::error::{Error, Result};
-use crate::io::fits::{key, KeyValue};
-use crate::io::StackFormat;
+use crate::io::fits::{key, KeyValue, Keyword};
 use crate::output::write_json;
 use crate::pdf::RmsPdf;
 use crate::stats::median;
@@ -27,13 +28,13 @@ pub struct Manifest {
     /// The stack file.
     pub stack: PathBuf,
     /// Its format.
-    pub format: StackFormat,
+    pub format: SynthFormat,
     /// What was simulated.
     pub spec: SynthSpec,
     /// Label of the read-noise pdf used (sCMOS).
     pub rms_pdf: String,
     /// Truth map files (FITS), by quantity.
-    pub truth_maps: std::collections::BTreeMap<String, PathBuf>,
+    pub truth_maps: BTreeMap<String, PathBuf>,
     /// Median of the per-pixel read noise (e-).
     pub rms_e_median: f64,
     /// Mean of the per-pixel read noise (e-).
@@ -67,7 +68,7 @@ pub struct DefectsManifest {
 pub fn write_synthetic(
     spec: &SynthSpec,
     pdf: &dyn RmsPdf,
-    format: StackFormat,
+    format: SynthFormat,
     out: &Path,
 ) -> Result<Manifest> {
     let here = out.parent().unwrap_or(Path::new(""));
@@ -80,31 +81,27 @@ const TRUTH_MAPS: [&str; 4] = ["offset_adu", "rms_e", "rms_adu", "gain_e_per_adu
 /// Every file [`write_synthetic`] writes for the stack `out` of a Gaussian camera: the stack,
 /// its truth maps and its manifest.
 pub fn output_files(out: &Path) -> Vec<PathBuf> {
-    let stem = stack_stem(out);
-    let beside = |suffix: &str| stem.with_file_name(format!("{}.{suffix}", file_name(&stem)));
     std::iter::once(out.to_path_buf())
         .chain(
             TRUTH_MAPS
                 .iter()
-                .map(|q| beside(&format!("truth-{q}.fits"))),
+                .map(|q| beside(out, &format!("truth-{q}.fits"))),
         )
-        .chain([beside("manifest.json")])
+        .chain([beside(out, "manifest.json")])
         .collect()
 }
 
 /// The truth files of `spec`'s defects beside the stack `out`: the RTS table and the hot
 /// pixels' dark-signal map, when there are such pixels.
 pub fn defect_files(out: &Path, spec: &SynthSpec) -> (Option<PathBuf>, Option<PathBuf>) {
-    let stem = stack_stem(out);
-    let beside = |suffix: &str| stem.with_file_name(format!("{}.{suffix}", file_name(&stem)));
     match &spec.camera {
         Camera::Scmos(p) => (
             p.defects
                 .rts
                 .as_ref()
                 .filter(|r| r.fraction > 0.0)
-                .map(|_| beside("truth-rts.csv")),
-            (p.defects.hot_fraction > 0.0).then(|| beside("truth-hot_dark_e.fits")),
+                .map(|_| beside(out, "truth-rts.csv")),
+            (p.defects.hot_fraction > 0.0).then(|| beside(out, "truth-hot_dark_e.fits")),
         ),
         Camera::Emccd(_) => (None, None),
     }
@@ -169,12 +166,44 @@ fn rts_truth_rows(spec: &SynthSpec, truth: &Truth) -> Vec<RtsRow> {
 pub fn write_synthetic_in(
     spec: &SynthSpec,
     pdf: &dyn RmsPdf,
-    format: StackFormat,
+    format: SynthFormat,
     out: &Path,
     dir: &Path,
 ) -> Result<Manifest> {
     let staged = |p: &Path| dir.join(p.file_name().unwrap_or_default());
-    let files = output_files(out);
+    check(spec)?;
+    let truth = draw_truth(spec, pdf);
+    let register = em_register(spec)?;
+    let keys = header_keys(spec);
+    let mut frames = FrameBatches::new(spec, &truth, register.as_ref());
+    format.write(
+        &staged(out),
+        spec.shape,
+        spec.frames,
+        spec.u16_samples,
+        &mut || frames.next(),
+        &keys,
+    )?;
+    let (truth_maps, rts_file) = write_truth_files(spec, &truth, out, &staged, &keys)?;
+    let manifest = Manifest {
+        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
+        stack: out.to_path_buf(),
+        format,
+        spec: spec.clone(),
+        rms_pdf: pdf.label(),
+        truth_maps,
+        rms_e_median: median(&truth.rms_e.data),
+        rms_e_mean: truth.rms_e.data.iter().sum::<f64>() / truth.rms_e.data.len() as f64,
+        excess_noise_factor_sq: register.as_ref().map(|r| r.excess_noise_factor_sq()),
+        note: "Integer storage rounds each sample: the measured variance in adu is about rms_adu^2 + 1/12 (quantisation) for rms_adu above ~0.5 adu.".into(),
+        defects: defects_manifest(spec, &truth, rts_file),
+    };
+    write_json(&staged(&beside(out, "manifest.json")), &manifest)?;
+    Ok(manifest)
+}
+
+/// Fail unless `spec` has frames and pixels and its sCMOS defects are consistent.
+fn check(spec: &SynthSpec) -> Result<()> {
     if spec.frames == 0 || spec.shape.0 == 0 || spec.shape.1 == 0 {
         return Err(Error::invalid(
             "shape",
@@ -184,43 +213,23 @@ pub fn write_synthetic_in(
     if let Camera::Scmos(p) = &spec.camera {
         p.defects.check()?;
     }
-    let truth = draw_truth(spec, pdf);
-    let mut chains = ChainStates::new(&truth.defects, spec.seed);
-    let register = match &spec.camera {
+    Ok(())
+}
+
+/// The EM register of an EMCCD spec (checked), none for sCMOS.
+fn em_register(spec: &SynthSpec) -> Result<Option<EmRegister>> {
+    match &spec.camera {
         Camera::Emccd(p) => {
             EmRegister::check(p.em_gain, p.stages, "em_gain")?;
-            Some(EmRegister::new(p.em_gain, p.stages)?)
+            Ok(Some(EmRegister::new(p.em_gain, p.stages)?))
         }
-        Camera::Scmos(_) => None,
-    };
-    // Frames are generated in parallel batches (each from its own stream) and written in order.
-    let batch = 32;
-    let mut queue: std::collections::VecDeque<Vec<f64>> = Default::default();
-    let mut next_k = 0usize;
-    let mut next = || {
-        if queue.is_empty() {
-            let end = (next_k + batch).min(spec.frames);
-            // RTS chains step in frame order; the frames then draw in parallel.
-            let levels: Vec<Vec<u8>> = (next_k..end)
-                .map(|_| {
-                    let l = chains.levels.clone();
-                    chains.advance(&truth.defects);
-                    l
-                })
-                .collect();
-            let frames: Vec<Vec<f64>> = (next_k..end)
-                .into_par_iter()
-                .zip(&levels)
-                .map(|(k, l)| frame_with(spec, &truth, register.as_ref(), k, l))
-                .collect();
-            queue.extend(frames);
-            next_k = end;
-        }
-        queue
-            .pop_front()
-            .expect("frame count checked by the writer")
-    };
-    let keys = vec![
+        Camera::Scmos(_) => Ok(None),
+    }
+}
+
+/// The FITS keys that mark the stack and its truth maps as `synth`'s: seed, light, detector.
+fn header_keys(spec: &SynthSpec) -> Vec<Keyword> {
+    vec![
         key(
             "DNSEED",
             KeyValue::I64(spec.seed as i64),
@@ -239,33 +248,76 @@ pub fn write_synthetic_in(
             }),
             "simulated detector",
         ),
-    ];
-    let stack_file = staged(out);
-    match format {
-        StackFormat::Fits => crate::io::fits::write_cube(
-            &stack_file,
-            spec.shape,
-            spec.frames,
-            spec.u16_samples,
-            &mut next,
-            &keys,
-        )?,
-        StackFormat::Tiff => crate::io::tiff::write_pages(
-            &stack_file,
-            spec.shape,
-            spec.frames,
-            spec.u16_samples,
-            &mut next,
-        )?,
-        StackFormat::Exr => crate::io::exr::write_layers(
-            &stack_file,
-            spec.shape,
-            spec.frames,
-            spec.u16_samples,
-            &mut next,
-        )?,
+    ]
+}
+
+/// Frames generated per parallel batch.
+const BATCH: usize = 32;
+
+/// The frames of a synthetic stack in order, generated in parallel batches (each frame from
+/// its own stream, so the thread count does not matter).
+struct FrameBatches<'a> {
+    spec: &'a SynthSpec,
+    truth: &'a Truth,
+    register: Option<&'a EmRegister>,
+    chains: ChainStates,
+    queue: VecDeque<Vec<f64>>,
+    next_k: usize,
+}
+
+impl<'a> FrameBatches<'a> {
+    fn new(spec: &'a SynthSpec, truth: &'a Truth, register: Option<&'a EmRegister>) -> Self {
+        FrameBatches {
+            spec,
+            truth,
+            register,
+            chains: ChainStates::new(&truth.defects, spec.seed),
+            queue: VecDeque::new(),
+            next_k: 0,
+        }
     }
-    let mut truth_maps = std::collections::BTreeMap::new();
+
+    /// The next frame (e- per pixel, as stored); called at most `spec.frames` times.
+    fn next(&mut self) -> Vec<f64> {
+        if self.queue.is_empty() {
+            self.draw_batch();
+        }
+        self.queue
+            .pop_front()
+            .expect("frame count checked by the writer")
+    }
+
+    /// Draw the next batch: RTS chains step in frame order, the frames then draw in parallel.
+    fn draw_batch(&mut self) {
+        let (start, end) = (self.next_k, (self.next_k + BATCH).min(self.spec.frames));
+        let levels: Vec<Vec<u8>> = (start..end)
+            .map(|_| {
+                let l = self.chains.levels.clone();
+                self.chains.advance(&self.truth.defects);
+                l
+            })
+            .collect();
+        let (spec, truth, register) = (self.spec, self.truth, self.register);
+        let frames: Vec<Vec<f64>> = (start..end)
+            .into_par_iter()
+            .zip(&levels)
+            .map(|(k, l)| frame_with(spec, truth, register, k, l))
+            .collect();
+        self.queue.extend(frames);
+        self.next_k = end;
+    }
+}
+
+/// Write the truth maps, and the defects' truth table and map, beside the stack `out` (each
+/// through `staged`); returns the maps' final paths by quantity and the table's path.
+fn write_truth_files(
+    spec: &SynthSpec,
+    truth: &Truth,
+    out: &Path,
+    staged: &dyn Fn(&Path) -> PathBuf,
+    keys: &[Keyword],
+) -> Result<(BTreeMap<String, PathBuf>, Option<PathBuf>)> {
+    let mut truth_maps = BTreeMap::new();
     let rms_adu = truth.rms_adu();
     let maps = [
         &truth.offset_adu,
@@ -273,13 +325,14 @@ pub fn write_synthetic_in(
         &rms_adu,
         &truth.gain_e_per_adu,
     ];
-    for ((name, map), p) in TRUTH_MAPS.iter().zip(maps).zip(&files[1..]) {
-        map.write_fits(&staged(p), &keys)?;
-        truth_maps.insert(name.to_string(), p.clone());
+    for (name, map) in TRUTH_MAPS.iter().zip(maps) {
+        let p = beside(out, &format!("truth-{name}.fits"));
+        map.write_fits(&staged(&p), keys)?;
+        truth_maps.insert(name.to_string(), p);
     }
     let (rts_file, hot_file) = defect_files(out, spec);
     if let Some(p) = &rts_file {
-        write_rts_csv(&staged(p), &rts_truth_rows(spec, &truth))?;
+        write_rts_csv(&staged(p), &rts_truth_rows(spec, truth))?;
     }
     if let Some(p) = &hot_file {
         let (rows, cols) = spec.shape;
@@ -289,10 +342,19 @@ pub fn write_synthetic_in(
             truth.defects.hot_dark_e.clone(),
             Unit::Electrons,
         );
-        m.write_fits(&staged(p), &keys)?;
+        m.write_fits(&staged(p), keys)?;
         truth_maps.insert("hot_dark_e".into(), p.clone());
     }
-    let defects = match &spec.camera {
+    Ok((truth_maps, rts_file))
+}
+
+/// What the injected defects came to (sCMOS with defects; none otherwise).
+fn defects_manifest(
+    spec: &SynthSpec,
+    truth: &Truth,
+    rts_file: Option<PathBuf>,
+) -> Option<DefectsManifest> {
+    match &spec.camera {
         Camera::Scmos(p) if !p.defects.is_none() => Some(DefectsManifest {
             rts_pixels: truth.defects.rts.len(),
             rts_truth: rts_file,
@@ -301,22 +363,13 @@ pub fn write_synthetic_in(
             note: "offset_adu is the offset without defects: an RTS pixel's mean is above it by its levels' occupancy-weighted mean height (the RTS table's levels are relative to that mean), a hot pixel's by hot_dark_e / gain; rms_e is the pixel's own Gaussian noise, to which row and column noise, RTS levels and hot pixels' shot noise add".into(),
         }),
         _ => None,
-    };
-    let manifest = Manifest {
-        tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
-        stack: out.to_path_buf(),
-        format,
-        spec: spec.clone(),
-        rms_pdf: pdf.label(),
-        truth_maps,
-        rms_e_median: median(&truth.rms_e.data),
-        rms_e_mean: truth.rms_e.data.iter().sum::<f64>() / truth.rms_e.data.len() as f64,
-        excess_noise_factor_sq: register.as_ref().map(|r| r.excess_noise_factor_sq()),
-        note: "Integer storage rounds each sample: the measured variance in adu is about rms_adu^2 + 1/12 (quantisation) for rms_adu above ~0.5 adu.".into(),
-        defects,
-    };
-    write_json(&staged(&files[5]), &manifest)?;
-    Ok(manifest)
+    }
+}
+
+/// The file `<out stem>.<suffix>` beside the stack `out`.
+fn beside(out: &Path, suffix: &str) -> PathBuf {
+    let stem = stack_stem(out);
+    stem.with_file_name(format!("{}.{suffix}", file_name(&stem)))
 }
 
 fn file_name(p: &Path) -> String {
@@ -328,10 +381,57 @@ fn file_name(p: &Path) -> String {
 /// `out` without its stack extension (`.fits`, `.tif`, `.tiff`, `.exr`).
 pub fn stack_stem(out: &Path) -> PathBuf {
     let ext = out.extension().and_then(|e| e.to_str());
-    let is_stack = |e: &str| StackFormat::ALL.iter().any(|f| f.extensions().contains(&e));
+    let is_stack = |e: &str| SynthFormat::ALL.iter().any(|f| f.extensions().contains(&e));
     if ext.is_some_and(is_stack) {
         out.with_extension("")
     } else {
         out.to_path_buf()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::named_as_truth_map;
+    use crate::synth::{Defects, RtsParams, ScmosParams};
+
+    #[test]
+    fn the_reader_knows_every_truth_map_by_its_name() {
+        let defects = Defects {
+            rts: Some(RtsParams {
+                fraction: 0.1,
+                steps_e: vec![8.0],
+                step_spread: 0.25,
+                dwell_frames: vec![30.0, 10.0],
+                occupancy: None,
+            }),
+            hot_fraction: 0.1,
+            hot_dark_e: 50.0,
+            ..Defects::default()
+        };
+        let spec = SynthSpec {
+            camera: Camera::Scmos(ScmosParams {
+                offset_adu: 100.0,
+                offset_spread_adu: 2.0,
+                gain_e_per_adu: 0.25,
+                gain_spread: 0.02,
+                defects,
+            }),
+            shape: (4, 4),
+            frames: 2,
+            light_e: 0.0,
+            seed: 1,
+            u16_samples: true,
+        };
+        let out = Path::new("dir/x-100e.fits");
+        let files = output_files_for(out, &spec);
+        let maps: Vec<&PathBuf> = files
+            .iter()
+            .filter(|p| p.extension().is_some_and(|e| e == "fits") && p.as_path() != out)
+            .collect();
+        assert_eq!(maps.len(), TRUTH_MAPS.len() + 1, "{files:?}");
+        for p in &files {
+            assert_eq!(named_as_truth_map(p), maps.contains(&p), "{}", p.display());
+        }
     }
 }

@@ -121,21 +121,7 @@ fn pass(
     tap: Option<&ByteTap>,
 ) -> Result<Pass> {
     let npix = stack.pixels();
-    let mut tiles: Vec<Tile> = (0..npix.div_ceil(TILE))
-        .map(|t| {
-            let r = t * TILE..npix.min((t + 1) * TILE);
-            match window {
-                None => {
-                    let mut tile = Tile::new(r.start, r.len(), extremes);
-                    tile.lines = Some(TileLines::new(r.start, r.len(), stack.shape.1));
-                    tile
-                }
-                Some((shift, lo, hi)) => {
-                    Tile::windowed(r.start, &shift[r.clone()], &lo[r.clone()], &hi[r])
-                }
-            }
-        })
-        .collect();
+    let mut tiles = tiles_of(stack, extremes, window);
     let mut lines = window.is_none().then(|| LineAcc::new(stack.shape));
     let mut per_frame = Vec::new();
     let mut used = 0usize;
@@ -160,34 +146,15 @@ fn pass(
                 return Ok(());
             }
             let views: Vec<FrameView> = match hook {
-                None => chosen
-                    .iter()
-                    .map(|f| match f {
-                        FrameData::Values(v) => FrameView::Values(v),
-                        FrameData::Raw(b, layout) => FrameView::Raw(b, *layout),
-                    })
-                    .collect(),
+                None => chosen.iter().map(|f| view(f)).collect(),
                 Some(h) => {
-                    decoded.resize_with(chosen.len(), Vec::new);
-                    let decoded = &mut decoded[..chosen.len()];
-                    decoded
-                        .par_iter_mut()
-                        .zip(&chosen)
-                        .for_each(|(out, f)| decode_into(f, out));
-                    raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
-                        for f in decoded.iter() {
-                            for (mi, x) in m.iter_mut().zip(&f[t * TILE..]) {
-                                *mi = mi.max(*x);
-                            }
-                        }
-                    });
-                    let values: Vec<f64> = decoded
-                        .par_iter_mut()
-                        .enumerate()
-                        .map(|(j, f)| h(used + j, f))
-                        .collect();
-                    per_frame.extend(values);
-                    decoded.iter().map(|v| FrameView::Values(v)).collect()
+                    let transformed = hooked(&chosen, h, used, &mut decoded, &mut raw_max);
+                    per_frame.extend(transformed.per_frame);
+                    transformed
+                        .frames
+                        .iter()
+                        .map(|v| FrameView::Values(v))
+                        .collect()
                 }
             };
             tiles
@@ -221,6 +188,75 @@ fn pass(
     })
 }
 
+/// The tiles of a pass over `stack`: tracking `extremes` per pixel and end and adding up
+/// the frames' lines (the first pass), or within `window` (the second pass of sigma
+/// clipping).
+fn tiles_of(stack: &FrameStack, extremes: usize, window: Option<Window>) -> Vec<Tile> {
+    let npix = stack.pixels();
+    (0..npix.div_ceil(TILE))
+        .map(|t| {
+            let r = t * TILE..npix.min((t + 1) * TILE);
+            match window {
+                None => {
+                    let mut tile = Tile::new(r.start, r.len(), extremes);
+                    tile.lines = Some(TileLines::new(r.start, r.len(), stack.shape.1));
+                    tile
+                }
+                Some((shift, lo, hi)) => {
+                    Tile::windowed(r.start, &shift[r.clone()], &lo[r.clone()], &hi[r])
+                }
+            }
+        })
+        .collect()
+}
+
+/// A frame as read, for the sweep.
+fn view(f: &FrameData) -> FrameView<'_> {
+    match f {
+        FrameData::Values(v) => FrameView::Values(v),
+        FrameData::Raw(b, layout) => FrameView::Raw(b, *layout),
+    }
+}
+
+/// Frames transformed by the hook, and the values it returned.
+struct Hooked<'a> {
+    frames: &'a [Vec<f64>],
+    per_frame: Vec<f64>,
+}
+
+/// Decode `chosen` (stack frames `first`, `first + 1`, ...) into `decoded`, raise `raw_max`
+/// to their samples, then transform them by `hook`.
+fn hooked<'a>(
+    chosen: &[&FrameData],
+    hook: FrameHook,
+    first: usize,
+    decoded: &'a mut Vec<Vec<f64>>,
+    raw_max: &mut [f64],
+) -> Hooked<'a> {
+    decoded.resize_with(chosen.len(), Vec::new);
+    let decoded = &mut decoded[..chosen.len()];
+    decoded
+        .par_iter_mut()
+        .zip(chosen)
+        .for_each(|(out, f)| decode_into(f, out));
+    raw_max.par_chunks_mut(TILE).enumerate().for_each(|(t, m)| {
+        for f in decoded.iter() {
+            for (mi, x) in m.iter_mut().zip(&f[t * TILE..]) {
+                *mi = mi.max(*x);
+            }
+        }
+    });
+    let per_frame: Vec<f64> = decoded
+        .par_iter_mut()
+        .enumerate()
+        .map(|(j, f)| hook(first + j, f))
+        .collect();
+    Hooked {
+        frames: decoded,
+        per_frame,
+    }
+}
+
 /// Per-pixel statistics of `stack` (needs >= 2 frames). `hook` transforms each frame first.
 pub fn pixel_stats(stack: &FrameStack, clip: Clip, hook: Option<FrameHook>) -> Result<PixelStats> {
     pixel_stats_of(stack, clip, hook, None)
@@ -245,6 +281,48 @@ pub(super) fn stats_tapped(
     select: Option<&[bool]>,
     tap: Option<&ByteTap>,
 ) -> Result<PixelStats> {
+    check_frames(stack, clip, select)?;
+    let extremes = match clip {
+        Clip::Extremes(n) => n,
+        _ => 0,
+    };
+    let mut p = pass(stack, hook, extremes, None, select, tap)?;
+    let (rows, cols) = stack.shape;
+    let frames = p.frames;
+    let nf = p.parity_frames();
+    let every = EverySample::of(&p);
+    let line_vars = p.lines.take().expect("the first pass adds lines").finish();
+    let temporal = TemporalNoise::decompose(&line_vars, &every.var, stack.shape);
+    if extremes > 0 {
+        p.tiles
+            .par_iter_mut()
+            .for_each(|t| t.remove_extremes(extremes, nf));
+    }
+    if let Clip::Sigma(k) = clip {
+        let (shift, lo, hi) = sigma_window(&p, k, stack.pixels());
+        // The second pass replays the hook so frames are transformed identically; it keeps
+        // the first pass's shifts (samples, so integer data keep exact sums).
+        p.tiles = pass(stack, hook, 0, Some((&shift, &lo, &hi)), select, None)?.tiles;
+    }
+    let kept = Kept::of(&p);
+    Ok(PixelStats {
+        frames,
+        mean: Map::new(rows, cols, kept.mean, Unit::Adu),
+        rms: Map::new(rows, cols, kept.rms, Unit::Adu),
+        rms_even: Map::new(rows, cols, kept.rms_even, Unit::Adu),
+        rms_odd: Map::new(rows, cols, kept.rms_odd, Unit::Adu),
+        count: kept.count,
+        von_neumann: every.vn_ratio,
+        max: every.max,
+        excess_kurtosis: every.kurt,
+        temporal,
+        per_frame: p.per_frame,
+    })
+}
+
+/// Fail unless the stack, or its frames flagged in `select` (one flag per frame), are at
+/// least 2, and more than twice the samples `clip` rejects at each end.
+fn check_frames(stack: &FrameStack, clip: Clip, select: Option<&[bool]>) -> Result<()> {
     stack.require_frames(2, "a variance")?;
     let used = match select {
         Some(sel) => {
@@ -270,108 +348,128 @@ pub(super) fn stats_tapped(
             ));
         }
     }
-    let extremes = match clip {
-        Clip::Extremes(n) => n,
-        _ => 0,
-    };
-    let mut p = pass(stack, hook, extremes, None, select, tap)?;
-    let (rows, cols) = stack.shape;
-    let npix = stack.pixels();
-    let frames = p.frames;
-    let nf = p.parity_frames();
-    // The von Neumann ratio, the maximum, the kurtosis and the temporal noise decomposition
-    // see every sample (before clipping).
-    let mut vn_ratio = vec![f64::NAN; npix];
-    let mut max = vec![f64::NAN; npix];
-    let mut kurt = vec![f64::NAN; npix];
-    let mut var_all = vec![f64::NAN; npix];
-    let per_tile = vn_ratio
-        .par_chunks_mut(TILE)
-        .zip(max.par_chunks_mut(TILE))
-        .zip(kurt.par_chunks_mut(TILE).zip(var_all.par_chunks_mut(TILE)));
-    per_tile
-        .zip(&p.tiles)
-        .for_each(|(((vn_ratio, max), (kurt, var_all)), t)| {
-            for i in 0..t.len {
-                let sums = t.sums(i, None, nf);
-                let (_, var) = mean_var(sums);
-                vn_ratio[i] = if var > 0.0 {
-                    t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
-                } else {
-                    f64::NAN
-                };
-                max[i] = t.max[i];
-                var_all[i] = var;
-                kurt[i] = excess_kurtosis(PowerSums {
-                    n: sums.n,
-                    s1: sums.s1,
-                    s2: sums.s2,
-                    s3: t.s3[i],
-                    s4: t.s4[i],
-                });
-            }
-        });
-    let line_vars = p.lines.take().expect("the first pass adds lines").finish();
-    let temporal = TemporalNoise::decompose(&line_vars, &var_all, stack.shape);
-    if extremes > 0 {
-        p.tiles
-            .par_iter_mut()
-            .for_each(|t| t.remove_extremes(extremes, nf));
-    }
-    if let Clip::Sigma(k) = clip {
-        let (mut lo, mut hi, mut shift) = (vec![0.0; npix], vec![0.0; npix], vec![0.0; npix]);
-        for t in &p.tiles {
-            for i in 0..t.len {
-                let (m, var) = mean_var(t.sums(i, None, nf));
-                let s = var.sqrt();
-                lo[t.start + i] = m - k * s;
-                hi[t.start + i] = m + k * s;
-                shift[t.start + i] = t.shift[i];
-            }
+    Ok(())
+}
+
+/// The per-pixel maps that see every sample (before clipping): the von Neumann ratio, the
+/// maximum, the excess kurtosis and the variance (for the temporal noise decomposition).
+struct EverySample {
+    vn_ratio: Vec<f64>,
+    max: Vec<f64>,
+    kurt: Vec<f64>,
+    var: Vec<f64>,
+}
+
+impl EverySample {
+    /// The maps of the first pass `p`.
+    fn of(p: &Pass) -> Self {
+        let npix: usize = p.tiles.iter().map(|t| t.len).sum();
+        let (frames, nf) = (p.frames, p.parity_frames());
+        let mut vn_ratio = vec![f64::NAN; npix];
+        let mut max = vec![f64::NAN; npix];
+        let mut kurt = vec![f64::NAN; npix];
+        let mut var_all = vec![f64::NAN; npix];
+        let per_tile = vn_ratio
+            .par_chunks_mut(TILE)
+            .zip(max.par_chunks_mut(TILE))
+            .zip(kurt.par_chunks_mut(TILE).zip(var_all.par_chunks_mut(TILE)));
+        per_tile
+            .zip(&p.tiles)
+            .for_each(|(((vn_ratio, max), (kurt, var_all)), t)| {
+                for i in 0..t.len {
+                    let sums = t.sums(i, None, nf);
+                    let (_, var) = mean_var(sums);
+                    vn_ratio[i] = if var > 0.0 {
+                        t.vn[i] / (frames as f64 - 1.0) / (2.0 * var)
+                    } else {
+                        f64::NAN
+                    };
+                    max[i] = t.max[i];
+                    var_all[i] = var;
+                    kurt[i] = excess_kurtosis(PowerSums {
+                        n: sums.n,
+                        s1: sums.s1,
+                        s2: sums.s2,
+                        s3: t.s3[i],
+                        s4: t.s4[i],
+                    });
+                }
+            });
+        EverySample {
+            vn_ratio,
+            max,
+            kurt,
+            var: var_all,
         }
-        // The second pass replays the hook so frames are transformed identically; it keeps
-        // the first pass's shifts (samples, so integer data keep exact sums).
-        p.tiles = pass(stack, hook, 0, Some((&shift, &lo, &hi)), select, None)?.tiles;
     }
-    let mut mean = vec![f64::NAN; npix];
-    let mut rms = vec![f64::NAN; npix];
-    let mut rms_even = vec![f64::NAN; npix];
-    let mut rms_odd = vec![f64::NAN; npix];
-    let mut count = vec![0.0; npix];
-    // Per tile in parallel (the serial loop was a tenth of the time after the reading).
-    let per_tile = mean
-        .par_chunks_mut(TILE)
-        .zip(rms.par_chunks_mut(TILE))
-        .zip(
-            rms_even
-                .par_chunks_mut(TILE)
-                .zip(rms_odd.par_chunks_mut(TILE)),
-        )
-        .zip(count.par_chunks_mut(TILE));
-    per_tile
-        .zip(&p.tiles)
-        .for_each(|((((mean, rms), (rms_even, rms_odd)), count), t)| {
-            for i in 0..t.len {
-                let tot = t.sums(i, None, nf);
-                let (m, var) = mean_var(tot);
-                count[i] = tot.n;
-                mean[i] = m;
-                rms[i] = var.sqrt();
-                rms_even[i] = mean_var(t.sums(i, Some(0), nf)).1.sqrt();
-                rms_odd[i] = mean_var(t.sums(i, Some(1), nf)).1.sqrt();
-            }
-        });
-    Ok(PixelStats {
-        frames,
-        mean: Map::new(rows, cols, mean, Unit::Adu),
-        rms: Map::new(rows, cols, rms, Unit::Adu),
-        rms_even: Map::new(rows, cols, rms_even, Unit::Adu),
-        rms_odd: Map::new(rows, cols, rms_odd, Unit::Adu),
-        count,
-        von_neumann: vn_ratio,
-        max,
-        excess_kurtosis: kurt,
-        temporal,
-        per_frame: p.per_frame,
-    })
+}
+
+/// Sigma clipping's window from the pass `p`: per pixel the shift of its sums and the
+/// lowest and highest sample kept, `k` standard deviations around its mean.
+fn sigma_window(p: &Pass, k: f64, npix: usize) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+    let nf = p.parity_frames();
+    let (mut lo, mut hi, mut shift) = (vec![0.0; npix], vec![0.0; npix], vec![0.0; npix]);
+    for t in &p.tiles {
+        for i in 0..t.len {
+            let (m, var) = mean_var(t.sums(i, None, nf));
+            let s = var.sqrt();
+            lo[t.start + i] = m - k * s;
+            hi[t.start + i] = m + k * s;
+            shift[t.start + i] = t.shift[i];
+        }
+    }
+    (shift, lo, hi)
+}
+
+/// The per-pixel maps of the samples kept (after clipping): mean, standard deviation, those
+/// of the even and odd frames, and the count.
+struct Kept {
+    mean: Vec<f64>,
+    rms: Vec<f64>,
+    rms_even: Vec<f64>,
+    rms_odd: Vec<f64>,
+    count: Vec<f64>,
+}
+
+impl Kept {
+    /// The maps of the last pass `p` (per tile in parallel: the serial loop was a tenth of
+    /// the time after the reading).
+    fn of(p: &Pass) -> Self {
+        let npix: usize = p.tiles.iter().map(|t| t.len).sum();
+        let nf = p.parity_frames();
+        let mut mean = vec![f64::NAN; npix];
+        let mut rms = vec![f64::NAN; npix];
+        let mut rms_even = vec![f64::NAN; npix];
+        let mut rms_odd = vec![f64::NAN; npix];
+        let mut count = vec![0.0; npix];
+        let per_tile = mean
+            .par_chunks_mut(TILE)
+            .zip(rms.par_chunks_mut(TILE))
+            .zip(
+                rms_even
+                    .par_chunks_mut(TILE)
+                    .zip(rms_odd.par_chunks_mut(TILE)),
+            )
+            .zip(count.par_chunks_mut(TILE));
+        per_tile
+            .zip(&p.tiles)
+            .for_each(|((((mean, rms), (rms_even, rms_odd)), count), t)| {
+                for i in 0..t.len {
+                    let tot = t.sums(i, None, nf);
+                    let (m, var) = mean_var(tot);
+                    count[i] = tot.n;
+                    mean[i] = m;
+                    rms[i] = var.sqrt();
+                    rms_even[i] = mean_var(t.sums(i, Some(0), nf)).1.sqrt();
+                    rms_odd[i] = mean_var(t.sums(i, Some(1), nf)).1.sqrt();
+                }
+            });
+        Kept {
+            mean,
+            rms,
+            rms_even,
+            rms_odd,
+            count,
+        }
+    }
 }

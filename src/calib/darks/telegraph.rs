@@ -162,118 +162,33 @@ fn baum_welch<const K: usize>(y: &[f64], var: f64) -> Chain {
     let k = K;
     let t = y.len();
     let floor = (1e-6 * var).max(1e-12);
-    let (mut mean, mut v) = kmeans(y, k, floor);
+    let (mean, v) = kmeans(y, k, floor);
     let mut a = vec![0.0; k * k];
     for i in 0..k {
         for j in 0..k {
             a[i * k + j] = if i == j { 0.9 } else { 0.1 / (k - 1) as f64 };
         }
     }
-    let mut start = vec![1.0 / k as f64; k];
-    let (mut b, mut alpha, mut beta) = (vec![0.0; t * k], vec![0.0; t * k], vec![0.0; t * k]);
-    let mut scale = vec![0.0; t];
+    let mut model = Model {
+        mean,
+        var: v,
+        a,
+        start: vec![1.0 / k as f64; k],
+    };
+    let mut post = Posteriors::new(t, k);
     let mut prev = f64::NEG_INFINITY;
     let mut chain = None;
     for _ in 0..MAX_ITERS {
-        // E step: emission densities (each frame scaled by its largest), forward, backward.
-        let mut log_l = 0.0;
-        let norm: Vec<f64> = v
-            .iter()
-            .map(|v| -0.5 * (2.0 * std::f64::consts::PI * v).ln())
-            .collect();
-        let half_inv: Vec<f64> = v.iter().map(|v| -0.5 / v).collect();
-        for s in 0..t {
-            let row = &mut b[s * k..(s + 1) * k];
-            let mut top = f64::NEG_INFINITY;
-            for i in 0..k {
-                let d = y[s] - mean[i];
-                row[i] = d * d * half_inv[i] + norm[i];
-                top = top.max(row[i]);
-            }
-            row.iter_mut().for_each(|x| *x = (*x - top).exp());
-            log_l += top;
-        }
-        // ln L adds ln of the scales; their product is taken 16 at a time (each scale is in
-        // (0, k], the largest emission being 1) to save logarithms.
-        let mut product = 1.0;
-        for s in 0..t {
-            let mut c = 0.0;
-            for j in 0..k {
-                let p = if s == 0 {
-                    start[j]
-                } else {
-                    (0..k).map(|i| alpha[(s - 1) * k + i] * a[i * k + j]).sum()
-                };
-                alpha[s * k + j] = p * b[s * k + j];
-                c += alpha[s * k + j];
-            }
-            let c = c.max(f64::MIN_POSITIVE);
-            scale[s] = c;
-            product *= c;
-            if s % 16 == 15 || product < 1e-250 {
-                log_l += product.ln();
-                product = 1.0;
-            }
-            let inv = 1.0 / c;
-            alpha[s * k..(s + 1) * k].iter_mut().for_each(|x| *x *= inv);
-        }
-        log_l += product.ln();
-        beta[(t - 1) * k..].fill(1.0);
-        for s in (0..t - 1).rev() {
-            for i in 0..k {
-                let v: f64 = (0..k)
-                    .map(|j| a[i * k + j] * b[(s + 1) * k + j] * beta[(s + 1) * k + j])
-                    .sum();
-                beta[s * k + i] = v / scale[s + 1];
-            }
-        }
-        // Expected time in each level, transitions between levels, and moments.
-        let mut time = vec![0.0; k];
-        let mut from = vec![0.0; k];
-        let mut trans = vec![0.0; k * k];
-        let (mut s1, mut s2) = (vec![0.0; k], vec![0.0; k]);
-        for s in 0..t {
-            for i in 0..k {
-                let g = alpha[s * k + i] * beta[s * k + i];
-                time[i] += g;
-                s1[i] += g * y[s];
-                if s + 1 < t {
-                    from[i] += g;
-                    for j in 0..k {
-                        trans[i * k + j] += alpha[s * k + i]
-                            * a[i * k + j]
-                            * b[(s + 1) * k + j]
-                            * beta[(s + 1) * k + j]
-                            / scale[s + 1];
-                    }
-                }
-            }
-        }
-        let exits: Vec<f64> = (0..k).map(|i| from[i] - trans[i * k + i]).collect();
-        // M step: the levels, widths and transitions these expectations imply.
-        for i in 0..k {
-            mean[i] = s1[i] / time[i].max(f64::MIN_POSITIVE);
-        }
-        for (s, ys) in y.iter().enumerate() {
-            for i in 0..k {
-                let d = ys - mean[i];
-                s2[i] += alpha[s * k + i] * beta[s * k + i] * d * d;
-            }
-        }
-        for i in 0..k {
-            v[i] = (s2[i] / time[i].max(f64::MIN_POSITIVE)).max(floor);
-            let f = from[i].max(f64::MIN_POSITIVE);
-            for j in 0..k {
-                a[i * k + j] = trans[i * k + j] / f;
-            }
-            start[i] = time[i] / t as f64;
-        }
+        let log_l = post.e_step::<K>(y, &model);
+        let e = Expectations::of::<K>(y, &model.a, &post);
+        let exits: Vec<f64> = (0..k).map(|i| e.from[i] - e.trans[i * k + i]).collect();
+        model.m_step::<K>(y, &post, &e, floor);
         let converged = (log_l - prev).abs() < TOL_PER_SAMPLE * t as f64;
         chain = Some(Chain {
-            mean: mean.clone(),
-            var: v.clone(),
-            a: a.clone(),
-            time,
+            mean: model.mean.clone(),
+            var: model.var.clone(),
+            a: model.a.clone(),
+            time: e.time,
             exits,
             log_l,
             converged,
@@ -284,6 +199,190 @@ fn baum_welch<const K: usize>(y: &[f64], var: f64) -> Chain {
         prev = log_l;
     }
     chain.expect("at least one iteration")
+}
+
+/// The parameters Baum-Welch updates: the levels' means and variances, the transition
+/// probabilities (row-major K x K, from row to column) and the start probabilities.
+struct Model {
+    mean: Vec<f64>,
+    var: Vec<f64>,
+    a: Vec<f64>,
+    start: Vec<f64>,
+}
+
+/// The E step's arrays over the frames (row-major, frame by level): emission densities
+/// (each frame's scaled by its largest), scaled forward and backward probabilities, and the
+/// forward scales.
+struct Posteriors {
+    b: Vec<f64>,
+    alpha: Vec<f64>,
+    beta: Vec<f64>,
+    scale: Vec<f64>,
+}
+
+impl Posteriors {
+    fn new(t: usize, k: usize) -> Self {
+        Posteriors {
+            b: vec![0.0; t * k],
+            alpha: vec![0.0; t * k],
+            beta: vec![0.0; t * k],
+            scale: vec![0.0; t],
+        }
+    }
+
+    /// Emission densities, forward and backward passes of `y` under `m`; returns ln L.
+    fn e_step<const K: usize>(&mut self, y: &[f64], m: &Model) -> f64 {
+        let mut log_l = self.emissions::<K>(y, m);
+        self.forward::<K>(m, &mut log_l);
+        self.backward::<K>(&m.a);
+        log_l
+    }
+
+    /// The emission densities of every frame, each scaled by its largest; returns the sum
+    /// of the scales' logarithms.
+    fn emissions<const K: usize>(&mut self, y: &[f64], m: &Model) -> f64 {
+        let k = K;
+        let mut log_l = 0.0;
+        let norm: Vec<f64> = m
+            .var
+            .iter()
+            .map(|v| -0.5 * (2.0 * std::f64::consts::PI * v).ln())
+            .collect();
+        let half_inv: Vec<f64> = m.var.iter().map(|v| -0.5 / v).collect();
+        for (s, ys) in y.iter().enumerate() {
+            let row = &mut self.b[s * k..(s + 1) * k];
+            let mut top = f64::NEG_INFINITY;
+            for i in 0..k {
+                let d = ys - m.mean[i];
+                row[i] = d * d * half_inv[i] + norm[i];
+                top = top.max(row[i]);
+            }
+            row.iter_mut().for_each(|x| *x = (*x - top).exp());
+            log_l += top;
+        }
+        log_l
+    }
+
+    /// The scaled forward pass; adds the ln of the scales to `log_l`.
+    fn forward<const K: usize>(&mut self, m: &Model, log_l: &mut f64) {
+        let k = K;
+        let (alpha, b, a) = (&mut self.alpha, &self.b, &m.a);
+        // ln L adds ln of the scales; their product is taken 16 at a time (each scale is in
+        // (0, k], the largest emission being 1) to save logarithms.
+        let mut product = 1.0;
+        for s in 0..self.scale.len() {
+            let mut c = 0.0;
+            for j in 0..k {
+                let p = if s == 0 {
+                    m.start[j]
+                } else {
+                    (0..k).map(|i| alpha[(s - 1) * k + i] * a[i * k + j]).sum()
+                };
+                alpha[s * k + j] = p * b[s * k + j];
+                c += alpha[s * k + j];
+            }
+            let c = c.max(f64::MIN_POSITIVE);
+            self.scale[s] = c;
+            product *= c;
+            if s % 16 == 15 || product < 1e-250 {
+                *log_l += product.ln();
+                product = 1.0;
+            }
+            let inv = 1.0 / c;
+            alpha[s * k..(s + 1) * k].iter_mut().for_each(|x| *x *= inv);
+        }
+        *log_l += product.ln();
+    }
+
+    /// The scaled backward pass through the transitions `a`.
+    fn backward<const K: usize>(&mut self, a: &[f64]) {
+        let k = K;
+        let t = self.scale.len();
+        let (beta, b) = (&mut self.beta, &self.b);
+        beta[(t - 1) * k..].fill(1.0);
+        for s in (0..t - 1).rev() {
+            for i in 0..k {
+                let v: f64 = (0..k)
+                    .map(|j| a[i * k + j] * b[(s + 1) * k + j] * beta[(s + 1) * k + j])
+                    .sum();
+                beta[s * k + i] = v / self.scale[s + 1];
+            }
+        }
+    }
+
+    /// The posterior weight of level `i` in frame `s` (unnormalised: alpha x beta).
+    fn weight(&self, s: usize, i: usize, k: usize) -> f64 {
+        self.alpha[s * k + i] * self.beta[s * k + i]
+    }
+}
+
+/// What the E step expects of the hidden levels: frames in each level, frames in it with a
+/// successor, transitions between levels (row-major, from row to column), and the sum of
+/// the samples in each.
+struct Expectations {
+    time: Vec<f64>,
+    from: Vec<f64>,
+    trans: Vec<f64>,
+    s1: Vec<f64>,
+}
+
+impl Expectations {
+    fn of<const K: usize>(y: &[f64], a: &[f64], p: &Posteriors) -> Self {
+        let k = K;
+        let t = y.len();
+        let (alpha, beta, b, scale) = (&p.alpha, &p.beta, &p.b, &p.scale);
+        let mut e = Expectations {
+            time: vec![0.0; k],
+            from: vec![0.0; k],
+            trans: vec![0.0; k * k],
+            s1: vec![0.0; k],
+        };
+        for s in 0..t {
+            for i in 0..k {
+                let g = p.weight(s, i, k);
+                e.time[i] += g;
+                e.s1[i] += g * y[s];
+                if s + 1 < t {
+                    e.from[i] += g;
+                    for j in 0..k {
+                        e.trans[i * k + j] += alpha[s * k + i]
+                            * a[i * k + j]
+                            * b[(s + 1) * k + j]
+                            * beta[(s + 1) * k + j]
+                            / scale[s + 1];
+                    }
+                }
+            }
+        }
+        e
+    }
+}
+
+impl Model {
+    /// The M step: the levels, widths (at least `floor`) and transitions the expectations
+    /// `e` imply.
+    fn m_step<const K: usize>(&mut self, y: &[f64], p: &Posteriors, e: &Expectations, floor: f64) {
+        let k = K;
+        let t = y.len();
+        for i in 0..k {
+            self.mean[i] = e.s1[i] / e.time[i].max(f64::MIN_POSITIVE);
+        }
+        let mut s2 = vec![0.0; k];
+        for (s, ys) in y.iter().enumerate() {
+            for (i, s2) in s2.iter_mut().enumerate() {
+                let d = ys - self.mean[i];
+                *s2 += p.weight(s, i, k) * d * d;
+            }
+        }
+        for (i, s2) in s2.iter().enumerate() {
+            self.var[i] = (s2 / e.time[i].max(f64::MIN_POSITIVE)).max(floor);
+            let f = e.from[i].max(f64::MIN_POSITIVE);
+            for j in 0..k {
+                self.a[i * k + j] = e.trans[i * k + j] / f;
+            }
+            self.start[i] = e.time[i] / t as f64;
+        }
+    }
 }
 
 /// One-dimensional k-means of `y` into `k` groups from its quantiles: their means and

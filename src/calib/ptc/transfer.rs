@@ -207,8 +207,44 @@ pub fn photon_transfer(
         return Err(Error::invalid("flats", "need at least one flat stack"));
     }
     let (rows, cols) = (dark.offset_adu.rows, dark.offset_adu.cols);
-    let npix = rows * cols;
     let gain_factor = opts.em_gain * opts.excess_noise_factor_sq;
+    let (levels, points, notes) = flat_levels(flats, dark, opts)?;
+    let (slope, slope_err, intercept, chi2) = fit_line(&levels)?;
+    if slope.is_nan() || slope <= 0.0 {
+        return Err(Error::Numeric(format!(
+            "photon transfer slope {slope} adu is not positive: flats brighter than darks?"
+        )));
+    }
+    let gain = gain_factor / slope;
+    let gain_err = gain * slope_err / slope;
+    let (gain_map, gain_err_map) = pixel_gains(&points, dark, slope, gain_factor);
+    let rn: Vec<f64> = (0..rows * cols)
+        .map(|i| dark.var_adu2[i].sqrt() * gain_map[i])
+        .collect();
+    let dark_rms: Vec<f64> = dark.var_adu2.iter().map(|v| v.sqrt()).collect();
+    Ok(PtcResult {
+        levels,
+        gain_e_per_adu: gain,
+        gain_err_e_per_adu: gain_err,
+        slope,
+        intercept_adu2: intercept,
+        reduced_chi2: chi2,
+        gain_map: Map::new(rows, cols, gain_map, Unit::EPerAdu),
+        gain_err_map: Map::new(rows, cols, gain_err_map, Unit::EPerAdu),
+        read_noise_e_map: Map::new(rows, cols, rn, Unit::Electrons),
+        read_noise_e_median: median(&dark_rms) * gain,
+        notes,
+    })
+}
+
+/// The light levels of `flats` with their per-pixel points: a stack per level, or a stack
+/// whose frames fall into several cleanly separated levels split into them (with a note
+/// saying so).
+fn flat_levels(
+    flats: &[FrameStack],
+    dark: &DarkReference,
+    opts: &PtcOptions,
+) -> Result<(Vec<Level>, Vec<LevelPoints>, Vec<String>)> {
     let mut levels = Vec::new();
     // Per level: each pixel's dark-subtracted (mean, variance), NaN where masked; frames.
     let mut points: Vec<LevelPoints> = Vec::new();
@@ -250,23 +286,27 @@ pub fn photon_transfer(
             groups.len()
         ));
     }
-    let (slope, slope_err, intercept, chi2) = fit_line(&levels)?;
-    if slope.is_nan() || slope <= 0.0 {
-        return Err(Error::Numeric(format!(
-            "photon transfer slope {slope} adu is not positive: flats brighter than darks?"
-        )));
-    }
-    let gain = gain_factor / slope;
-    let gain_err = gain * slope_err / slope;
-    // Per pixel (Huang et al. 2013): inverse-variance weighted mean of r = v/m over levels.
-    // The weights use the variance the global fit predicts, not the pixel's own noisy
-    // estimate, which would favour low variance draws and bias r low. A sample variance has
-    // standard error var * sqrt(2 / (n - 1)) (Gaussian approximation).
+    Ok((levels, points, notes))
+}
+
+/// Per-pixel conversion gain and its standard error (e per adu; NaN where no level counts).
+///
+/// Huang et al. 2013: the inverse-variance weighted mean of r = v/m over levels. The weights
+/// use the variance the global fit (`slope`) predicts, not the pixel's own noisy estimate,
+/// which would favour low variance draws and bias r low. A sample variance has standard
+/// error var * sqrt(2 / (n - 1)) (Gaussian approximation).
+fn pixel_gains(
+    points: &[LevelPoints],
+    dark: &DarkReference,
+    slope: f64,
+    gain_factor: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let npix = dark.offset_adu.rows * dark.offset_adu.cols;
     let mut gain_map = vec![f64::NAN; npix];
     let mut gain_err_map = vec![f64::NAN; npix];
     for i in 0..npix {
         let (mut sw, mut swr) = (0.0, 0.0);
-        for (pm, pv, n) in &points {
+        for (pm, pv, n) in points {
             let (m, v) = (pm[i], pv[i]);
             let expected = dark.var_adu2[i] + slope * m;
             if m > 0.0 && expected > 0.0 && v.is_finite() {
@@ -281,23 +321,7 @@ pub fn photon_transfer(
             gain_err_map[i] = gain_map[i] / (r * sw.sqrt());
         }
     }
-    let rn: Vec<f64> = (0..npix)
-        .map(|i| dark.var_adu2[i].sqrt() * gain_map[i])
-        .collect();
-    let dark_rms: Vec<f64> = dark.var_adu2.iter().map(|v| v.sqrt()).collect();
-    Ok(PtcResult {
-        levels,
-        gain_e_per_adu: gain,
-        gain_err_e_per_adu: gain_err,
-        slope,
-        intercept_adu2: intercept,
-        reduced_chi2: chi2,
-        gain_map: Map::new(rows, cols, gain_map, Unit::EPerAdu),
-        gain_err_map: Map::new(rows, cols, gain_err_map, Unit::EPerAdu),
-        read_noise_e_map: Map::new(rows, cols, rn, Unit::Electrons),
-        read_noise_e_median: median(&dark_rms) * gain,
-        notes,
-    })
+    (gain_map, gain_err_map)
 }
 
 /// One level's pixels: dark-subtracted mean (adu) and variance (adu^2), NaN where masked,

@@ -3,6 +3,7 @@
 //! stated once above the table; a sweep too wide for one table is split into one table per
 //! configuration. CSV and JSON keep every column.
 
+use super::super::table::{render, Align, Column};
 use crate::montecarlo::SimRecord;
 
 /// Widest line of the table, characters (a terminal of 100 columns shows it unwrapped).
@@ -100,69 +101,43 @@ const SETTINGS: [Setting; 7] = [
     },
 ];
 
-/// A result column: its name (as in the CSV, but `note`) and its cell.
-struct Column {
-    name: &'static str,
-    cell: fn(&SimRecord) -> String,
-}
-
 /// The result columns that apply to `records`: the EM gain only with a model that has a
-/// register, empty frames and notes only when some row has them.
-fn result_columns(records: &[SimRecord]) -> Vec<Column> {
-    let mut cols = vec![Column {
-        name: "model",
-        cell: |r| r.result.model.clone(),
-    }];
+/// register, empty frames and notes only when some row has them. The model (a name, read
+/// left to right) leads; the others are numbers but the note, last.
+fn result_columns(records: &[SimRecord]) -> Vec<Column<SimRecord>> {
+    fn number(head: &'static str, cell: fn(&SimRecord) -> String) -> Column<SimRecord> {
+        Column::fit(head, Align::Right, cell)
+    }
+    let mut cols = vec![Column::fit("model", Align::Left, |r: &SimRecord| {
+        r.result.model.clone()
+    })];
     if records.iter().any(|r| r.result.centroider != "cog") {
-        cols.push(Column {
-            name: "centroider",
-            cell: |r| r.result.centroider.clone(),
-        });
+        cols.push(number("centroider", |r| r.result.centroider.clone()));
     }
     if records.iter().any(|r| r.em_gain.is_some()) {
-        cols.push(Column {
-            name: "em_gain",
-            cell: |r| r.em_gain.map(plain).unwrap_or_default(),
-        });
+        cols.push(number("em_gain", |r| {
+            r.em_gain.map(plain).unwrap_or_default()
+        }));
     }
     cols.extend([
-        Column {
-            name: "r_px",
-            cell: |r| sig(r.result.r_px, 4),
-        },
-        Column {
-            name: "r_se_px",
-            cell: |r| sig(r.result.r_se_px, 2),
-        },
-        Column {
-            name: "b_opt_e",
-            cell: |r| plain(trimmed(r.result.b_opt_e, 3)),
-        },
-        Column {
-            name: "r0_px",
-            cell: |r| sig(r.result.r0_px, 4),
-        },
+        number("r_px", |r| sig(r.result.r_px, 4)),
+        number("r_se_px", |r| sig(r.result.r_se_px, 2)),
+        number("b_opt_e", |r| plain(trimmed(r.result.b_opt_e, 3))),
+        number("r0_px", |r| sig(r.result.r0_px, 4)),
     ]);
     if records.iter().any(|r| r.result.param_opt.is_some()) {
-        cols.push(Column {
-            name: "param_opt",
-            cell: |r| match (r.result.param_name, r.result.param_opt) {
+        cols.push(number("param_opt", |r| {
+            match (r.result.param_name, r.result.param_opt) {
                 (Some(name), Some(v)) => format!("{name}={}", plain(trimmed(v, 3))),
                 _ => String::new(),
-            },
-        });
+            }
+        }));
     }
     if records.iter().any(|r| r.result.zero_frames > 0) {
-        cols.push(Column {
-            name: "zero_frames",
-            cell: |r| r.result.zero_frames.to_string(),
-        });
+        cols.push(number("zero_frames", |r| r.result.zero_frames.to_string()));
     }
     if records.iter().any(|r| !note(r).is_empty()) {
-        cols.push(Column {
-            name: "note",
-            cell: note,
-        });
+        cols.push(Column::fit("note", Align::Left, note));
     }
     cols
 }
@@ -188,57 +163,23 @@ fn varies(records: &[SimRecord], value: fn(&SimRecord) -> String) -> bool {
     records.iter().any(|r| value(r) != first)
 }
 
-/// An aligned table: the `swept` settings, then the `results` columns; the model name is
-/// left-aligned, numbers right-aligned.
-fn table(records: &[SimRecord], swept: &[&Setting], results: &[Column]) -> String {
-    let mut head: Vec<&str> = vec![results[0].name];
-    head.extend(swept.iter().map(|s| s.name));
-    head.extend(results[1..].iter().map(|c| c.name));
-    let rows: Vec<Vec<String>> = records
+/// An aligned table: the model, the `swept` settings, then the other `results` columns.
+fn table(records: &[SimRecord], swept: &[&Setting], results: &[Column<SimRecord>]) -> String {
+    let settings = swept
         .iter()
-        .map(|r| {
-            let mut row = vec![(results[0].cell)(r)];
-            row.extend(swept.iter().map(|s| (s.value)(r)));
-            row.extend(results[1..].iter().map(|c| (c.cell)(r)));
-            row
-        })
+        .map(|s| Column::fit(s.name, Align::Right, s.value));
+    let columns: Vec<Column<SimRecord>> = results[..1]
+        .iter()
+        .copied()
+        .chain(settings)
+        .chain(results[1..].iter().copied())
         .collect();
-    let widths: Vec<usize> = (0..head.len())
-        .map(|k| {
-            rows.iter()
-                .map(|r| r[k].chars().count())
-                .chain([head[k].len()])
-                .max()
-                .unwrap_or(0)
-        })
-        .collect();
-    let last = head.len() - 1;
-    let line = |cells: &[&str]| {
-        let text: Vec<String> = cells
-            .iter()
-            .zip(&widths)
-            .enumerate()
-            .map(|(k, (c, &w))| {
-                // Text columns (the model, a note) read left to right; numbers align right.
-                if k == 0 || (k == last && head[k] == "note") {
-                    format!("{c:<w$}")
-                } else {
-                    format!("{c:>w$}")
-                }
-            })
-            .collect();
-        text.join("  ").trim_end().to_string() + "\n"
-    };
-    let mut s = line(&head);
-    for row in &rows {
-        s += &line(&row.iter().map(String::as_str).collect::<Vec<_>>());
-    }
-    s
+    render(&columns, records, |_| None)
 }
 
 /// What the result columns mean, for those shown.
-fn legend(results: &[Column]) -> String {
-    let shown = |name: &str| results.iter().any(|c| c.name == name);
+fn legend(results: &[Column<SimRecord>]) -> String {
+    let shown = |name: &str| results.iter().any(|c| c.head == name);
     let mut items = vec![
         "r_px ± r_se_px: mean radial centroid error (px) after subtracting the background \
          level b_opt_e (e-) that minimises it"

@@ -1,177 +1,20 @@
-//! The EM-gain fit: the data binned on the model's grid (`Layout`), the binned likelihood
-//! (`Problem`), and Nelder-Mead from the best of several start values, with standard errors
-//! from the Hessian.
+//! The EM-gain fit: the options and histogram checked, start values, the fit problem set
+//! up from the best of several candidate starts (`problem`), Nelder-Mead within a work
+//! budget, and standard errors from the Hessian.
 
 use super::histogram::{ValueHistogram, MAX_HIST_BINS};
-use super::model::{excess_noise_factor_sq, Model, MAX_FFT};
+use super::model::excess_noise_factor_sq;
 use super::options::{EmGainOptions, EmShape};
-use super::result::{EmCrossChecks, EmGainFit};
+use super::problem::{fitted_moments, Layout, Problem};
+use super::result::{EmCrossChecks, EmGainFit, EmStart};
 use super::start::{far_limit, start_from_moments, start_values, MIN_SAMPLES};
 use crate::error::{Error, Result};
 use crate::fit::optim::{correlations, hessian, minimise, spd_inverse, INVALID_COST};
-use rustfft::FftPlanner;
 
 /// Work budget of one fit in model cells evaluated (2^26: a few seconds at most); the
 /// limit on cost evaluations is derived from it, between 300 and 1200 (real fits need
 /// 220 to 300).
 const WORK_CELLS: u64 = 1 << 26;
-
-/// The binned data and the model grid of one fit.
-struct Problem {
-    model: Model,
-    /// Fine cells per data bin.
-    per_bin: usize,
-    /// Data counts per fitted bin, starting at fine cell 0.
-    counts: Vec<f64>,
-    n: f64,
-    /// Samples outside the fitted range.
-    excluded: f64,
-    bias0: f64,
-    s0: f64,
-    guard_gain: f64,
-    /// Internal coordinates of the parameters that are not free.
-    base: [f64; 5],
-    /// Indices (into bias, ln s, ln G, ln lambda) of the free parameters.
-    free: Vec<usize>,
-}
-
-impl Problem {
-    /// Natural parameters (b, s, G, lambda, serial CIC) from the free internal coordinates `u`.
-    fn params(&self, u: &[f64]) -> [f64; 5] {
-        let mut v = self.base;
-        for (k, i) in self.free.iter().enumerate() {
-            v[*i] = u[k];
-        }
-        [
-            self.bias0 + v[0] * self.s0,
-            v[1].exp(),
-            v[2].exp(),
-            v[3].exp(),
-            v[4].exp(),
-        ]
-    }
-
-    /// Internal coordinates of all natural parameters `p` (a zero CIC rate maps to -inf,
-    /// which `params` maps back to 0 while the rate is not free).
-    fn internal(&self, p: &[f64; 5]) -> [f64; 5] {
-        [
-            (p[0] - self.bias0) / self.s0,
-            p[1].ln(),
-            p[2].ln(),
-            p[3].ln(),
-            p[4].ln(),
-        ]
-    }
-
-    /// Probabilities of the fitted bins, normalised over the fitted range.
-    fn bin_probs(&self, p: &[f64; 5]) -> Option<Vec<f64>> {
-        let [b, s, g, lambda, cic] = *p;
-        // The model is valid while the fine cells resolve the Gaussian and the EM tail
-        // does not wrap around the period.
-        if s < 2.5 * self.model.h || g > self.guard_gain || lambda > 1e5 {
-            return None;
-        }
-        let cells = self.model.cells(b, s, g, lambda, cic)?;
-        let probs: Vec<f64> = cells
-            .chunks(self.per_bin)
-            .take(self.counts.len())
-            .map(|c| c.iter().sum::<f64>().max(0.0))
-            .collect();
-        let total: f64 = probs.iter().sum();
-        (total > 0.0).then(|| probs.into_iter().map(|q| q / total).collect())
-    }
-
-    /// Negative log-likelihood per sample.
-    fn nll(&self, u: &[f64]) -> f64 {
-        let Some(probs) = self.bin_probs(&self.params(u)) else {
-            return INVALID_COST;
-        };
-        let mut s = 0.0;
-        for (c, q) in self.counts.iter().zip(&probs) {
-            if *c > 0.0 {
-                s -= c * q.max(1e-300).ln();
-            }
-        }
-        s / self.n
-    }
-}
-
-/// Binning of one fit: fitted bins of width `w` (a multiple of the histogram's) from `lo`
-/// to `cut` (adu), fine model cells of `h`.
-struct Layout {
-    lo: f64,
-    cut: f64,
-    w: f64,
-    per_bin: usize,
-    hfine: f64,
-}
-
-impl Layout {
-    /// Bins at most `s_min`/2 wide; fine cells at most `s_min`/4.5 so that the Gaussian
-    /// factor vanishes at the grid's Nyquist frequency; from 10 `sq` below `q4`.
-    fn new(h: &ValueHistogram, s_min: f64, sq: f64, q4: f64, cut: f64) -> Self {
-        let w0 = h.width();
-        let data_lo = h.centre(0) - 0.5 * w0;
-        let merge = ((0.5 * s_min / w0).floor() as usize).max(1);
-        let w = merge as f64 * w0;
-        let per_bin = ((4.5 * w / s_min).ceil() as usize).max(1);
-        // From 10 read noises below the 1e-4 quantile (lower values are far outliers),
-        // aligned with the histogram's bins.
-        let lo = data_lo + ((q4 - 10.0 * sq - data_lo) / w).floor() * w;
-        Layout {
-            lo,
-            cut,
-            w,
-            per_bin,
-            hfine: w / per_bin as f64,
-        }
-    }
-
-    /// The fit problem with a model period reaching `pad` adu beyond the cut.
-    fn problem(&self, h: &ValueHistogram, shape: EmShape, conv: f64, pad: f64) -> Result<Problem> {
-        // Sizes are checked before anything is allocated from them.
-        let span = self.cut - self.lo + pad;
-        let cells = (span / self.hfine).ceil();
-        if cells.is_nan() || cells > MAX_FFT as f64 {
-            return Err(Error::Numeric(format!(
-                "the value range ({span:.0} adu) is too wide for model cells of {:.3} adu (set by the read noise): more than {MAX_FFT} cells, where real EMCCD histograms need at most 32768; if these are EMCCD frames, lower --max-value-adu or widen --bin-width-adu",
-                self.hfine
-            )));
-        }
-        let m = (cells as usize).max(2).next_power_of_two();
-        let n_bins = ((self.cut - self.lo) / self.w).ceil().max(0.0) as usize;
-        let mut counts = vec![0.0; n_bins];
-        let mut excluded = 0.0;
-        for (i, v) in h.counts().iter().enumerate() {
-            let j = ((h.centre(i) - self.lo) / self.w).floor();
-            if j >= 0.0 && (j as usize) < n_bins {
-                counts[j as usize] += v;
-            } else {
-                excluded += v;
-            }
-        }
-        let n: f64 = counts.iter().sum();
-        Ok(Problem {
-            model: Model {
-                shape,
-                conv,
-                x0: self.lo,
-                h: self.hfine,
-                fft: FftPlanner::new().plan_fft_forward(m),
-                m,
-            },
-            per_bin: self.per_bin,
-            counts,
-            n,
-            excluded,
-            bias0: 0.0,
-            s0: 1.0,
-            base: [0.0, 0.0, 0.0, 0.0, f64::NEG_INFINITY],
-            free: vec![0, 1, 2, 3],
-            guard_gain: (m as f64 * self.hfine - (self.cut - self.lo)) / 25.0,
-        })
-    }
-}
 
 /// [`fit_emgain`] of the histogram of `stack`'s values: a failure names its first file.
 pub fn fit_emgain_of_stack(
@@ -184,6 +27,24 @@ pub fn fit_emgain_of_stack(
 
 /// Fit bias, read noise, gain and lambda to a histogram of EMCCD pixel values (adu).
 pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit> {
+    let conv = conversion_gain(opts)?;
+    check_histogram(h)?;
+    let spread = Spread::of(h);
+    if opts.serial_cic && opts.shape == EmShape::Gamma {
+        return Err(Error::invalid(
+            "serial_cic",
+            "serial CIC has partial gain, modelled only with the exact register (`stages`)",
+        ));
+    }
+    let st = start(h, opts, conv)?;
+    let (grid, problem) = set_up(h, opts, conv, &st, &spread)?;
+    let solution = solve(&problem, opts.shape)?;
+    Ok(result(h, opts, conv, st, &grid, &problem, solution))
+}
+
+/// The conversion gain the model uses (e- per adu; 1 when not given, the gain then in adu
+/// per e-), refused when not positive or when the exact register lacks it.
+fn conversion_gain(opts: &EmGainOptions) -> Result<f64> {
     if let Some(c) = opts.gain_e_per_adu {
         if !(c > 0.0 && c.is_finite()) {
             return Err(Error::invalid(
@@ -192,15 +53,17 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
             ));
         }
     }
-    let conv = match (opts.shape, opts.gain_e_per_adu) {
-        (EmShape::Register { .. }, None) => {
-            return Err(Error::invalid(
-                "stages",
-                "the exact register model needs the conversion gain (`gain_e_per_adu`)",
-            ))
-        }
-        (_, c) => c.unwrap_or(1.0),
-    };
+    match (opts.shape, opts.gain_e_per_adu) {
+        (EmShape::Register { .. }, None) => Err(Error::invalid(
+            "stages",
+            "the exact register model needs the conversion gain (`gain_e_per_adu`)",
+        )),
+        (_, c) => Ok(c.unwrap_or(1.0)),
+    }
+}
+
+/// Fail unless the histogram holds the bulk of the values and enough of them to fit.
+fn check_histogram(h: &ValueHistogram) -> Result<()> {
     let n = h.total();
     let all = n + h.outside();
     if h.outside() > 0.01 * all {
@@ -215,68 +78,74 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
             "only {n} pixel-samples: an EM-gain fit needs at least {MIN_SAMPLES} for stable start values and a meaningful histogram"
         )));
     }
-    let w0 = h.width();
-    let c = h.counts();
-    let ((q4, sq), q50) = (h.low_tail(), h.quantile(0.5));
-    let sq = sq.max(w0 / 12f64.sqrt());
-    if opts.serial_cic && opts.shape == EmShape::Gamma {
-        return Err(Error::invalid(
-            "serial_cic",
-            "serial CIC has partial gain, modelled only with the exact register (`stages`)",
-        ));
+    Ok(())
+}
+
+/// Where a histogram's values lie (adu).
+struct Spread {
+    /// The 1e-4 quantile.
+    q4: f64,
+    /// A read-noise scale from the spacing of the lowest quantiles, at least the bins'
+    /// quantisation noise.
+    sq: f64,
+    /// The median.
+    q50: f64,
+}
+
+impl Spread {
+    fn of(h: &ValueHistogram) -> Self {
+        let ((q4, sq), q50) = (h.low_tail(), h.quantile(0.5));
+        Spread {
+            q4,
+            sq: sq.max(h.width() / 12f64.sqrt()),
+            q50,
+        }
     }
-    let st =
-        match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
-            (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => return Err(Error::invalid(
-                "fixed_read_noise_adu",
-                format!("the maps give a bias of {b} adu and a read noise of {s} adu: both must be finite, the read noise > 0"),
-            )),
-            (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv)?,
-            (None, None) => start_values(h)?,
-            _ => return Err(Error::invalid(
-                "fixed_bias_adu",
-                "bias and read noise are fixed together (both from no-signal frames, `fixed_bias_adu` with `fixed_read_noise_adu`) or not at all",
-            )),
-        };
+}
+
+/// Start values: from the histogram's peak, or from its moments when bias and read noise
+/// are fixed (both or neither).
+fn start(h: &ValueHistogram, opts: &EmGainOptions, conv: f64) -> Result<EmStart> {
+    match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
+        (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => Err(Error::invalid(
+            "fixed_read_noise_adu",
+            format!("the maps give a bias of {b} adu and a read noise of {s} adu: both must be finite, the read noise > 0"),
+        )),
+        (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv),
+        (None, None) => start_values(h),
+        _ => Err(Error::invalid(
+            "fixed_bias_adu",
+            "bias and read noise are fixed together (both from no-signal frames, `fixed_bias_adu` with `fixed_read_noise_adu`) or not at all",
+        )),
+    }
+}
+
+/// The binning and the fit problem, started at the candidate of lowest cost on a model
+/// period that holds the EM tail of any gain the optimiser may try.
+fn set_up(
+    h: &ValueHistogram,
+    opts: &EmGainOptions,
+    conv: f64,
+    st: &EmStart,
+    q: &Spread,
+) -> Result<(Layout, Problem)> {
     let fixed = opts.fixed_bias_adu.is_some();
-    let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
     // Far outliers (beyond the EM tail, or 10 read noises below the lowest quantile) are
     // left out of the moments and of the fitted range.
     let far = far_limit(h, st.bias_adu, st.read_noise_adu);
-    let data_hi = (h.centre(c.len() - 1) + 0.5 * w0).min(far);
-    let (_, mean, var) = h.moments_within(q4 - 10.0 * sq, far);
-    let cut = opts
-        .max_value_adu
-        .unwrap_or(st.bias_adu + 40.0 * g0 * (1.0 + l0 + 5.0 * l0.sqrt()))
-        .min(data_hi);
-    // Candidate starts: the peak-based values, and a grid of biases between the lowest
-    // values and the median with read noises from the spacing of the lowest quantiles
-    // (where the bias peak drowns in the EM signal, e.g. low gain at high light), each
-    // with gain and lambda from the moments: mean = b + lambda G,
-    // var = s^2 + lambda G^2 F^2.
-    let f2 = excess_noise_factor_sq(opts.shape, g0 * conv);
-    let mut cands = vec![[st.bias_adu, st.read_noise_adu, g0, l0, 0.0]];
-    for s in [st.read_noise_adu, 0.6 * sq, sq] {
-        for k in 0..=24 {
-            let b = q4 + (q50 - q4) * k as f64 / 24.0;
-            let g = (var - s * s) / ((mean - b) * f2);
-            let l = (mean - b) / g;
-            if !fixed && g > 0.0 && l > 0.0 && g.is_finite() && l.is_finite() {
-                cands.push([b, s, g, l, 0.0]);
-            }
-        }
-    }
+    let cands = candidates(h, opts, conv, st, q, far);
     let s_min = cands
         .iter()
         .map(|c| c[1])
         .fold(f64::INFINITY, f64::min)
-        .min(sq);
+        .min(q.sq);
+    let g0 = st.gain_adu_per_e;
     let g_max = cands.iter().map(|c| c[2]).fold(0.0, f64::max).min(4.0 * g0);
-    let grid = Layout::new(h, s_min, sq, q4, cut);
-    let mut problem = grid.problem(h, opts.shape, conv, (10.0 * sq).max(25.0 * g_max))?;
+    let grid = Layout::new(h, s_min, q.sq, q.q4, fit_top(h, opts, st, far));
+    let trial = grid.problem(h, opts.shape, conv, (10.0 * q.sq).max(25.0 * g_max))?;
     let best = cands
         .iter()
-        .map(|p| (problem.nll(&problem.internal(p)), *p))
+        .map(|p| (trial.nll(&trial.internal(p)), *p))
         .min_by(|a, b| a.0.total_cmp(&b.0))
         .expect("at least one candidate");
     if best.0 >= INVALID_COST {
@@ -286,31 +155,82 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     }
     // The period must hold the EM tail of any gain the optimiser may try (25 scale
     // lengths: wrapped mass < 1e-10): up to 3x the best start.
-    problem = grid.problem(h, opts.shape, conv, (10.0 * sq).max(75.0 * best.1[2]))?;
-    problem.bias0 = best.1[0];
-    problem.s0 = best.1[1];
-    problem.base = problem.internal(&best.1);
-    if fixed {
-        problem.free = vec![2, 3];
+    let mut problem = grid.problem(h, opts.shape, conv, (10.0 * q.sq).max(75.0 * best.1[2]))?;
+    problem.start_at(&best.1, fixed, opts.serial_cic);
+    Ok((grid, problem))
+}
+
+/// The top of the fitted range (adu): `max_value_adu`, or by default the start's bias plus
+/// 40 gains for each of 1 + lambda + 5 sqrt(lambda) electrons; at most the highest value
+/// short of the far outliers (from `far`).
+fn fit_top(h: &ValueHistogram, opts: &EmGainOptions, st: &EmStart, far: f64) -> f64 {
+    let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
+    let data_hi = (h.centre(h.counts().len() - 1) + 0.5 * h.width()).min(far);
+    opts.max_value_adu
+        .unwrap_or(st.bias_adu + 40.0 * g0 * (1.0 + l0 + 5.0 * l0.sqrt()))
+        .min(data_hi)
+}
+
+/// Candidate starts (b, s, G, lambda, serial CIC): the peak-based values, and a grid of
+/// biases between the lowest values and the median with read noises from the spacing of
+/// the lowest quantiles (where the bias peak drowns in the EM signal, e.g. low gain at high
+/// light), each with gain and lambda from the moments of the values below `far`:
+/// mean = b + lambda G, var = s^2 + lambda G^2 F^2. With bias and read noise fixed, the
+/// start values only.
+fn candidates(
+    h: &ValueHistogram,
+    opts: &EmGainOptions,
+    conv: f64,
+    st: &EmStart,
+    q: &Spread,
+    far: f64,
+) -> Vec<[f64; 5]> {
+    let fixed = opts.fixed_bias_adu.is_some();
+    let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
+    let (_, mean, var) = h.moments_within(q.q4 - 10.0 * q.sq, far);
+    let f2 = excess_noise_factor_sq(opts.shape, g0 * conv);
+    let mut cands = vec![[st.bias_adu, st.read_noise_adu, g0, l0, 0.0]];
+    for s in [st.read_noise_adu, 0.6 * q.sq, q.sq] {
+        for k in 0..=24 {
+            let b = q.q4 + (q.q50 - q.q4) * k as f64 / 24.0;
+            let g = (var - s * s) / ((mean - b) * f2);
+            let l = (mean - b) / g;
+            if !fixed && g > 0.0 && l > 0.0 && g.is_finite() && l.is_finite() {
+                cands.push([b, s, g, l, 0.0]);
+            }
+        }
     }
-    if opts.serial_cic {
-        // Start the rate at a tenth of the light: the Nelder-Mead steps find the scale.
-        problem.base[4] = (0.1 * best.1[3]).max(1e-4).ln();
-        problem.free.push(4);
-    }
-    let (n, w, lo, cut, excluded) = (problem.n, grid.w, grid.lo, grid.cut, problem.excluded);
-    let s0 = problem.s0;
+    cands
+}
+
+/// The optimum of one fit.
+struct Solution {
+    /// Natural parameters (b, s, G, lambda, serial CIC).
+    p: [f64; 5],
+    /// Their standard errors (0 for those not fitted).
+    se: [f64; 5],
+    /// Covariance of the fitted ones (internal coordinates).
+    cov: Vec<Vec<f64>>,
+    /// Nelder-Mead iterations.
+    iterations: u64,
+    /// Negative log-likelihood per sample at the optimum.
+    cost: f64,
+}
+
+/// Minimise the problem's likelihood within the work budget; standard errors from the
+/// Hessian.
+fn solve(problem: &Problem, shape: EmShape) -> Result<Solution> {
+    let n = problem.n;
     let u0: Vec<f64> = problem.free.iter().map(|i| problem.base[*i]).collect();
     let steps = [0.3, 0.1, 0.2, 0.2, 1.0];
     let step: Vec<f64> = problem.free.iter().map(|i| steps[*i]).collect();
-    let cost = |u: &[f64]| problem.nll(u);
     // Stop when the simplex spans 1e-4 in total log-likelihood.
     let tol = 1e-4 / n;
     // Bounded work: at most WORK_CELLS model cells in all (one FFT of m cells per cost,
     // the exact register costing more per cell); past the budget every cost is invalid,
     // which ends Nelder-Mead at once, and the fit is refused.
     let m = problem.model.m;
-    let weight = match opts.shape {
+    let weight = match shape {
         EmShape::Gamma => 1,
         EmShape::Register { stages } => 1 + u64::from(stages) / 64,
     };
@@ -332,7 +252,7 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     }
     let fit = fit?;
     let p = problem.params(&fit.x);
-    let hm: Vec<Vec<f64>> = hessian(cost, &fit.x, &vec![1e-3; u0.len()])
+    let hm: Vec<Vec<f64>> = hessian(|u| problem.nll(u), &fit.x, &vec![1e-3; u0.len()])
         .into_iter()
         .map(|r| r.into_iter().map(|v| v * n).collect())
         .collect();
@@ -344,17 +264,38 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     // Fixed parameters have no standard error here (0): theirs is the no-signal frames'.
     let mut se = [0.0; 5];
     for (k, i) in problem.free.iter().enumerate() {
-        let scale = if *i == 0 { s0 } else { p[*i] };
+        let scale = if *i == 0 { problem.s0 } else { p[*i] };
         se[*i] = cov[k][k].sqrt() * scale;
     }
+    Ok(Solution {
+        p,
+        se,
+        cov,
+        iterations: fit.iterations,
+        cost: fit.cost,
+    })
+}
+
+/// The fit's record: the solution in the options' units, the fitted range and the
+/// cross-checks from the fitted values' moments.
+fn result(
+    h: &ValueHistogram,
+    opts: &EmGainOptions,
+    conv: f64,
+    st: EmStart,
+    grid: &Layout,
+    problem: &Problem,
+    s: Solution,
+) -> EmGainFit {
+    let (p, se, n) = (s.p, s.se, problem.n);
     let f2 = excess_noise_factor_sq(opts.shape, p[2] * conv);
-    let (mean, var) = fitted_moments(&problem, lo, w);
+    let (mean, var) = fitted_moments(problem, grid.lo, grid.w);
     let signal = mean - p[0];
     let (em_gain, em_gain_se, units) = match opts.gain_e_per_adu {
         Some(c) => (p[2] * c, se[2] * c, "e-/e-"),
         None => (p[2], se[2], "adu/e-"),
     };
-    Ok(EmGainFit {
+    EmGainFit {
         em_gain,
         em_gain_se,
         em_gain_units: units.into(),
@@ -372,13 +313,13 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
         gain_e_per_adu: opts.gain_e_per_adu,
         shape: opts.shape,
         converged: true,
-        iterations: fit.iterations,
-        log_likelihood: -fit.cost * n,
+        iterations: s.iterations,
+        log_likelihood: -s.cost * n,
         n_samples: n,
-        n_excluded: excluded + h.outside(),
-        max_value_adu: cut,
-        bin_width_adu: w,
-        correlations: Some(correlations(&cov)),
+        n_excluded: problem.excluded + h.outside(),
+        max_value_adu: grid.cut,
+        bin_width_adu: grid.w,
+        correlations: Some(correlations(&s.cov)),
         start: st,
         cross_checks: EmCrossChecks {
             excess_noise_factor_sq: f2,
@@ -387,18 +328,5 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
             mean_signal_adu: signal,
             variance_adu2: var,
         },
-    })
-}
-
-/// Mean and variance (adu) of the fitted (not excluded) values, from their bins, with the
-/// bin quantisation variance w^2/12 removed.
-fn fitted_moments(p: &Problem, lo: f64, w: f64) -> (f64, f64) {
-    let (mut s, mut s2) = (0.0, 0.0);
-    for (i, c) in p.counts.iter().enumerate() {
-        let x = lo + (i as f64 + 0.5) * w;
-        s += c * x;
-        s2 += c * x * x;
     }
-    let m = s / p.n;
-    (m, s2 / p.n - m * m - w * w / 12.0)
 }

@@ -16,7 +16,8 @@
 //!
 //! Layout: `histogram` bins the values, `stack` fills it from a stack, `signature` checks in
 //! seconds that frames show an EM register at all, `start` finds start values, `model`
-//! computes the bin probabilities, `fit` maximises the likelihood, `chart` draws the result,
+//! computes the bin probabilities, `problem` bins the data on the model's grid and gives the
+//! likelihood, `fit` maximises it, `chart` draws the result,
 //! and `run` is the whole `emgain` command as one call.
 
 mod chart;
@@ -24,6 +25,7 @@ mod fit;
 mod histogram;
 mod model;
 mod options;
+mod problem;
 mod result;
 mod run;
 mod signature;

@@ -22,62 +22,11 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
             "only {n} pixel-samples: an EM-gain fit needs at least {MIN_SAMPLES} for stable start values and a meaningful histogram"
         )));
     }
-    // A scale from the low tail (its quantile spacing) sets the smoothing; the bias is the
-    // leftmost peak that dominates +-2 scales around it.
-    let (q4, scale) = h.low_tail();
-    let scale = scale.max(h.width());
-    let w = h.width();
-    let half = ((scale / 3.0) / w).ceil() as usize;
-    let c = h.counts();
-    let mut pre = vec![0.0; c.len() + 1];
-    for (i, v) in c.iter().enumerate() {
-        pre[i + 1] = pre[i] + v;
-    }
-    let smooth: Vec<f64> = (0..c.len())
-        .map(|i| {
-            let (a, b) = (i.saturating_sub(half), (i + half + 1).min(c.len()));
-            (pre[b] - pre[a]) / (b - a) as f64
-        })
-        .collect();
-    let global = smooth.iter().cloned().fold(0.0, f64::max);
-    let reach = ((2.0 * scale) / w).ceil() as usize;
-    let first = ((q4 / w).round() as i64).saturating_sub(h.start).max(0) as usize;
-    let around = sliding_max(&smooth, reach);
-    let peak = (first..c.len())
-        .find(|&i| smooth[i] >= 0.05 * global && around[i] <= smooth[i])
-        .unwrap_or(first.min(c.len() - 1));
-    // Refine with a parabola through the log of the smoothed peak and its neighbours.
-    let mut bias = h.centre(peak);
-    if peak > 0 && peak + 1 < c.len() {
-        let (l, m, r) = (smooth[peak - 1], smooth[peak], smooth[peak + 1]);
-        if l > 0.0 && m > 0.0 && r > 0.0 {
-            let (l, m, r) = (l.ln(), m.ln(), r.ln());
-            let d = l - 2.0 * m + r;
-            if d < 0.0 {
-                bias += (0.5 * (l - r) / d).clamp(-1.0, 1.0) * w;
-            }
-        }
-    }
-    // Read noise: rms of the values below the bias, within 6 of a first, quantile-based
-    // estimate (the Gaussian half below the bias holds 0.3173 of its mass beyond 1 sigma),
-    // so that a far outlier below the bias does not count.
-    let sigma_q = (bias - h.quantile(0.3173 * h.cdf(bias))).max(w / 12f64.sqrt());
-    let (mut s2, mut nb) = (0.0, 0.0);
-    for (i, v) in c.iter().enumerate() {
-        let d = h.centre(i) - bias;
-        if d < 0.0 && d >= -6.0 * sigma_q {
-            s2 += v * d * d;
-            nb += v;
-        }
-    }
-    // Values on a grid of width w carry w^2/12 of quantisation variance.
-    let read_noise = if nb > 0.0 {
-        (s2 / nb).sqrt().max(w / 12f64.sqrt())
-    } else {
-        w
-    };
+    let bias = bias_peak(h);
+    let read_noise = read_noise_below(h, bias);
     let threshold = bias + 5.0 * read_noise;
-    let above: f64 = c
+    let above: f64 = h
+        .counts()
         .iter()
         .enumerate()
         .filter(|(i, _)| h.centre(*i) > threshold)
@@ -90,17 +39,7 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
     }
     let p0 = (2.0 * h.cdf(bias)).clamp(1e-6, 1.0 - 1e-6);
     let lambda = (-p0.ln()).max(above / n);
-    // Gain at low light: the excess over bias + 6 read noise is exponential of mean G
-    // (memorylessness), whose median is G ln 2 (robust to outliers, unlike the mean).
-    // At higher light: (mean - bias) / lambda, the mean taken within the far limit.
-    let (_, median_excess) = h.tail_above(bias + 6.0 * read_noise);
-    let gain = if lambda < 0.3 && median_excess > 0.0 {
-        median_excess / std::f64::consts::LN_2
-    } else {
-        let far = far_limit(h, bias, read_noise);
-        let (_, mean, _) = h.moments_within(bias - 10.0 * read_noise, far);
-        (mean - bias) / lambda
-    };
+    let gain = start_gain(h, bias, read_noise, lambda);
     if !(gain > 0.0 && gain.is_finite()) {
         return Err(Error::Numeric(
             "no EM signal: the mean does not exceed the bias".into(),
@@ -112,6 +51,86 @@ pub fn start_values(h: &ValueHistogram) -> Result<EmStart> {
         gain_adu_per_e: gain,
         lambda_e: lambda,
     })
+}
+
+/// The bias (adu): the leftmost peak of the smoothed histogram that dominates +-2 scales
+/// around it, the scale from the low tail (its quantile spacing), refined with a parabola
+/// through the log of the peak and its neighbours.
+fn bias_peak(h: &ValueHistogram) -> f64 {
+    let (q4, scale) = h.low_tail();
+    let scale = scale.max(h.width());
+    let w = h.width();
+    let c = h.counts();
+    let smooth = smoothed(c, ((scale / 3.0) / w).ceil() as usize);
+    let global = smooth.iter().cloned().fold(0.0, f64::max);
+    let reach = ((2.0 * scale) / w).ceil() as usize;
+    let first = ((q4 / w).round() as i64).saturating_sub(h.start).max(0) as usize;
+    let around = sliding_max(&smooth, reach);
+    let peak = (first..c.len())
+        .find(|&i| smooth[i] >= 0.05 * global && around[i] <= smooth[i])
+        .unwrap_or(first.min(c.len() - 1));
+    let mut bias = h.centre(peak);
+    if peak > 0 && peak + 1 < c.len() {
+        let (l, m, r) = (smooth[peak - 1], smooth[peak], smooth[peak + 1]);
+        if l > 0.0 && m > 0.0 && r > 0.0 {
+            let (l, m, r) = (l.ln(), m.ln(), r.ln());
+            let d = l - 2.0 * m + r;
+            if d < 0.0 {
+                bias += (0.5 * (l - r) / d).clamp(-1.0, 1.0) * w;
+            }
+        }
+    }
+    bias
+}
+
+/// Moving average of `c` over i-half..=i+half (fewer at the ends), from prefix sums.
+fn smoothed(c: &[f64], half: usize) -> Vec<f64> {
+    let mut pre = vec![0.0; c.len() + 1];
+    for (i, v) in c.iter().enumerate() {
+        pre[i + 1] = pre[i] + v;
+    }
+    (0..c.len())
+        .map(|i| {
+            let (a, b) = (i.saturating_sub(half), (i + half + 1).min(c.len()));
+            (pre[b] - pre[a]) / (b - a) as f64
+        })
+        .collect()
+}
+
+/// Read noise (adu): the rms of the values below `bias`, within 6 of a first, quantile-based
+/// estimate (the Gaussian half below the bias holds 0.3173 of its mass beyond 1 sigma), so
+/// that a far outlier below the bias does not count; at least the bins' quantisation noise.
+fn read_noise_below(h: &ValueHistogram, bias: f64) -> f64 {
+    let w = h.width();
+    let sigma_q = (bias - h.quantile(0.3173 * h.cdf(bias))).max(w / 12f64.sqrt());
+    let (mut s2, mut nb) = (0.0, 0.0);
+    for (i, v) in h.counts().iter().enumerate() {
+        let d = h.centre(i) - bias;
+        if d < 0.0 && d >= -6.0 * sigma_q {
+            s2 += v * d * d;
+            nb += v;
+        }
+    }
+    // Values on a grid of width w carry w^2/12 of quantisation variance.
+    if nb > 0.0 {
+        (s2 / nb).sqrt().max(w / 12f64.sqrt())
+    } else {
+        w
+    }
+}
+
+/// Start gain (adu per e-). At low light the excess over bias + 6 read noise is exponential
+/// of mean G (memorylessness), whose median is G ln 2 (robust to outliers, unlike the
+/// mean); at higher light (mean - bias) / lambda, the mean taken within the far limit.
+fn start_gain(h: &ValueHistogram, bias: f64, read_noise: f64, lambda: f64) -> f64 {
+    let (_, median_excess) = h.tail_above(bias + 6.0 * read_noise);
+    if lambda < 0.3 && median_excess > 0.0 {
+        median_excess / std::f64::consts::LN_2
+    } else {
+        let far = far_limit(h, bias, read_noise);
+        let (_, mean, _) = h.moments_within(bias - 10.0 * read_noise, far);
+        (mean - bias) / lambda
+    }
 }
 
 /// Running maximum of `v` over i-reach..=i+reach for every i, in O(n) (monotonic deque).

@@ -10,7 +10,7 @@ use crate::fit::optim::{correlations, hessian, minimise, spd_inverse, INVALID_CO
 use crate::fit::pdf_models::{
     density, paper_family_from_scale, tabulate, Grid, PdfModel, Transform,
 };
-use crate::pdf::{EmpiricalPdf, RmsPdf};
+use crate::pdf::{EmpiricalPdf, RmsPdf, TabulatedPdf};
 
 /// Fewest values a map must have for a parametric fit.
 pub const MIN_VALUES: usize = 50;
@@ -65,54 +65,85 @@ impl Data {
 
 /// Fit every requested model to the rms values `values` (e-) of a map.
 pub fn fit_pdf(values: &[f64], opts: &PdfFitOptions) -> Result<PdfFitReport> {
-    let cut = opts.upper_cut_e.unwrap_or(f64::INFINITY);
-    if cut.is_nan() || cut <= 0.0 {
-        return Err(Error::invalid("upper_cut_e", "must be positive (e-)"));
-    }
-    let mut sorted: Vec<f64> = values
-        .iter()
-        .copied()
-        .filter(|v| v.is_finite() && *v > 0.0 && *v <= cut)
-        .collect();
-    let n_excluded = values.len() - sorted.len();
-    if sorted.len() < MIN_VALUES {
-        return Err(Error::Numeric(format!(
-            "only {} usable values (finite, positive, below the cut) in the map; a pdf fit needs at least {MIN_VALUES}",
-            sorted.len()
-        )));
-    }
-    sorted.sort_by(f64::total_cmp);
-    let upper = opts
-        .upper_cut_e
-        .unwrap_or(*sorted.last().expect("non-empty"));
-    if sorted[0] == upper {
-        return Err(Error::Numeric(
-            "every value of the map is the same: no distribution to fit".into(),
-        ));
-    }
-    let grid = Grid::new(upper);
-    let mut binned = vec![0.0; grid.mids.len()];
-    for v in &sorted {
-        binned[grid.index(*v)] += 1.0;
-    }
-    let counts = binned
-        .iter()
-        .enumerate()
-        .filter(|(_, c)| **c > 0.0)
-        .map(|(i, c)| (i, *c))
-        .collect();
-    let data = Data {
-        sorted,
-        grid,
-        counts,
-    };
+    let (data, upper, n_excluded) = Data::prepare(values, opts.upper_cut_e)?;
     let emp = EmpiricalPdf::new(&data.sorted, "map").expect("non-empty");
-    let (median, q10) = (emp.median(), emp.quantile(0.1));
+    let (mut models, failures) = fit_models(&data, &opts.models, upper, &emp);
+    let (best_model, selection) = select_best(&mut models, &failures)?;
+    Ok(PdfFitReport {
+        schema: PDF_FIT_SCHEMA.to_string(),
+        n_values: data.sorted.len(),
+        n_excluded,
+        upper_cut_e: upper,
+        data: RmsSummary::of(&emp),
+        best_model,
+        selection,
+        models,
+        failures,
+    })
+}
 
+impl Data {
+    /// The usable values of `values` (finite, positive, at most `upper_cut_e`) sorted and
+    /// binned; with the support's upper end (the cut, or the largest value) and the count
+    /// of values left out.
+    fn prepare(values: &[f64], upper_cut_e: Option<f64>) -> Result<(Data, f64, usize)> {
+        let cut = upper_cut_e.unwrap_or(f64::INFINITY);
+        if cut.is_nan() || cut <= 0.0 {
+            return Err(Error::invalid("upper_cut_e", "must be positive (e-)"));
+        }
+        let mut sorted: Vec<f64> = values
+            .iter()
+            .copied()
+            .filter(|v| v.is_finite() && *v > 0.0 && *v <= cut)
+            .collect();
+        let n_excluded = values.len() - sorted.len();
+        if sorted.len() < MIN_VALUES {
+            return Err(Error::Numeric(format!(
+                "only {} usable values (finite, positive, below the cut) in the map; a pdf fit needs at least {MIN_VALUES}",
+                sorted.len()
+            )));
+        }
+        sorted.sort_by(f64::total_cmp);
+        let upper = upper_cut_e.unwrap_or(*sorted.last().expect("non-empty"));
+        if sorted[0] == upper {
+            return Err(Error::Numeric(
+                "every value of the map is the same: no distribution to fit".into(),
+            ));
+        }
+        let grid = Grid::new(upper);
+        let mut binned = vec![0.0; grid.mids.len()];
+        for v in &sorted {
+            binned[grid.index(*v)] += 1.0;
+        }
+        let counts = binned
+            .iter()
+            .enumerate()
+            .filter(|(_, c)| **c > 0.0)
+            .map(|(i, c)| (i, *c))
+            .collect();
+        let data = Data {
+            sorted,
+            grid,
+            counts,
+        };
+        Ok((data, upper, n_excluded))
+    }
+}
+
+/// Fits of `requested` models by name, and the errors of those that failed. Starts come
+/// from the median and 10 % quantile of `emp`; the paper family starts from the fitted
+/// paper-scaled scale when that model came first.
+fn fit_models(
+    data: &Data,
+    requested: &[PdfModel],
+    upper: f64,
+    emp: &EmpiricalPdf,
+) -> (BTreeMap<String, ModelFit>, BTreeMap<String, String>) {
+    let (median, q10) = (emp.median(), emp.quantile(0.1));
     let mut models = BTreeMap::new();
     let mut failures = BTreeMap::new();
     let mut scale_fit: Option<f64> = None;
-    for &model in &opts.models {
+    for &model in requested {
         let fit = if model == PdfModel::Empirical {
             Ok(fit_empirical(&data.sorted))
         } else {
@@ -120,7 +151,7 @@ pub fn fit_pdf(values: &[f64], opts: &PdfFitOptions) -> Result<PdfFitReport> {
             if let (PdfModel::PaperFamily, Some(s)) = (model, scale_fit) {
                 start = paper_family_from_scale(s);
             }
-            fit_parametric(model, &data, upper, start)
+            fit_parametric(model, data, upper, start)
         };
         match fit {
             Ok(f) => {
@@ -134,47 +165,43 @@ pub fn fit_pdf(values: &[f64], opts: &PdfFitOptions) -> Result<PdfFitReport> {
             }
         }
     }
+    (models, failures)
+}
+
+/// The best model's name and why it was chosen (the lowest AIC, each model's delta AIC set
+/// from it; else the empirical model), or an error listing every failure.
+fn select_best(
+    models: &mut BTreeMap<String, ModelFit>,
+    failures: &BTreeMap<String, String>,
+) -> Result<(String, String)> {
     let best = models
         .iter()
         .filter_map(|(k, m)| m.aic.map(|a| (k.clone(), a)))
         .min_by(|a, b| a.1.total_cmp(&b.1));
-    let (best_model, selection) = match best {
+    match best {
         Some((name, best_aic)) => {
             for m in models.values_mut() {
                 m.delta_aic = m.aic.map(|a| a - best_aic);
             }
-            (
+            Ok((
                 name,
                 "lowest AIC among the parametric models (empirical has no likelihood to compare)"
                     .to_string(),
-            )
+            ))
         }
-        None if models.contains_key("empirical") => (
+        None if models.contains_key("empirical") => Ok((
             "empirical".to_string(),
             "no parametric model was fitted successfully".to_string(),
-        ),
-        None => {
-            return Err(Error::Numeric(format!(
-                "no model could be fitted: {}",
-                failures
-                    .iter()
-                    .map(|(k, v)| format!("{k}: {v}"))
-                    .collect::<Vec<_>>()
-                    .join("; ")
-            )))
-        }
-    };
-    Ok(PdfFitReport {
-        schema: PDF_FIT_SCHEMA.to_string(),
-        n_values: data.sorted.len(),
-        n_excluded,
-        upper_cut_e: upper,
-        data: RmsSummary::of(&emp),
-        best_model,
-        selection,
-        models,
-        failures,
-    })
+        )),
+        None => Err(Error::Numeric(format!(
+            "no model could be fitted: {}",
+            failures
+                .iter()
+                .map(|(k, v)| format!("{k}: {v}"))
+                .collect::<Vec<_>>()
+                .join("; ")
+        ))),
+    }
 }
 
 /// Maximum-likelihood fit of one parametric model from `start` (natural units).
@@ -216,32 +243,10 @@ fn fit_parametric(model: PdfModel, data: &Data, upper: f64, start: Vec<f64>) -> 
         .map(|row| row.into_iter().map(|v| v * n).collect())
         .collect();
     let cov = spd_inverse(&h);
-    let mut params = BTreeMap::new();
-    let mut param_se = BTreeMap::new();
-    for (i, (name, t)) in spec.iter().enumerate() {
-        params.insert(name.to_string(), p[i]);
-        let se = cov
-            .as_ref()
-            .map(|c| c[i][i].sqrt() * t.derivative(p[i]).abs());
-        param_se.insert(name.to_string(), se);
-    }
-    // The cut is the sample maximum; its spread is the spacing of the top order
-    // statistic, 1/(n f(U)).
-    params.insert("upper_cut_e".into(), upper);
-    let f_top = pdf.density(upper * (1.0 - 1e-9));
-    param_se.insert(
-        "upper_cut_e".into(),
-        (f_top > 0.0).then(|| 1.0 / (n * f_top)),
-    );
+    let (params, param_se) = with_errors(spec, &p, cov.as_deref(), upper, &pdf, n);
     let k = spec.len() + 1;
     let log_likelihood = -m.cost * n;
-    let note = match &cov {
-        None => "Hessian not positive definite at the optimum: some parameters are not constrained by the data (param_se null)".to_string(),
-        Some(c) if correlations(c).iter().flatten().any(|r| r.abs() > 0.95 && r.abs() < 0.999_999) => {
-            "some parameters are strongly correlated (|r| > 0.95): individually they are poorly constrained".to_string()
-        }
-        _ => String::new(),
-    };
+    let note = constraint_note(cov.as_deref());
     let summary = RmsSummary::of(&pdf);
     Ok(ModelFit {
         formula: model.formula().to_string(),
@@ -261,6 +266,47 @@ fn fit_parametric(model: PdfModel, data: &Data, upper: f64, start: Vec<f64>) -> 
         values_e: None,
         note,
     })
+}
+
+/// The fitted parameters `p` by name with their standard errors (from `cov`, none where it
+/// is missing), and the cut `upper` with the spacing of the top order statistic,
+/// 1/(n f(U)), as its spread.
+fn with_errors(
+    spec: &[(&str, Transform)],
+    p: &[f64],
+    cov: Option<&[Vec<f64>]>,
+    upper: f64,
+    pdf: &TabulatedPdf,
+    n: f64,
+) -> (BTreeMap<String, f64>, BTreeMap<String, Option<f64>>) {
+    let mut params = BTreeMap::new();
+    let mut param_se = BTreeMap::new();
+    for (i, (name, t)) in spec.iter().enumerate() {
+        params.insert(name.to_string(), p[i]);
+        let se = cov.map(|c| c[i][i].sqrt() * t.derivative(p[i]).abs());
+        param_se.insert(name.to_string(), se);
+    }
+    // The cut is the sample maximum; its spread is the spacing of the top order
+    // statistic, 1/(n f(U)).
+    params.insert("upper_cut_e".into(), upper);
+    let f_top = pdf.density(upper * (1.0 - 1e-9));
+    param_se.insert(
+        "upper_cut_e".into(),
+        (f_top > 0.0).then(|| 1.0 / (n * f_top)),
+    );
+    (params, param_se)
+}
+
+/// A note when the data do not constrain the parameters well: the Hessian not positive
+/// definite (no covariance), or strongly correlated parameters; else empty.
+fn constraint_note(cov: Option<&[Vec<f64>]>) -> String {
+    match cov {
+        None => "Hessian not positive definite at the optimum: some parameters are not constrained by the data (param_se null)".to_string(),
+        Some(c) if correlations(c).iter().flatten().any(|r| r.abs() > 0.95 && r.abs() < 0.999_999) => {
+            "some parameters are strongly correlated (|r| > 0.95): individually they are poorly constrained".to_string()
+        }
+        _ => String::new(),
+    }
 }
 
 /// The empirical model: the values themselves, or equal-mass quantiles of a large map.

@@ -210,26 +210,8 @@ impl FitsFrames {
         let mut first = 0usize;
         for img in &images {
             let hdu = img.hdu;
-            let mut exttype = 0;
-            let mut status = 0;
-            unsafe { sys::ffmahd(fptr, hdu, &mut exttype, &mut status) };
-            check(path, status, &format!("HDU {hdu}"))?;
-            let dims = cfitsio_dims(path, fptr, hdu)?;
-            if exttype != IMAGE_HDU || dims != img.dims {
-                return Err(Error::input(
-                    path,
-                    format!(
-                        "frame {first}: HDU {hdu}: CFITSIO reads dimensions {dims:?}, the header says {:?}",
-                        img.dims
-                    ),
-                ));
-            }
+            let (stored, t) = move_to_image(path, fptr, hdu, &img.dims, first)?;
             let ((rows, cols), frames) = (img.shape(), img.frames());
-            let (mut stored, mut equiv) = (0, 0);
-            unsafe { sys::ffgidt(fptr, &mut stored, &mut status) };
-            unsafe { sys::ffgiet(fptr, &mut equiv, &mut status) };
-            check(path, status, &format!("HDU {hdu}"))?;
-            let t = sample_type_of(path, hdu, stored, equiv)?;
             match shape {
                 None => {
                     shape = Some((rows, cols));
@@ -244,13 +226,7 @@ impl FitsFrames {
                 _ => {}
             }
             let raw = if plain && !img.compressed {
-                let layout = raw_layout(path, fptr, hdu, stored)?;
-                // BLANK marks undefined integer pixels: leave those HDUs to CFITSIO, which
-                // turns them into NaN. Scaled values that can exceed the sample range take
-                // the checked path too.
-                (stored < 0 || !has_key(fptr, "BLANK"))
-                    .then_some(layout)
-                    .filter(|l| stored < 0 || l.within_sample_range())
+                direct_read(path, fptr, hdu, stored)?
             } else {
                 None
             };
@@ -285,6 +261,52 @@ impl FitsFrames {
     pub fn frames(&self) -> usize {
         self.hdus.iter().map(|h| h.frames).sum()
     }
+}
+
+/// Make the image HDU `hdu` current, check that CFITSIO reads the dimensions `header_dims`
+/// the header check found (naming the file's frame `first`), and return its stored BITPIX
+/// and sample type.
+fn move_to_image(
+    path: &Path,
+    fptr: *mut sys::fitsfile,
+    hdu: c_int,
+    header_dims: &[usize],
+    first: usize,
+) -> Result<(c_int, SampleType)> {
+    let mut exttype = 0;
+    let mut status = 0;
+    unsafe { sys::ffmahd(fptr, hdu, &mut exttype, &mut status) };
+    check(path, status, &format!("HDU {hdu}"))?;
+    let dims = cfitsio_dims(path, fptr, hdu)?;
+    if exttype != IMAGE_HDU || dims != header_dims {
+        return Err(Error::input(
+            path,
+            format!(
+                "frame {first}: HDU {hdu}: CFITSIO reads dimensions {dims:?}, the header says {header_dims:?}"
+            ),
+        ));
+    }
+    let (mut stored, mut equiv) = (0, 0);
+    unsafe { sys::ffgidt(fptr, &mut stored, &mut status) };
+    unsafe { sys::ffgiet(fptr, &mut equiv, &mut status) };
+    check(path, status, &format!("HDU {hdu}"))?;
+    Ok((stored, sample_type_of(path, hdu, stored, equiv)?))
+}
+
+/// Where the current HDU's data (stored BITPIX `stored`) can be read straight from the file,
+/// bypassing CFITSIO; None where CFITSIO must read it.
+fn direct_read(
+    path: &Path,
+    fptr: *mut sys::fitsfile,
+    hdu: c_int,
+    stored: c_int,
+) -> Result<Option<HduData>> {
+    let layout = raw_layout(path, fptr, hdu, stored)?;
+    // BLANK marks undefined integer pixels: leave those HDUs to CFITSIO, which turns them
+    // into NaN. Scaled values that can exceed the sample range take the checked path too.
+    Ok((stored < 0 || !has_key(fptr, "BLANK"))
+        .then_some(layout)
+        .filter(|l| stored < 0 || l.within_sample_range()))
 }
 
 /// The image dimensions CFITSIO reads for the current HDU (NAXIS1 first).

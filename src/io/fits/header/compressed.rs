@@ -104,7 +104,7 @@ pub(super) fn compressed_image(
     rows: u64,
     stored: u64,
 ) -> Result<Vec<usize>> {
-    let bad = |m: String| Error::input(path, format!("frame 0: HDU {hdu}: {m}"));
+    let bad = |m: String| bad_hdu(path, hdu, m);
     let cmp = h
         .string("ZCMPTYPE")
         .ok_or_else(|| bad("keyword ZCMPTYPE is missing".into()))?;
@@ -127,6 +127,36 @@ pub(super) fn compressed_image(
             i + 1
         )));
     }
+    let tile = tile_shape(path, h, hdu, &zdims, rows)?;
+    check_parameters(path, h, hdu, &cmp)?;
+    let image = mul(product(path, hdu, "ZNAXISn", &zdims)?, width);
+    let tile_bytes = mul(product(path, hdu, "ZTILEn", &tile)?, width);
+    let limit = mul(stored, MAX_EXPANSION).unwrap_or(u64::MAX);
+    for (what, bytes) in [("image", image), ("tile", tile_bytes)] {
+        match bytes {
+            Some(b) if b <= limit => {}
+            _ => {
+                return Err(compressed_size_error(
+                    path,
+                    0,
+                    &format!("HDU {hdu}: the compressed {what}"),
+                    bytes,
+                    stored,
+                ))
+            }
+        }
+    }
+    Ok(zdims)
+}
+
+/// An error about HDU `hdu` of the file at `path`.
+fn bad_hdu(path: &Path, hdu: i32, message: String) -> Error {
+    Error::input(path, format!("frame 0: HDU {hdu}: {message}"))
+}
+
+/// The tile shape (ZTILEn; by default rows of the image), checked against the table's
+/// `rows`, one per tile of the image of dimensions `zdims`.
+fn tile_shape(path: &Path, h: &Header, hdu: i32, zdims: &[usize], rows: u64) -> Result<Vec<usize>> {
     let mut tiles = 1u64;
     let mut tile = Vec::with_capacity(zdims.len());
     for (i, d) in zdims.iter().enumerate() {
@@ -135,19 +165,30 @@ pub(super) fn compressed_image(
             .int(path, hdu, &key)?
             .unwrap_or(if i == 0 { *d as i64 } else { 1 });
         if t < 1 {
-            return Err(bad(format!(
-                "{key} = {t}: a tile needs at least 1 pixel per axis"
-            )));
+            return Err(bad_hdu(
+                path,
+                hdu,
+                format!("{key} = {t}: a tile needs at least 1 pixel per axis"),
+            ));
         }
         let t = t as u64;
         tiles = mul(tiles, (*d as u64).div_ceil(t)).unwrap_or(u64::MAX);
         tile.push(t.min(u64::from(u32::MAX)) as usize);
     }
     if tiles != rows {
-        return Err(bad(format!(
-            "ZNAXISn and ZTILEn give {tiles} tiles, the table has {rows} rows"
-        )));
+        return Err(bad_hdu(
+            path,
+            hdu,
+            format!("ZNAXISn and ZTILEn give {tiles} tiles, the table has {rows} rows"),
+        ));
     }
+    Ok(tile)
+}
+
+/// Check the compression parameters (ZVALn) of the compression `cmp`: Rice's block size
+/// and bytes per pixel, HCOMPRESS's scale.
+fn check_parameters(path: &Path, h: &Header, hdu: i32, cmp: &str) -> Result<()> {
+    let bad = |m: String| bad_hdu(path, hdu, m);
     if cmp.starts_with("RICE") {
         let block = h.int(path, hdu, "ZVAL1")?;
         if !matches!(block, Some(16 | 32)) {
@@ -171,24 +212,7 @@ pub(super) fn compressed_image(
             }
         }
     }
-    let image = mul(product(path, hdu, "ZNAXISn", &zdims)?, width);
-    let tile_bytes = mul(product(path, hdu, "ZTILEn", &tile)?, width);
-    let limit = mul(stored, MAX_EXPANSION).unwrap_or(u64::MAX);
-    for (what, bytes) in [("image", image), ("tile", tile_bytes)] {
-        match bytes {
-            Some(b) if b <= limit => {}
-            _ => {
-                return Err(compressed_size_error(
-                    path,
-                    0,
-                    &format!("HDU {hdu}: the compressed {what}"),
-                    bytes,
-                    stored,
-                ))
-            }
-        }
-    }
-    Ok(zdims)
+    Ok(())
 }
 
 /// Check every heap descriptor of a binary table (read from `src`, which is at the start
