@@ -552,27 +552,6 @@ fn loops_over_two(sources: &[Source]) -> Vec<Loop> {
         .collect()
 }
 
-/// Loops over more than two files outside the report, known when the report's loop was
-/// broken (issue 29) and left to their areas: each is reported while it lasts; the test fails
-/// on any other loop, and when one of these is gone or changed (then update this list).
-const KNOWN_LOOPS: [&[&str]; 2] = [
-    // cli/effective.rs's tests build the whole parser (cli/mod.rs), which dispatches to
-    // report.rs, which takes its precision options from effective.rs.
-    &[
-        "src/cli/effective.rs",
-        "src/cli/mod.rs",
-        "src/cli/report.rs",
-        "src/cli/subaps.rs",
-    ],
-    // spot/radial.rs takes airy_intensity and J1_FIRST_ZERO from spot/mod.rs, which builds its
-    // tables from radial.rs and pixel_table.rs (which reads radial.rs).
-    &[
-        "src/spot/mod.rs",
-        "src/spot/pixel_table.rs",
-        "src/spot/radial.rs",
-    ],
-];
-
 #[test]
 fn no_import_loop_spans_more_than_two_files() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
@@ -583,26 +562,16 @@ fn no_import_loop_spans_more_than_two_files() {
     // The graph is the crate's: the report runs its sections, the CLI the library.
     assert!(edges["src/report/mod.rs"].contains("src/report/scmos/mod.rs"));
     assert!(edges["src/cli/report.rs"].contains("src/report/mod.rs"));
-    let (known, new): (Vec<Loop>, Vec<Loop>) = loops_over_two(&sources)
-        .into_iter()
-        .partition(|l| KNOWN_LOOPS.iter().any(|k| l.files == *k));
-    for l in &known {
-        eprintln!("known import loop, left to its area: {}", l.text);
-    }
+    let loops = loops_over_two(&sources);
     assert!(
-        new.is_empty(),
+        loops.is_empty(),
         "import loops over more than two files:\n{}",
-        new.iter()
+        loops
+            .iter()
             .map(|l| l.text.as_str())
             .collect::<Vec<_>>()
             .join("\n")
     );
-    for k in KNOWN_LOOPS {
-        assert!(
-            known.iter().any(|l| l.files == k),
-            "the known loop over {k:?} is gone or changed: update KNOWN_LOOPS"
-        );
-    }
 }
 
 /// A small crate with a loop of three files (one edge through a `use` group, one through a

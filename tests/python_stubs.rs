@@ -135,7 +135,11 @@ fn the_run_settings_of_the_python_functions_state_the_registry_defaults() {
     let text = std::fs::read_to_string(stub_path()).unwrap();
     let mut checked = 0;
     for function in ["simulate", "effective", "report"] {
-        for s in settings::RUN.iter().chain(settings::CENTROID) {
+        for s in settings::RUN
+            .iter()
+            .chain(settings::CENTROID)
+            .chain(settings::PRECISION)
+        {
             let Some(stub) = stub_default(&text, function, s.key) else {
                 continue;
             };

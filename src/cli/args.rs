@@ -4,10 +4,12 @@
 use super::progress::Terminal;
 use super::settings::{settings_args, SettingsArgs};
 use crate::detector::{ModelParams, ModelSpec, MODEL_NAMES};
+use crate::effective::{Precision, Status};
 use crate::montecarlo::{BgGrid, Grid, SimConfig};
 use crate::settings::{self, Setting, Values};
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
+use std::fmt::Write as _;
 use std::ops::Bound::{self, Excluded, Unbounded};
 
 /// A clap value parser for a finite real number between `lo` and `hi`; `unit` follows the
@@ -172,6 +174,56 @@ impl DetectorArgs {
     pub fn gain_e_per_adu(&self) -> Option<f64> {
         self.values.real(&settings::GAIN_E_PER_ADU)
     }
+}
+
+/// The precision target of the effective read noise and the iteration cap (`effective`,
+/// `report`, `subaps`): one option per entry of [`settings::PRECISION`].
+#[derive(Debug, Clone, Default)]
+pub struct PrecisionArgs {
+    /// The values given (the others take the registry's defaults).
+    pub values: Values,
+}
+
+impl SettingsArgs for PrecisionArgs {
+    const SETTINGS: &'static [&'static Setting] = settings::PRECISION;
+    fn from_values(values: Values) -> Self {
+        PrecisionArgs { values }
+    }
+    fn add_to(cmd: clap::Command) -> clap::Command {
+        let cmd = cmd.args(Self::SETTINGS.iter().map(|s| super::settings::arg(s)));
+        cmd.mut_arg("target_se_e", |a| a.long_help(precision_long_help()))
+    }
+}
+settings_args!(PrecisionArgs);
+
+impl PrecisionArgs {
+    /// The library's precision settings for runs starting at `iters` iterations: the cap as
+    /// given, or by default [`Precision::DEFAULT_MAX_ITERS`] raised to `iters`.
+    pub fn precision(&self, iters: u64) -> Precision {
+        let v = &self.values;
+        Precision {
+            target_se_e: v.real(&settings::TARGET_SE_E).expect("has a default"),
+            target_rel: v.real(&settings::TARGET_REL).expect("has a default"),
+            max_iters: v
+                .whole(&settings::MAX_ITERS)
+                .unwrap_or(Precision::DEFAULT_MAX_ITERS.max(iters)),
+        }
+    }
+}
+
+/// The long help of `--target-se-e`: the rule, then every status and what it means.
+fn precision_long_help() -> String {
+    let mut h = String::from(
+        "Target standard error of each effective read noise, e- (0 = off). A value is `ok` when \
+         its SE is at most this or at most --target-rel times the value; until then iterations \
+         are added to its configuration (the same experiment continued, on the same random \
+         numbers), up to --max-iters.\n\nStatuses (the `status` column):",
+    );
+    for s in Status::ALL {
+        let meaning = super::fields::flags_in(s.meaning());
+        let _ = write!(h, "\n  {:<18} {meaning}", s.label());
+    }
+    h
 }
 
 /// Parse the comma-separated model list.

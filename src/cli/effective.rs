@@ -1,68 +1,17 @@
 //! `detnoise effective`: the effective Gaussian read noise over a grid of configurations.
 
-use super::args::{real, whole, CentroiderArgs, DetectorArgs, SweepArgs};
+use super::args::{real, CentroiderArgs, DetectorArgs, PrecisionArgs, SweepArgs};
 use super::progress::Terminal;
 use crate::detector::ModelSpec;
 use crate::effective::{
-    effective_table_with, write_tables, EffectiveRecord, Precision, QePrecision, Status,
-    QE_TABLE_NAMES, TABLE_NAMES,
+    effective_table_with, write_tables, EffectiveRecord, QePrecision, QE_TABLE_NAMES, TABLE_NAMES,
 };
-use crate::montecarlo::SimConfig;
 use crate::output::{DirPlan, OutputDir};
 use crate::settings::{self, default_in};
 use crate::Result;
 use std::fmt::Write as _;
 use std::ops::Bound::{Included, Unbounded};
 use std::path::PathBuf;
-
-/// The precision target of the effective read noise and the iteration cap (`effective` and
-/// `report`).
-#[derive(clap::Args, Debug, Clone)]
-pub struct PrecisionArgs {
-    /// Target standard error of each effective read noise, e- (0 = off). A value is `ok` when
-    /// its SE is at most this or at most --target-rel times the value; until then iterations
-    /// are added (same random numbers, continued), up to --max-iters.
-    #[arg(long, default_value_t = Precision::DEFAULT_TARGET_SE_E, value_parser = real(Included(0.0), Unbounded, "e-"), long_help = precision_long_help())]
-    pub target_se_e: f64,
-    /// Relative target, a unitless fraction of the value in [0, 1]: a value is also `ok` when
-    /// its SE is at most this fraction of it (0 = off; 0.02 = 2 %).
-    #[arg(long, default_value_t = Precision::DEFAULT_TARGET_REL, value_parser = real(Included(0.0), Included(1.0), "(fraction of the value)"))]
-    pub target_rel: f64,
-    /// Iteration cap per configuration, frames, at least --iters (where each starts; default:
-    /// 80000, or --iters if larger): a value still short of its target there is `imprecise`.
-    /// 0 targets, or --max-iters = --iters, give a fixed count.
-    #[arg(long, value_parser = whole::<u64>(2, SimConfig::MAX_ITERS, "frames"))]
-    pub max_iters: Option<u64>,
-}
-
-impl PrecisionArgs {
-    /// The library's precision settings for runs starting at `iters` iterations: the cap as
-    /// given, or by default [`Precision::DEFAULT_MAX_ITERS`] raised to `iters`.
-    pub fn precision(&self, iters: u64) -> Precision {
-        Precision {
-            target_se_e: self.target_se_e,
-            target_rel: self.target_rel,
-            max_iters: self
-                .max_iters
-                .unwrap_or(Precision::DEFAULT_MAX_ITERS.max(iters)),
-        }
-    }
-}
-
-/// The long help of `--target-se-e`: the rule, then every status and what it means.
-fn precision_long_help() -> String {
-    let mut h = String::from(
-        "Target standard error of each effective read noise, e- (0 = off). A value is `ok` when \
-         its SE is at most this or at most --target-rel times the value; until then iterations \
-         are added to its configuration (the same experiment continued, on the same random \
-         numbers), up to --max-iters.\n\nStatuses (the `status` column):",
-    );
-    for s in Status::ALL {
-        let meaning = super::fields::flags_in(s.meaning());
-        let _ = write!(h, "\n  {:<18} {meaning}", s.label());
-    }
-    h
-}
 
 /// Options of `detnoise effective`.
 #[derive(clap::Args, Debug)]
@@ -220,7 +169,8 @@ fn simple_qe_long_help() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::effective::Effective;
+    use crate::effective::{Effective, Precision, Status};
+    use crate::montecarlo::SimConfig;
 
     #[test]
     fn terminal_table_shows_status_words_and_fits_100_columns() {

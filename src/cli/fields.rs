@@ -49,10 +49,6 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("rts_occupancy", "--rts-occupancy"),
     ("hot_fraction", "--hot-fraction"),
     ("hot_dark_e", "--hot-dark-e"),
-    // Effective read noise (crate::effective::Precision): precision target and iteration cap.
-    ("target_se_e", "--target-se-e"),
-    ("target_rel", "--target-rel"),
-    ("max_iters", "--max-iters"),
     // Effective QE factor of the simple EMCCD model (crate::effective::QePrecision, issue 14).
     ("qe_target_se", "--qe-target-se"),
     // report (crate::report::ReportOptions)

@@ -1,8 +1,7 @@
 //! `detnoise report`: the command line of [`crate::report`] (clap options -> report options ->
 //! `report::run` -> the lines on standard error).
 
-use super::args::{parse_list, real, whole, DetectorArgs};
-use super::effective::PrecisionArgs;
+use super::args::{parse_list, real, whole, DetectorArgs, PrecisionArgs};
 use super::progress::Terminal;
 use crate::montecarlo::SimConfig;
 use crate::report::{OperatingPoint, ReportOptions};

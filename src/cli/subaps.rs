@@ -1,8 +1,7 @@
 //! `detnoise subaps` and `detnoise subaps-merge`: the effective read noise of every
 //! sub-aperture of a real detector, resumable and shardable, and the merge of the shards.
 
-use super::args::{parse_list, CentroiderArgs, SweepArgs};
-use super::effective::PrecisionArgs;
+use super::args::{parse_list, CentroiderArgs, PrecisionArgs, SweepArgs};
 use super::progress::Terminal;
 use crate::centroid::CentroiderSpec;
 use crate::montecarlo::SimConfig;

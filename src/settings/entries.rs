@@ -360,9 +360,50 @@ pub const MASK_ABOVE: Setting = Setting::new(
 /// The centroider settings (`simulate`, `effective`, `report`, `subaps`).
 pub const CENTROID: &[&Setting] = &[&CENTROIDER, &MASK_ABOVE];
 
+/// Target standard error of each effective read noise, e-.
+pub const TARGET_SE_E: Setting = Setting::new(
+    "target_se_e",
+    "--target-se-e",
+    NON_NEGATIVE,
+    "Target standard error of each effective read noise, e- (0 = off). A value is `ok` when its \
+     SE is at most this or at most --target-rel times the value; until then iterations are \
+     added (same random numbers, continued), up to --max-iters",
+)
+.unit("e-")
+.default("0.05");
+
+/// Relative precision target, a fraction of the value.
+pub const TARGET_REL: Setting = Setting::new(
+    "target_rel",
+    "--target-rel",
+    Real(Included(0.0), Included(1.0)),
+    "Relative target, a unitless fraction of the value in [0, 1]: a value is also `ok` when its \
+     SE is at most this fraction of it (0 = off; 0.02 = 2 %)",
+)
+.unit("(fraction of the value)")
+.default("0.025");
+
+/// Iteration cap per configuration of the effective read noise.
+pub const MAX_ITERS: Setting = Setting::new(
+    "max_iters",
+    "--max-iters",
+    Whole(2, SimConfig::MAX_ITERS),
+    "Iteration cap per configuration, frames, at least --iters (where each starts; default: \
+     80000, or --iters if larger): a value still short of its target there is `imprecise`. 0 \
+     targets, or --max-iters = --iters, give a fixed count",
+)
+.unit("frames");
+
+/// The precision settings of the effective read noise (`effective`, `report`, `subaps`).
+pub const PRECISION: &[&Setting] = &[&TARGET_SE_E, &TARGET_REL, &MAX_ITERS];
+
 /// Every group, named as `--help` headings and Python's `SETTINGS` name them.
-pub const GROUPS: &[(&str, &[&Setting])] =
-    &[("readout", READOUT), ("run", RUN), ("centroid", CENTROID)];
+pub const GROUPS: &[(&str, &[&Setting])] = &[
+    ("readout", READOUT),
+    ("run", RUN),
+    ("centroid", CENTROID),
+    ("precision", PRECISION),
+];
 
 /// A command whose option for a registry setting takes a default of its own.
 #[derive(Debug, Clone, Copy)]

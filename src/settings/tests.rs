@@ -202,3 +202,12 @@ fn a_model_lacking_what_it_reads_names_the_setting() {
     let e = ModelParams::check_settings(&v, &[]).unwrap_err();
     assert!(e.to_string().starts_with("invalid `pdf_model`"), "{e}");
 }
+
+#[test]
+fn precision_defaults_are_the_librarys() {
+    use crate::effective::Precision;
+    let v = Values::default();
+    assert_eq!(v.real(&TARGET_SE_E), Some(Precision::DEFAULT_TARGET_SE_E));
+    assert_eq!(v.real(&TARGET_REL), Some(Precision::DEFAULT_TARGET_REL));
+    assert_eq!(v.whole(&MAX_ITERS), None);
+}

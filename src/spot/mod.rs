@@ -10,6 +10,7 @@
 //! recently used dropped first, while renderers still holding them keep them alive), and a build
 //! takes at most 128 MiB while it runs; the report's default grid keeps about 6 MB.
 
+mod airy;
 mod cache;
 mod gauss;
 mod kernel;
@@ -19,13 +20,11 @@ mod radial;
 mod tests;
 
 use crate::{Error, Result};
+pub use airy::{airy_intensity, J1_FIRST_ZERO};
 use cache::Cache;
 use pixel_table::PixelTable;
 use radial::RadialTable;
 use std::sync::{Arc, LazyLock};
-
-/// First zero of J1: the Airy intensity (2 J1(v)/v)^2 vanishes first at v = 3.8317.
-pub const J1_FIRST_ZERO: f64 = 3.831_705_970_207_512;
 
 /// Smallest spot size accepted (Airy diameter or Gaussian sigma, px).
 pub const MIN_SIZE_PX: f64 = 0.1;
@@ -179,15 +178,6 @@ impl Sampling {
             Sampling::Point => "point",
         }
     }
-}
-
-/// Normalised Airy intensity (2 J1(v)/v)^2, 1 at v = 0.
-pub fn airy_intensity(v: f64) -> f64 {
-    if v.abs() < 1e-8 {
-        return 1.0;
-    }
-    let a = 2.0 * libm::j1(v) / v;
-    a * a
 }
 
 /// Bytes of pixel-integrated tables kept for reuse (least recently used dropped first); a build

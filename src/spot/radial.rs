@@ -1,8 +1,8 @@
 //! The Airy intensity against radius, tabulated on a fine grid: point sampling interpolates it
 //! linearly, the pixel table's quadrature cubically.
 
+use super::airy::{airy_intensity, J1_FIRST_ZERO};
 use super::cache::Footprint;
-use super::{airy_intensity, J1_FIRST_ZERO};
 
 /// Grid steps per first-zero radius.
 const STEPS_PER_RADIUS: f64 = 400.0;
