@@ -35,7 +35,7 @@ pub fn arg(setting: &'static Setting) -> Arg {
             .num_args(1..)
             .action(ArgAction::Append)
             .value_name("FILE"),
-        Kind::Path => arg.value_parser(parser(setting)),
+        Kind::Path => arg.value_parser(parser(setting)).value_name("FILE"),
         Kind::TextList => arg
             .value_parser(parser(setting))
             .action(ArgAction::Append)
