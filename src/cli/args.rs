@@ -2,11 +2,11 @@
 //! that check every numeric option's range while the command line is parsed.
 
 use super::progress::Terminal;
-use super::settings::{settings_args, SettingsArgs};
+use super::settings::settings_group;
 use crate::detector::{ModelParams, ModelSpec, MODEL_NAMES};
 use crate::effective::{Precision, Status};
 use crate::montecarlo::{BgGrid, Grid, SimConfig};
-use crate::settings::{self, Setting, Values};
+use crate::settings;
 use crate::spot::{Sampling, Spot};
 use crate::{Error, Result};
 use std::fmt::Write as _;
@@ -38,21 +38,11 @@ where
     }
 }
 
-/// The sub-aperture, spot, signal and sampling options of a Monte-Carlo sweep: one option per
-/// entry of [`settings::RUN`].
-#[derive(Debug, Clone, Default)]
-pub struct SweepArgs {
-    /// The values given (the others take the registry's defaults).
-    pub values: Values,
-}
-
-impl SettingsArgs for SweepArgs {
-    const SETTINGS: &'static [&'static Setting] = settings::RUN;
-    fn from_values(values: Values) -> Self {
-        SweepArgs { values }
-    }
-}
-settings_args!(SweepArgs);
+settings_group!(
+    /// The sub-aperture, spot, signal and sampling options of a Monte-Carlo sweep: one option
+    /// per entry of [`settings::RUN`].
+    SweepArgs = settings::RUN
+);
 
 impl SweepArgs {
     /// Check every option of the sweep (lists included) before any work.
@@ -105,37 +95,27 @@ impl SweepArgs {
     }
 }
 
-/// Detector parameters of the readout models: one option per entry of
-/// [`settings::READOUT`].
-#[derive(Debug, Clone, Default)]
-pub struct DetectorArgs {
-    /// The values given (the others take the registry's defaults).
-    pub values: Values,
-}
+settings_group!(
+    /// Detector parameters of the readout models: one option per entry of
+    /// [`settings::READOUT`].
+    DetectorArgs = settings::READOUT,
+    finish = |cmd| cmd.arg(ambiguous_gain())
+);
 
-impl SettingsArgs for DetectorArgs {
-    const SETTINGS: &'static [&'static Setting] = settings::READOUT;
-    fn from_values(values: Values) -> Self {
-        DetectorArgs { values }
-    }
-    fn add_to(cmd: clap::Command) -> clap::Command {
-        // `--gain` could mean either gain: refused, naming both (clap's tip names only one).
-        let gain = clap::Arg::new("ambiguous_gain")
-            .long("gain")
-            .hide(true)
-            .value_name("VALUE")
-            .value_parser(|_: &str| -> std::result::Result<String, String> {
-                Err(
-                    "which gain? `--em-gain` is the EM gain (e-/e-), `--gain-e-per-adu` the \
-                     conversion gain (e- per adu)"
-                        .into(),
-                )
-            });
-        cmd.args(Self::SETTINGS.iter().map(|s| super::settings::arg(s)))
-            .arg(gain)
-    }
+/// `--gain`, which could mean either gain: refused, naming both (clap's tip names only one).
+fn ambiguous_gain() -> clap::Arg {
+    clap::Arg::new("ambiguous_gain")
+        .long("gain")
+        .hide(true)
+        .value_name("VALUE")
+        .value_parser(|_: &str| -> std::result::Result<String, String> {
+            Err(
+                "which gain? `--em-gain` is the EM gain (e-/e-), `--gain-e-per-adu` the \
+                 conversion gain (e- per adu)"
+                    .into(),
+            )
+        })
 }
-settings_args!(DetectorArgs);
 
 impl DetectorArgs {
     /// Check the detector options together (single values are checked while parsing), before
@@ -176,25 +156,12 @@ impl DetectorArgs {
     }
 }
 
-/// The precision target of the effective read noise and the iteration cap (`effective`,
-/// `report`, `subaps`): one option per entry of [`settings::PRECISION`].
-#[derive(Debug, Clone, Default)]
-pub struct PrecisionArgs {
-    /// The values given (the others take the registry's defaults).
-    pub values: Values,
-}
-
-impl SettingsArgs for PrecisionArgs {
-    const SETTINGS: &'static [&'static Setting] = settings::PRECISION;
-    fn from_values(values: Values) -> Self {
-        PrecisionArgs { values }
-    }
-    fn add_to(cmd: clap::Command) -> clap::Command {
-        let cmd = cmd.args(Self::SETTINGS.iter().map(|s| super::settings::arg(s)));
-        cmd.mut_arg("target_se_e", |a| a.long_help(precision_long_help()))
-    }
-}
-settings_args!(PrecisionArgs);
+settings_group!(
+    /// The precision target of the effective read noise and the iteration cap (`effective`,
+    /// `report`, `subaps`): one option per entry of [`settings::PRECISION`].
+    PrecisionArgs = settings::PRECISION,
+    finish = |cmd| cmd.mut_arg("target_se_e", |a| a.long_help(precision_long_help()))
+);
 
 impl PrecisionArgs {
     /// The library's precision settings for runs starting at `iters` iterations: the cap as

@@ -107,22 +107,35 @@ pub trait SettingsArgs: Sized {
     /// The group from the values given.
     fn from_values(values: Values) -> Self;
 
-    /// `cmd` with one argument per setting of the group.
-    fn add_to(cmd: Command) -> Command {
-        cmd.args(Self::SETTINGS.iter().map(|s| arg(s)))
+    /// `cmd` with one argument per setting of the group, then `finish` applied.
+    fn add_to(cmd: Command, finish: fn(Command) -> Command) -> Command {
+        finish(cmd.args(Self::SETTINGS.iter().map(|s| arg(s))))
     }
 }
 
-/// Implement clap's `Args` and `FromArgMatches` for a [`SettingsArgs`] type.
-macro_rules! settings_args {
-    ($ty:ty) => {
+/// A struct of the values given for a group of settings, with clap's `Args` and
+/// `FromArgMatches` generated from the group; `finish` (optional) adjusts the command after
+/// the group's arguments are added (a long help, a guard option).
+macro_rules! settings_group {
+    (@finish) => { |cmd| cmd };
+    (@finish $finish:expr) => { $finish };
+    ($(#[$doc:meta])* $ty:ident = $settings:expr $(, finish = $finish:expr)?) => {
+        $(#[$doc])*
+        #[derive(Debug, Clone, Default)]
+        pub struct $ty {
+            /// The values given (the others take the registry's defaults).
+            pub values: $crate::settings::Values,
+        }
+        impl $crate::cli::settings::SettingsArgs for $ty {
+            const SETTINGS: &'static [&'static $crate::settings::Setting] = $settings;
+            fn from_values(values: $crate::settings::Values) -> Self {
+                $ty { values }
+            }
+        }
         impl clap::FromArgMatches for $ty {
             fn from_arg_matches(m: &clap::ArgMatches) -> Result<Self, clap::Error> {
                 use $crate::cli::settings::SettingsArgs;
-                Ok(<$ty>::from_values($crate::cli::settings::values_of(
-                    m,
-                    <$ty>::SETTINGS,
-                )))
+                Ok(<$ty>::from_values($crate::cli::settings::values_of(m, <$ty>::SETTINGS)))
             }
             fn update_from_arg_matches(&mut self, m: &clap::ArgMatches) -> Result<(), clap::Error> {
                 *self = <Self as clap::FromArgMatches>::from_arg_matches(m)?;
@@ -131,7 +144,9 @@ macro_rules! settings_args {
         }
         impl clap::Args for $ty {
             fn augment_args(cmd: clap::Command) -> clap::Command {
-                <$ty as $crate::cli::settings::SettingsArgs>::add_to(cmd)
+                let finish: fn(clap::Command) -> clap::Command =
+                    $crate::cli::settings::settings_group!(@finish $($finish)?);
+                <$ty as $crate::cli::settings::SettingsArgs>::add_to(cmd, finish)
             }
             fn augment_args_for_update(cmd: clap::Command) -> clap::Command {
                 <Self as clap::Args>::augment_args(cmd)
@@ -139,7 +154,7 @@ macro_rules! settings_args {
         }
     };
 }
-pub(crate) use settings_args;
+pub(crate) use settings_group;
 
 #[cfg(test)]
 mod tests;
