@@ -7,10 +7,10 @@ use crate::errors::{invalid, IntoPy};
 use crate::fit::PdfFit;
 use crate::observer::observed;
 use crate::params::{given_values, read_params};
-use crate::sim::{centroiders_of, sampling_of, spots_of, whole};
+use crate::sim::{centroiders_of, checked, sampling_of, spots_of, whole};
 use detnoise::effective::Precision;
 use detnoise::report::{DetectorKind, OperatingPoint, ReportOptions, ReportResult, Summary};
-use detnoise::settings;
+use detnoise::settings::{self, Value};
 use detnoise::subaps::{Geometry, GridSpec, ValidMask};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -139,15 +139,11 @@ pub fn report<'py>(
     progress: Option<Py<PyAny>>,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Report> {
+    checked(&settings::DETECTOR, Value::Text(detector.into()))?;
+    checked(&settings::QE_EMCCD, Value::Real(qe_emccd))?;
     let detector = match detector {
-        "scmos" => DetectorKind::Scmos,
         "emccd" => DetectorKind::Emccd,
-        other => {
-            return Err(invalid(
-                "detector",
-                format!("{other:?}: must be \"scmos\" or \"emccd\""),
-            ))
-        }
+        _ => DetectorKind::Scmos,
     };
     let (iters, seed) = (
         whole(&settings::ITERS, iters)?,

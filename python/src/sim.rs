@@ -98,7 +98,7 @@ impl Sweep<'_, '_> {
 }
 
 /// `value` for `setting` if the registry takes it, else a `ValueError` naming the keyword.
-fn checked(setting: &Setting, value: Value) -> PyResult<Value> {
+pub fn checked(setting: &Setting, value: Value) -> PyResult<Value> {
     setting.check(value).map_err(|e| invalid(setting.key, e))
 }
 

@@ -74,7 +74,7 @@ def test_pixel_prior_is_taken_as_on_the_command_line():
 def test_run_settings_default_to_the_registrys(function):
     params = inspect.signature(getattr(detnoise, function)).parameters
     checked = 0
-    others = [s for s in detnoise.SETTINGS if s["group"] in ("centroid", "precision")]
+    others = [s for s in detnoise.SETTINGS if s["group"] in ("centroid", "precision", "report")]
     for s in RUN + others:
         if s["key"] not in params:
             continue

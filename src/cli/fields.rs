@@ -57,13 +57,9 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("subaps_px", "--subap"),
     ("spots", "--spot"),
     ("signals_photons", "--signal"),
-    ("qe_emccd", "--qe-emccd"),
     // report: the operating point of the headline numbers (crate::report::OperatingPoint)
-    ("operating_point", "--operating-point"),
     // Per-sub-aperture noise map (crate::subaps): geometry, shards, part files to merge.
-    ("subap_grid", "--subap-grid"),
     // Centroiders (centroid).
-    ("subap_mask", "--subap-mask"),
     ("shard", "--shard"),
     ("parts", "PART"),
 ];

@@ -397,12 +397,73 @@ pub const MAX_ITERS: Setting = Setting::new(
 /// The precision settings of the effective read noise (`effective`, `report`, `subaps`).
 pub const PRECISION: &[&Setting] = &[&TARGET_SE_E, &TARGET_REL, &MAX_ITERS];
 
+/// The kind of camera a report describes.
+pub const DETECTOR: Setting = Setting::new(
+    "detector",
+    "--detector",
+    Choice(&["scmos", "emccd"]),
+    "The camera type: scmos (effective read noise from the per-pixel noise) or emccd (EM gain \
+     fit with the exact register, then the comparison with the fitted gain and read noise, and \
+     the simple model's effective QE factor over the grid)",
+)
+.default("scmos");
+
+/// Quantum efficiency of the EMCCD of a report.
+pub const QE_EMCCD: Setting = Setting::new(
+    "qe_emccd",
+    "--qe-emccd",
+    Real(Excluded(0.0), Included(1.0)),
+    "Quantum efficiency of the EMCCD (the one compared with in an sCMOS report, this camera in \
+     an EMCCD report), photo-electrons per photon, (0, 1]",
+)
+.default("1");
+
+/// The configuration of a report's headline numbers.
+pub const OPERATING_POINT: Setting = Setting::new(
+    "operating_point",
+    "--operating-point",
+    Text,
+    "The configuration of the headline numbers and of the comparison chart: sub-aperture size \
+     (px per side), spot (airy:D or gauss:SX,SY, px) and signal (photons), e.g. 12,airy:4,100; \
+     default: 8,airy:2,50",
+);
+
+/// The lenslet grid over the detector, px.
+pub const SUBAP_GRID: Setting = Setting::new(
+    "subap_grid",
+    "--subap-grid",
+    Text,
+    "Lenslet grid over the detector: SIZE[,PITCH[,X0,Y0]] in px (square sub-apertures of SIZE \
+     px, PITCH px apart, the first at column X0, row Y0)",
+)
+.unit("px");
+
+/// The valid sub-apertures of the lenslet grid.
+pub const SUBAP_MASK: Setting = Setting::new(
+    "subap_mask",
+    "--subap-mask",
+    Kind::Path,
+    "Mask of the valid sub-apertures (FITS/TIFF/EXR): one pixel per cell of the grid, non-zero \
+     = valid",
+);
+
+/// A report's own settings (`report`, Python's `report()`); the lenslet grid is also
+/// `subaps`'.
+pub const REPORT: &[&Setting] = &[
+    &DETECTOR,
+    &QE_EMCCD,
+    &OPERATING_POINT,
+    &SUBAP_GRID,
+    &SUBAP_MASK,
+];
+
 /// Every group, named as `--help` headings and Python's `SETTINGS` name them.
 pub const GROUPS: &[(&str, &[&Setting])] = &[
     ("readout", READOUT),
     ("run", RUN),
     ("centroid", CENTROID),
     ("precision", PRECISION),
+    ("report", REPORT),
 ];
 
 /// A command whose option for a registry setting takes a default of its own.
@@ -479,6 +540,12 @@ pub const COMMAND_DEFAULTS: &[CommandDefault] = &[
         setting: &STAGES,
         default: None,
         why: "the register's stages are a model choice of the fit: none means the Gamma model",
+    },
+    CommandDefault {
+        command: "synth",
+        setting: &DETECTOR,
+        default: None,
+        why: "a synthetic camera's type is always stated",
     },
     CommandDefault {
         command: "synth",
