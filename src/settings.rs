@@ -1,12 +1,13 @@
-//! Every readout and run setting defined once: the field it fills, its Python keyword and
-//! command-line flag, unit, allowed values, default and one-line help.
+//! Every readout, run, centroider, precision and report setting defined once: the field it
+//! fills, its Python keyword and command-line flag, unit, allowed values, default and one-line
+//! help.
 //!
 //! The command line builds its options from these entries (`cli::settings`), Python checks its
 //! keywords with the same [`Setting::check`], and errors name a setting by its field, which
 //! each front end translates to the flag or keyword the user typed. Adding a setting is one
-//! entry here, one line in its group, and its use. A test holds every option of every command
-//! and Python's signatures to these entries (`tests/settings_sync.rs`,
-//! `python/tests/test_settings.py`).
+//! entry here, one line in its group, and its use. Tests hold every option of every command
+//! (`cli::settings::tests`), the Python stubs (`tests/python_stubs.rs`) and Python's keywords
+//! and signatures (`python/tests/test_settings.py`) to these entries.
 
 mod entries;
 mod setting;
@@ -27,4 +28,4 @@ pub fn by_field(field: &str) -> Option<&'static Setting> {
 }
 
 #[cfg(test)]
-mod tests;
+pub(crate) mod tests;

@@ -9,7 +9,6 @@ use crate::fit::PdfFit;
 use crate::observer::PyObserver;
 use detnoise::calib::Unit;
 use detnoise::detector::ModelParams;
-use detnoise::progress::Observer;
 use detnoise::settings::{self, Kind, Setting, Value, Values};
 use pyo3::exceptions::PyTypeError;
 use pyo3::prelude::*;
@@ -38,11 +37,20 @@ pub struct Params {
 /// are a `TypeError`, as for any Python function; values out of range a `ValueError`. The
 /// warnings of the files read (skipped rows of an RTS table) are issued as Python warnings.
 pub fn read_params(py: Python<'_>, params: Option<&Bound<'_, PyDict>>) -> PyResult<Params> {
+    params_of(py, given_values(params)?)
+}
+
+/// The parameters `values` give (from [`given_values`]), their files read; the warnings of
+/// those files are issued as Python warnings.
+pub fn params_of(py: Python<'_>, values: Values) -> PyResult<Params> {
     let observer = PyObserver::new(None);
-    let empty = PyDict::new(py);
-    let p = Given::new(params.unwrap_or(&empty)).and_then(|g| g.params(&observer));
+    let model = ModelParams::from_settings(&values, &observer).py();
     observer.finish(py, Ok(()))?;
-    p
+    Ok(Params {
+        gain_e_per_adu: values.real(&settings::GAIN_E_PER_ADU),
+        input_files: ModelParams::input_files(&values),
+        model: model?,
+    })
 }
 
 /// The readout settings given as `**params`, each checked by the registry, no file read yet.
@@ -89,16 +97,6 @@ impl<'a, 'py> Given<'a, 'py> {
             values.set(setting, value);
         }
         Ok(values)
-    }
-
-    fn params(&self, observer: &dyn Observer) -> PyResult<Params> {
-        let values = self.values()?;
-        let model = ModelParams::from_settings(&values, observer).py()?;
-        Ok(Params {
-            gain_e_per_adu: values.real(&settings::GAIN_E_PER_ADU),
-            input_files: ModelParams::input_files(&values),
-            model,
-        })
     }
 }
 

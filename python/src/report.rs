@@ -6,7 +6,7 @@ use crate::convert::{one_or_many, to_py};
 use crate::errors::{invalid, IntoPy};
 use crate::fit::PdfFit;
 use crate::observer::observed;
-use crate::params::{given_values, read_params};
+use crate::params::{given_values, params_of};
 use crate::sim::{centroiders_of, checked, sampling_of, spots_of, whole};
 use detnoise::effective::Precision;
 use detnoise::report::{DetectorKind, OperatingPoint, ReportOptions, ReportResult, Summary};
@@ -204,7 +204,7 @@ pub fn report<'py>(
     options.gain_e_per_adu = values.real(&settings::GAIN_E_PER_ADU);
     options.model_input_paths.extend(subap_mask);
     options.validate().py()?;
-    let p = read_params(py, params)?;
+    let p = params_of(py, values)?;
     options.model_params = p.model;
     options.model_input_paths.extend(p.input_files);
     let result = observed(py, progress, |o| detnoise::report::run(&options, o))?;

@@ -39,14 +39,8 @@ pub fn specs_of(models: &Bound<'_, PyAny>) -> PyResult<Vec<ModelSpec>> {
 
 /// `"integrated"` or `"point"`.
 pub fn sampling_of(text: &str) -> PyResult<Sampling> {
-    match text {
-        "integrated" => Ok(Sampling::Integrated),
-        "point" => Ok(Sampling::Point),
-        other => Err(invalid(
-            "sampling",
-            format!("{other:?}: must be \"integrated\" or \"point\""),
-        )),
-    }
+    checked(&settings::SAMPLING, Value::Text(text.into()))?;
+    Ok(Sampling::parse(text).expect("the registry's choices are the samplings"))
 }
 
 /// Spots: one `airy:D[,D...]` / `gauss:SX,SY` text or a list of them.
@@ -128,7 +122,6 @@ pub fn shared_config(
         whole(&settings::ITERS, iters)?,
         whole(&settings::SEED, seed)?,
     );
-    checked(&settings::SAMPLING, Value::Text(sampling.into()))?;
     checked(
         &settings::POSITION_HALF_RANGE_PX,
         Value::Real(position_half_range_px),

@@ -64,24 +64,12 @@ pub fn values_of(matches: &ArgMatches, settings: &[&'static Setting]) -> Values 
             Some(ValueSource::DefaultValue) if !command_default(matches, &id, setting) => continue,
             Some(_) => {}
         }
-        let mut given: Vec<Value> = matches
+        let given = matches
             .get_many::<Value>(&id)
-            .map(|v| v.cloned().collect())
-            .unwrap_or_default();
-        let value = match setting.kind {
-            Kind::Paths | Kind::TextList => Value::Paths(
-                given
-                    .drain(..)
-                    .map(|v| match v {
-                        Value::Path(p) => p,
-                        Value::Text(t) => t.into(),
-                        other => unreachable!("parsed as a path or text: {other:?}"),
-                    })
-                    .collect(),
-            ),
-            _ => given.pop().expect("a typed option has a value"),
-        };
-        values.set(setting, value);
+            .into_iter()
+            .flatten()
+            .cloned();
+        values.set(setting, Value::gathered(setting.kind, given));
     }
     values
 }

@@ -134,6 +134,7 @@ impl Setting {
                 }
             }
             (Kind::Text | Kind::TextList, Value::Text(_))
+            | (Kind::TextList, Value::Texts(_))
             | (Kind::Path, Value::Path(_))
             | (Kind::Paths, Value::Paths(_) | Value::Path(_)) => Ok(value),
             // Objects that only Python passes (a fitted pdf, a map array) are checked by the

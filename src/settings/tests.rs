@@ -102,8 +102,9 @@ fn the_choices_are_the_librarys_names() {
     }
 }
 
-/// Values at and just beyond each end of a numeric range: (value, taken).
-fn probes(kind: Kind) -> Vec<(Value, bool)> {
+/// Values at and just beyond each end of a setting's range, and words in and out of its
+/// choices: (value, taken). Shared with the command line's test (`cli::settings::tests`).
+pub(crate) fn probes(kind: Kind) -> Vec<(Value, bool)> {
     let nudge = |a: f64, up: bool| {
         let step = a.abs().max(1.0) * 1e-9;
         if up {
@@ -150,6 +151,16 @@ fn probes(kind: Kind) -> Vec<(Value, bool)> {
     }
 }
 
+/// A probe as typed on the command line.
+pub(crate) fn typed(value: &Value) -> String {
+    match value {
+        Value::Real(v) => format!("{v:e}"),
+        Value::Whole(v) => v.to_string(),
+        Value::Text(t) => t.clone(),
+        other => unreachable!("probes are numbers or words: {other:?}"),
+    }
+}
+
 #[test]
 fn parse_and_check_agree_at_the_ends_of_every_range() {
     for s in all() {
@@ -160,12 +171,7 @@ fn parse_and_check_agree_at_the_ends_of_every_range() {
                 "{}: {value:?}",
                 s.field
             );
-            let text = match &value {
-                Value::Real(v) => format!("{v:e}"),
-                Value::Whole(v) => v.to_string(),
-                Value::Text(t) => t.clone(),
-                _ => unreachable!(),
-            };
+            let text = typed(&value);
             assert_eq!(s.parse(&text).is_ok(), taken, "{}: {text}", s.field);
         }
     }

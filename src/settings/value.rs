@@ -18,12 +18,41 @@ pub enum Value {
     Text(String),
     /// A path.
     Path(PathBuf),
-    /// Several paths (or texts of a repeated option).
+    /// Several paths.
     Paths(Vec<PathBuf>),
+    /// The texts of a repeated option.
+    Texts(Vec<String>),
     /// A fitted per-pixel rms distribution (Python passes a `PdfFit` object as `pdf`).
     Pdf(Arc<dyn RmsPdf>),
     /// A read-noise map in e- (Python passes an array as `map_e`).
     Map(Arc<Map>),
+}
+
+impl Value {
+    /// The one value of a setting of `kind` given as `parts` (each as [`Setting::parse`] gave
+    /// it): a repeated option's texts or paths gathered, otherwise the last one given.
+    pub fn gathered(kind: super::Kind, parts: impl Iterator<Item = Value>) -> Value {
+        use super::Kind;
+        match kind {
+            Kind::TextList => Value::Texts(
+                parts
+                    .filter_map(|v| match v {
+                        Value::Text(t) => Some(t),
+                        _ => None,
+                    })
+                    .collect(),
+            ),
+            Kind::Paths => Value::Paths(
+                parts
+                    .filter_map(|v| match v {
+                        Value::Path(p) => Some(p),
+                        _ => None,
+                    })
+                    .collect(),
+            ),
+            _ => parts.last().expect("a given option has a value"),
+        }
+    }
 }
 
 /// The settings given by the user, by field; a setting not given takes its default.
@@ -36,11 +65,6 @@ impl Values {
     /// Record `value` as given for `setting` (already checked by [`Setting::check`]).
     pub fn set(&mut self, setting: &'static Setting, value: Value) {
         self.given.insert(setting.field, value);
-    }
-
-    /// Forget `setting`'s given value: it takes its default again.
-    pub fn unset(&mut self, setting: &Setting) {
-        self.given.remove(setting.field);
     }
 
     /// Whether the user gave `setting`.
@@ -86,10 +110,7 @@ impl Values {
         match self.get(setting) {
             None => Vec::new(),
             Some(Value::Text(t)) => vec![t],
-            Some(Value::Paths(p)) => p
-                .into_iter()
-                .map(|p| p.to_string_lossy().into_owned())
-                .collect(),
+            Some(Value::Texts(t)) => t,
             Some(other) => wrong_kind(setting, &other),
         }
     }

@@ -3,48 +3,16 @@
 //! and each generated option reads back the value typed.
 
 use crate::settings::{self, Kind, Setting};
-use std::ops::Bound::{Excluded, Included, Unbounded};
 
-/// Texts at and just beyond each end of a setting's range: (text, taken).
+/// Texts at and just beyond each end of a setting's range (the registry's own probes, as
+/// typed), and a fraction where a whole number is due: (text, taken).
 fn probes(kind: Kind) -> Vec<(String, bool)> {
-    let real = |v: f64| format!("{v:e}");
-    let nudge = |a: f64, up: bool| a + if up { 1.0 } else { -1.0 } * a.abs().max(1.0) * 1e-9;
-    match kind {
-        Kind::Real(lo, hi) => {
-            let mut p = vec![("nan".to_string(), false), ("inf".to_string(), false)];
-            match lo {
-                Included(a) => p.extend([(real(a), true), (real(nudge(a, false)), false)]),
-                Excluded(a) => p.extend([(real(a), false), (real(nudge(a, true)), true)]),
-                Unbounded => {}
-            }
-            match hi {
-                Included(b) => p.extend([(real(b), true), (real(nudge(b, true)), false)]),
-                Excluded(b) => p.extend([(real(b), false), (real(nudge(b, false)), true)]),
-                Unbounded => p.push((real(1e300), true)),
-            }
-            p
-        }
-        Kind::Whole(lo, hi) => {
-            let mut p = vec![
-                (lo.to_string(), true),
-                (hi.to_string(), true),
-                ("1.5".into(), false),
-            ];
-            if lo > 0 {
-                p.push(((lo - 1).to_string(), false));
-            }
-            if hi < u64::MAX {
-                p.push(((hi + 1).to_string(), false));
-            }
-            p
-        }
-        Kind::Choice(words) => {
-            let mut p: Vec<_> = words.iter().map(|w| (w.to_string(), true)).collect();
-            p.push(("no-such-word".into(), false));
-            p
-        }
-        _ => Vec::new(),
+    use crate::settings::tests::{probes, typed};
+    let mut p: Vec<_> = probes(kind).iter().map(|(v, ok)| (typed(v), *ok)).collect();
+    if let Kind::Whole(..) = kind {
+        p.push(("1.5".into(), false));
     }
+    p
 }
 
 /// Every (command, option) whose flag is a registry setting's.
