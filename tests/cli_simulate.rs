@@ -104,6 +104,11 @@ fn bad_options_exit_with_code_2_and_a_clear_message() {
         (vec!["--model", "ccd-magic"], "unknown model"),
         (vec!["--spot", "airy:"], "--spot"),
         (vec!["--spot", "gauss:1"], "--spot"),
+        // The error quotes the item as typed (it once echoed 'airy:airy:3').
+        (
+            vec!["--spot", "airy:2,airy:3"],
+            "'airy:2,airy:3': 'airy:3' is not a diameter",
+        ),
         (vec!["--bg-grid", "5:1:1"], "--bg-grid"),
         (vec!["--qe", "1.5"], "--qe"),
     ] {

@@ -53,33 +53,28 @@ pub enum Spot {
 impl Spot {
     /// Parse `airy:D` or `gauss:SX,SY` (pixels).
     pub fn parse(text: &str) -> Result<Self> {
-        let bad = |why: &str| {
-            Error::invalid(
-                "spot",
-                format!("'{text}': {why} (use airy:D or gauss:SX,SY, in px)"),
-            )
-        };
-        let positive = |s: &str| -> Result<f64> {
-            match s.trim().parse::<f64>() {
-                Ok(v) if Self::size_ok(v) => Ok(v),
-                _ => Err(bad(SIZE_RULE)),
-            }
-        };
+        let bad = |why: &str| spot_error(text, why);
+        let size = |s: &str| Self::size(s).ok_or_else(|| bad(SIZE_RULE));
         match text.split_once(':') {
             Some(("airy", d)) => Ok(Spot::Airy {
-                diameter_px: positive(d)?,
+                diameter_px: size(d)?,
             }),
             Some(("gauss", s)) => {
                 let (sx, sy) = s
                     .split_once(',')
                     .ok_or_else(|| bad("gauss needs two sigmas"))?;
                 Ok(Spot::Gauss {
-                    sigma_x_px: positive(sx)?,
-                    sigma_y_px: positive(sy)?,
+                    sigma_x_px: size(sx)?,
+                    sigma_y_px: size(sy)?,
                 })
             }
             _ => Err(bad("unknown spot")),
         }
+    }
+
+    /// A spot size (px) from its text, None unless a number of at least [`MIN_SIZE_PX`].
+    fn size(text: &str) -> Option<f64> {
+        text.trim().parse().ok().filter(|&v| Self::size_ok(v))
     }
 
     /// Check the sizes of a spot made in code (parsing checks them already): each at least
@@ -95,13 +90,7 @@ impl Spot {
         if sizes.iter().all(|&v| Self::size_ok(v)) {
             Ok(())
         } else {
-            Err(Error::invalid(
-                "spot",
-                format!(
-                    "'{}': {SIZE_RULE} (use airy:D or gauss:SX,SY, in px)",
-                    self.label()
-                ),
-            ))
+            Err(spot_error(&self.label(), SIZE_RULE))
         }
     }
 
@@ -110,17 +99,19 @@ impl Spot {
     }
 
     /// Parse spot lists: each item is `airy:D1,D2,...` (one Airy spot per diameter) or
-    /// `gauss:SX,SY` (one Gaussian); spots in the order given.
+    /// `gauss:SX,SY` (one Gaussian); spots in the order given. Errors quote the item as typed.
     pub fn parse_list(items: &[String]) -> Result<Vec<Self>> {
         let mut spots = Vec::new();
         for item in items {
             match item.strip_prefix("airy:") {
-                Some(ds) => {
+                Some(ds) if ds.contains(',') => {
                     for d in ds.split(',') {
-                        spots.push(Spot::parse(&format!("airy:{}", d.trim()))?);
+                        let diameter_px =
+                            Self::size(d).ok_or_else(|| diameter_error(item, d.trim()))?;
+                        spots.push(Spot::Airy { diameter_px });
                     }
                 }
-                None => spots.push(Spot::parse(item)?),
+                _ => spots.push(Spot::parse(item)?),
             }
         }
         Ok(spots)
@@ -149,6 +140,31 @@ impl Spot {
             } => (8.0 * std::f64::consts::LN_2).sqrt() * (sigma_x_px * sigma_y_px).sqrt(),
         }
     }
+}
+
+/// The error of spot text `text` (quoted as typed), refused because `why`.
+fn spot_error(text: &str, why: &str) -> Error {
+    Error::invalid(
+        "spot",
+        format!("'{text}': {why} (use airy:D or gauss:SX,SY, in px)"),
+    )
+}
+
+/// The error of diameter `d` in the Airy list `item` (both quoted as typed).
+fn diameter_error(item: &str, d: &str) -> Error {
+    let why = if d.contains(':') {
+        // `airy:2,airy:3`: a second prefix, or another shape in the same list.
+        format!(
+            "'{d}' is not a diameter: list several Airy spots after one prefix, as airy:2,3, \
+             and give another shape as its own spot"
+        )
+    } else {
+        format!("diameter '{d}': {SIZE_RULE}")
+    };
+    Error::invalid(
+        "spot",
+        format!("'{item}': {why} (use airy:D1,D2,... in px)"),
+    )
 }
 
 /// How the intensity is turned into pixel values.

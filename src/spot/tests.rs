@@ -17,9 +17,23 @@ fn spot_lists_expand_airy_diameters_and_keep_the_order() {
         .map(Spot::label)
         .collect();
     assert_eq!(labels, ["airy:1", "airy:2.5", "gauss:1,3", "airy:4"]);
+    // Errors quote the item as typed, then the part refused.
     let e = Spot::parse_list(&["airy:2,0.01".into()]).unwrap_err();
     assert!(
-        e.to_string().starts_with("invalid `spot`: 'airy:0.01'"),
+        e.to_string()
+            .starts_with("invalid `spot`: 'airy:2,0.01': diameter '0.01': sizes must be"),
+        "{e}"
+    );
+    let e = Spot::parse_list(&["airy:2, airy:3".into()]).unwrap_err();
+    assert!(
+        e.to_string()
+            .starts_with("invalid `spot`: 'airy:2, airy:3': 'airy:3' is not a diameter"),
+        "{e}"
+    );
+    assert!(!e.to_string().contains("airy:airy"), "{e}");
+    let e = Spot::parse_list(&["airy:0".into()]).unwrap_err();
+    assert!(
+        e.to_string().starts_with("invalid `spot`: 'airy:0': sizes"),
         "{e}"
     );
     assert!(Spot::parse_list(&["disc:2".into()]).is_err());
