@@ -106,13 +106,13 @@ pub fn fit_pdf_py(
     models: Option<Vec<String>>,
     upper_cut_e: Option<f64>,
 ) -> PyResult<PdfFit> {
-    let values = float_array(rms_e)?;
+    let values = float_array(rms_e, "rms_e")?;
     let values = values.readonly();
     let values = values.as_slice()?;
     let kept: Vec<f64> = match flags {
         None => values.to_vec(),
         Some(f) => {
-            let f = float_array(f)?;
+            let f = float_array(f, "flags")?;
             let f = f.readonly();
             let f = f.as_slice()?;
             if f.len() != values.len() {

@@ -7,7 +7,7 @@
 //! of the camera's frame `f` uses item `f * 2^32 + i` of the camera's seed; an explicit
 //! `seed=s` reads as frame 0 of a camera of seed `s` and leaves the frame counter alone.
 
-use crate::convert::float_array;
+use crate::convert::{checked_array, float_array, to_f64};
 use crate::errors::{invalid, IntoPy};
 use crate::params::read_params;
 use detnoise::detector::{draw_normals, FrameInput, ModelSpec, Readout, Sensor};
@@ -168,7 +168,8 @@ impl PyReadout {
         offset_adu: Option<&Bound<'py, PyAny>>,
         mean_e: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArrayDyn<f64>>> {
-        let input = float_array(image_e)?;
+        // Shapes are checked before anything of their size is allocated.
+        let input = checked_array(image_e, "image_e")?;
         let shape = input.shape().to_vec();
         let (k, n) = match shape[..] {
             [r, c] if r == c => (1, r),
@@ -190,7 +191,7 @@ impl PyReadout {
             ));
         }
         let (scale, offset_scalar, offset_array) = self.output_unit(unit, offset_adu)?;
-        let mean = mean_e.map(float_array).transpose()?;
+        let mean = mean_e.map(|m| checked_array(m, "mean_e")).transpose()?;
         if let Some(m) = &mean {
             let ok = m.shape() == [n, n] || m.shape() == shape.as_slice();
             if !ok {
@@ -200,6 +201,8 @@ impl PyReadout {
                 ));
             }
         }
+        let input = to_f64(&input)?;
+        let mean = mean.as_ref().map(to_f64).transpose()?;
         let model = self.model(n)?;
         let (seed, first_item) = match seed {
             Some(s) => (s, 0),
@@ -324,7 +327,9 @@ impl PyReadout {
                     Some(o) => match o.extract::<f64>() {
                         Ok(v) if v.is_finite() => Ok((1.0 / g, v, None)),
                         Ok(v) => Err(invalid("offset_adu", format!("{v}: must be finite"))),
-                        Err(_) => Ok((1.0 / g, 0.0, Some(float_array(o)?.into_any()))),
+                        Err(_) => {
+                            Ok((1.0 / g, 0.0, Some(float_array(o, "offset_adu")?.into_any())))
+                        }
                     },
                 }
             }

@@ -2,7 +2,7 @@
 //! out), written to its output directory as `detnoise report` writes it, and returned as a
 //! `Report` with the key numbers, the tables and the files.
 
-use crate::convert::{one_or_many, to_py};
+use crate::convert::{one_or_many, subap_px_item, to_py, SIGNAL_ITEM};
 use crate::errors::{invalid, IntoPy};
 use crate::fit::PdfFit;
 use crate::observer::observed;
@@ -153,9 +153,13 @@ pub fn report<'py>(
         detector,
         darks_paths: crate::calib::paths_of(darks)?,
         flats_paths: flats.unwrap_or_default(),
-        subaps_px: subap_px.map(one_or_many).transpose()?,
+        subaps_px: subap_px
+            .map(|v| one_or_many(v, "subap_px", &subap_px_item()))
+            .transpose()?,
         spots: spot.map(spots_of).transpose()?,
-        signals_photons: signal_photons.map(one_or_many).transpose()?,
+        signals_photons: signal_photons
+            .map(|v| one_or_many(v, "signal_photons", SIGNAL_ITEM))
+            .transpose()?,
         operating_point: operating_point
             .map(OperatingPoint::parse)
             .transpose()

@@ -3,7 +3,7 @@
 //! library's records as a list of dicts (the rows of the CSV/JSON the command line writes),
 //! which `pandas.DataFrame(records)` takes as they are.
 
-use crate::convert::{one_or_many, to_py};
+use crate::convert::{one_or_many, subap_px_item, to_py, SIGNAL_ITEM, SPOT_ITEM};
 use crate::errors::{invalid, IntoPy};
 use crate::observer::observed;
 use crate::params::read_params;
@@ -16,9 +16,9 @@ use detnoise::spot::{Sampling, Spot};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// The readout models of a run: a comma-separated text or a list of names.
-pub fn specs_of(models: &Bound<'_, PyAny>) -> PyResult<Vec<ModelSpec>> {
-    let names: Vec<String> = one_or_many(models)?;
+/// The readout models of a run (argument `keyword`): a comma-separated text or a list of names.
+pub fn specs_of(models: &Bound<'_, PyAny>, keyword: &str) -> PyResult<Vec<ModelSpec>> {
+    let names: Vec<String> = one_or_many(models, keyword, "a model name such as \"scmos-median\"")?;
     let specs: Vec<ModelSpec> = names
         .iter()
         .flat_map(|n| n.split(','))
@@ -27,7 +27,7 @@ pub fn specs_of(models: &Bound<'_, PyAny>) -> PyResult<Vec<ModelSpec>> {
         .collect::<PyResult<_>>()?;
     if specs.is_empty() {
         return Err(invalid(
-            "model",
+            keyword,
             format!(
                 "no model given (known: {})",
                 detnoise::detector::MODEL_NAMES
@@ -45,7 +45,7 @@ pub fn sampling_of(text: &str) -> PyResult<Sampling> {
 
 /// Spots: one `airy:D[,D...]` / `gauss:SX,SY` text or a list of them.
 pub fn spots_of(spot: &Bound<'_, PyAny>) -> PyResult<Vec<Spot>> {
-    Spot::parse_list(&one_or_many::<String>(spot)?).py()
+    Spot::parse_list(&one_or_many::<String>(spot, "spot", SPOT_ITEM)?).py()
 }
 
 /// The sweep's settings shared by `simulate` and `effective`.
@@ -68,7 +68,7 @@ impl Sweep<'_, '_> {
     pub fn configs(&self) -> PyResult<Vec<SimConfig>> {
         let default = |s: &Setting| settings::default_in(self.command, s).expect("has a default");
         let subaps_px = match self.subap_px {
-            Some(v) => one_or_many(v)?,
+            Some(v) => one_or_many(v, "subap_px", &subap_px_item())?,
             None => settings::parse_list(default(&settings::SUBAP_PX), "subap_px").py()?,
         };
         let spots = match self.spot {
@@ -76,7 +76,7 @@ impl Sweep<'_, '_> {
             None => Spot::parse_list(&[default(&settings::SPOT).to_string()]).py()?,
         };
         let signals_photons = match self.signal_photons {
-            Some(v) => one_or_many(v)?,
+            Some(v) => one_or_many(v, "signal_photons", SIGNAL_ITEM)?,
             None => {
                 settings::parse_list(default(&settings::SIGNAL_PHOTONS), "signal_photons").py()?
             }
@@ -145,7 +145,11 @@ pub fn centroiders_of(
     centroider: &Bound<'_, PyAny>,
     mask_above: Option<f64>,
 ) -> PyResult<Vec<CentroiderSpec>> {
-    let names: Vec<String> = one_or_many(centroider)?;
+    let names: Vec<String> = one_or_many(
+        centroider,
+        "centroider",
+        "a centroider name such as \"cog\"",
+    )?;
     if let Some(m) = mask_above {
         checked(&settings::MASK_ABOVE, Value::Real(m))?;
     }
@@ -186,8 +190,8 @@ pub fn simulate<'py>(
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyAny>> {
     let specs = match models {
-        Some(m) => specs_of(m)?,
-        None => specs_of(DEFAULT_MODELS.into_pyobject(py)?.as_any())?,
+        Some(m) => specs_of(m, "models")?,
+        None => specs_of(DEFAULT_MODELS.into_pyobject(py)?.as_any(), "models")?,
     };
     let shared = shared_config(
         qe,

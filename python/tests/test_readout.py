@@ -154,3 +154,37 @@ def test_integer_and_list_input_is_accepted():
     out = cam.read([[1, 2], [3, 4]], seed=2)
     assert out.shape == (2, 2) and out.dtype == np.float64
     np.testing.assert_array_equal(out, cam.read(np.array([[1.0, 2.0], [3.0, 4.0]]), seed=2))
+
+
+def test_a_broadcast_view_too_large_to_expand_is_refused_before_any_allocation():
+    cam = detnoise.Readout("scmos-constant:1")
+    # 1e10 elements held by one: converting it would allocate 74.5 GiB (and the output as much).
+    huge = np.broadcast_to(1.0, (1, 100_000, 100_000))
+    with pytest.raises(ValueError, match=r"`image_e`: shape \[1, 100000, 100000\] has "
+                                         r"10000000000 elements \(74\.5 GiB.*holds 1 "):
+        cam.read(huge)
+    with pytest.raises(ValueError, match="`mean_e`: shape"):
+        cam.read(np.ones((4, 4)), mean_e=np.broadcast_to(1.0, (20_000, 20_000)))
+    with pytest.raises(ValueError, match="`rms_e`: shape"):
+        detnoise.fit_pdf(np.broadcast_to(1.0, (20_000, 20_000)))
+    with pytest.raises(ValueError, match="`map_e`: shape"):
+        detnoise.Readout("scmos-map", map_e=np.broadcast_to(1.0, (20_000, 20_000)))
+    # A view of a modest size is read as the array it stands for.
+    flat = np.broadcast_to(5.0, (3, 4, 4))
+    np.testing.assert_array_equal(cam.read(flat, seed=1), cam.read(np.full((3, 4, 4), 5.0), seed=1))
+
+
+def test_complex_arrays_are_refused_naming_the_argument():
+    cam = detnoise.Readout("scmos-constant:1", gain_e_per_adu=2.0)
+    image = np.full((4, 4), 3.0 + 1.0j)
+    for call, keyword in [
+        (lambda: cam.read(image), "`image_e`"),
+        (lambda: cam.read([[1j, 0], [0, 0]]), "`image_e`"),
+        (lambda: cam.read(image.real, mean_e=image), "`mean_e`"),
+        (lambda: cam.read(image.real, unit="adu", offset_adu=image), "`offset_adu`"),
+        (lambda: detnoise.Readout("scmos-map", map_e=image), "`map_e`"),
+        (lambda: detnoise.fit_pdf(image.ravel()), "`rms_e`"),
+        (lambda: detnoise.fit_pdf(np.ones(16), flags=image.ravel()), "`flags`"),
+    ]:
+        with pytest.raises(ValueError, match=f"{keyword}: complex values"):
+            call()

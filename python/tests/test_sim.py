@@ -128,3 +128,29 @@ def test_the_command_runs_the_cli(cli):
     assert bad.returncode == 2 and "--qe" in bad.stderr
     missing = cli("darks", "missing.fits", "--out", os.devnull + "-x", check=False)
     assert missing.returncode == 1 and "missing.fits" in missing.stderr
+
+
+def test_list_arguments_of_the_wrong_type_or_value_name_the_keyword():
+    for kwargs, error, message in [
+        ({"subap_px": -8}, ValueError, r"`subap_px`: -8: must be a whole number of pixels"),
+        ({"subap_px": [4, -8]}, ValueError, r"`subap_px`: -8: must be a whole number"),
+        ({"subap_px": 8.5}, TypeError, r"`subap_px` takes a whole number of pixels, 2 to 128 .*not float 8\.5"),
+        ({"subap_px": "8"}, TypeError, r"`subap_px` takes .*not str '8'"),
+        ({"spot": 2}, TypeError, r"`spot` takes a spot text such as \"airy:2\".*not int 2"),
+        ({"spot": ["airy:2", 3]}, TypeError, r"`spot` takes .*not int 3"),
+        ({"signal_photons": "50"}, TypeError, r"`signal_photons` takes a number of photons"),
+        ({"subap_px": []}, ValueError, r"`subap_px`: an empty list"),
+        ({"spot": []}, ValueError, r"`spot`: an empty list"),
+        ({"signal_photons": ()}, ValueError, r"`signal_photons`: an empty list"),
+        ({"centroider": []}, ValueError, r"`centroider`: an empty list"),
+    ]:
+        for run in (detnoise.simulate, detnoise.effective):
+            with pytest.raises(error, match=message):
+                run(**kwargs)
+    with pytest.raises(TypeError, match="`models` takes a model name"):
+        detnoise.simulate(5)
+    with pytest.raises(ValueError, match="`models`: an empty list"):
+        detnoise.simulate([])
+    with pytest.raises(ValueError, match=r"`spot`: 'airy:2,airy:3': 'airy:3' is not a diameter"):
+        detnoise.simulate(spot="airy:2,airy:3")
+
