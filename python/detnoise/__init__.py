@@ -89,16 +89,21 @@ class _TextProgress:
     """Progress as one line per stage on standard error (without tqdm)."""
 
     def __init__(self):
-        self._stage = None
+        self._open = False
 
     def __call__(self, stage, done, total, unit):
         percent = 100.0 * done / total if total else 100.0
         end = "\n" if done >= total else ""
         sys.stderr.write(f"\r{stage}: {percent:5.1f} % of {total} {unit}{end}")
         sys.stderr.flush()
+        self._open = not end
 
     def close(self):
-        pass
+        # A run stopped mid-stage (Ctrl-C) leaves its line at its last percentage: end it.
+        if self._open:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+            self._open = False
 
 
 def _progress(progress):

@@ -64,11 +64,15 @@ impl PyObserver {
     }
 
     /// Call the callback with the current counts; `force` ignores the interval (stage start
-    /// and end). A callback that raises stops the run with its exception.
+    /// and end). A callback that raises stops the run with its exception, and once the run is
+    /// stopped the callback is not called again.
     fn report(&self, force: bool) {
         let Some(callback) = &self.callback else {
             return;
         };
+        if self.stop.load(Relaxed) {
+            return; // stopped: the progress stays where it was
+        }
         {
             let Ok(mut last) = self.last_call.try_lock() else {
                 return; // another thread is reporting right now
@@ -146,6 +150,10 @@ impl Observer for PyObserver {
     }
 
     fn end(&self) {
+        // A stopped run (Ctrl-C, or the callback raised) ends its stage too: not at its total.
+        if self.stop.load(Relaxed) {
+            return;
+        }
         self.done.store(self.total.load(Relaxed), Relaxed);
         self.report(true);
     }

@@ -4,6 +4,7 @@ constant-sigma camera, progress, Ctrl-C and bad options."""
 import json
 import os
 import signal
+import sys
 import threading
 import time
 
@@ -154,3 +155,35 @@ def test_list_arguments_of_the_wrong_type_or_value_name_the_keyword():
     with pytest.raises(ValueError, match=r"`spot`: 'airy:2,airy:3': 'airy:3' is not a diameter"):
         detnoise.simulate(spot="airy:2,airy:3")
 
+
+def test_progress_stays_where_it_was_when_the_run_is_stopped():
+    calls = []
+
+    def stop(stage, done, total, unit):
+        calls.append((done, total))
+        if done > 0:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        detnoise.simulate("scmos-random", subap_px=16, iters=200_000_000, progress=stop)
+    # Not called again after it raised: the stage's end does not report its total.
+    done, total = calls[-1]
+    assert 0 < done < total and len([c for c in calls if c[0] > 0]) == 1, calls
+
+
+@pytest.mark.skipif(not hasattr(signal, "pthread_kill"), reason="needs POSIX signals")
+def test_progress_bar_stays_where_it_was_on_ctrl_c(capfd, monkeypatch):
+    # The text bar (no tqdm): its last line is the percentage reached, ended by a newline.
+    monkeypatch.setitem(sys.modules, "tqdm.auto", None)
+    main = threading.get_ident()
+    timer = threading.Timer(0.5, lambda: signal.pthread_kill(main, signal.SIGINT))
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            detnoise.simulate("scmos-random", subap_px=16, iters=200_000_000, progress=True)
+    finally:
+        timer.cancel()
+    err = capfd.readouterr().err
+    last = err.rstrip("\n").split("\r")[-1]
+    assert err.endswith("\n") and "100.0 %" not in err, repr(err[-300:])
+    assert last.startswith("simulate: ") and "% of 200000000 frames" in last, repr(last)
