@@ -229,8 +229,9 @@ pub struct Layout {
 impl Geometry {
     /// Lay the sub-apertures out on a map of `rows` x `cols` px: the grid holds every
     /// sub-aperture that fits, and a mask must have the grid's shape (a mask of another shape
-    /// is refused naming both, rather than shrinking or cutting the grid). Errors name
-    /// `subap_grid` or `subap_mask`; no sub-aperture at all is an error of `subap_grid`.
+    /// is refused naming both, rather than shrinking or cutting the grid). No sub-aperture
+    /// fitting is an error of `subap_grid`; a mask of another shape, or marking none valid, of
+    /// `subap_mask`.
     pub fn layout(&self, rows: usize, cols: usize) -> Result<Layout> {
         let g = &self.grid;
         g.validate()?;

@@ -369,14 +369,12 @@ pub fn read_part(path: &Path) -> Result<PartContent> {
         .iter()
         .position(|&b| b == b'\n')
         .ok_or_else(not_part)?;
-    let header: PartHeader = std::str::from_utf8(&bytes[..head_end])
-        .ok()
-        .and_then(|t| serde_json::from_str(t).ok())
-        .ok_or_else(not_part)?;
+    let head = std::str::from_utf8(&bytes[..head_end]).map_err(|_| not_part())?;
+    let header: PartHeader = serde_json::from_str(head).map_err(|_| not_part())?;
     if header.format != PART_FORMAT {
         return Err(not_part());
     }
-    check_header(&header).map_err(bad)?;
+    check_header(&header, head).map_err(bad)?;
     let mut records = Vec::new();
     let mut pos = head_end + 1;
     let mut torn = false;
@@ -417,11 +415,14 @@ pub fn read_part(path: &Path) -> Result<PartContent> {
     })
 }
 
-/// Why a parsed header cannot be a part file's as detnoise wrote it: its binding edited (its
-/// checksum no longer matches), a shard out of range, or a count of sub-apertures that is
-/// not its shard's.
-fn check_header(h: &PartHeader) -> std::result::Result<(), String> {
-    if h.binding.digest() != h.binding_blake3 {
+/// Why the header `h`, parsed from the line `text`, cannot be a part file's as detnoise wrote
+/// it: its binding edited (its checksum no longer matches), a shard out of range, or a count
+/// of sub-apertures that is not its shard's.
+fn check_header(h: &PartHeader, text: &str) -> std::result::Result<(), String> {
+    // The checksum is of the binding's text as written: serde_json's parse of a float may be
+    // one unit in the last place off, so re-encoding the parsed binding could differ.
+    let written = binding_text(text).map(|b| blake3::hash(b.as_bytes()).to_hex().to_string());
+    if written.as_deref() != Some(h.binding_blake3.as_str()) {
         return Err(
             "its header's options do not match their checksum (binding_blake3): the header was \
              edited; remove the part and rerun its shard to recompute it"
@@ -443,6 +444,14 @@ fn check_header(h: &PartHeader) -> std::result::Result<(), String> {
         ));
     }
     Ok(())
+}
+
+/// The text of the binding in a header line: the last member, as [`PartHeader`] is written
+/// (a `,"` cannot occur inside a JSON string, whose quotes are escaped).
+fn binding_text(header: &str) -> Option<&str> {
+    const KEY: &str = ",\"binding\":";
+    let start = header.find(KEY)? + KEY.len();
+    header.strip_suffix('}')?.get(start..)
 }
 
 /// An open part file that finished sub-apertures are appended to, one synced line each,

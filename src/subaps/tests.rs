@@ -747,3 +747,19 @@ fn the_summary_names_the_map_read_by_this_run() {
         "{json}"
     );
 }
+
+#[test]
+fn a_part_whose_floats_do_not_round_trip_through_json_parsing_still_resumes() {
+    // serde_json reads 0.9941414234139935 as 0.9941414234139936: the checksum is of the
+    // binding as written, not of the parsed one re-encoded.
+    let (map, geometry) = (small_map(), grid("4"));
+    let mut job = small_job(&map, &geometry, 1);
+    job.config.qe = 0.9941414234139935;
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out");
+    run(&job, Shard::ALL, &out, &Silent).unwrap();
+    let again = run(&job, Shard::ALL, &out, &Silent).unwrap();
+    assert_eq!((again.resumed, again.computed), (12, 0));
+    let part = out.join(Shard::ALL.file_name());
+    merge_into_dir(&[part], &d.path().join("merged"), false).unwrap();
+}
