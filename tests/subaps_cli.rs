@@ -52,7 +52,7 @@ fn bad_inputs_are_refused_before_any_work_naming_what_is_wrong() {
     let e_map = map_file(d.path(), "rms_e.fits", Unit::Electrons);
     let adu_map = map_file(d.path(), "rms_adu.fits", Unit::Adu);
     let out = d.path().join("out");
-    let cases: [(&Path, &[&str], i32, &[&str]); 7] = [
+    let cases: [(&Path, &[&str], i32, &[&str]); 11] = [
         (
             &adu_map,
             &["--subap-grid", "4"],
@@ -90,6 +90,33 @@ fn bad_inputs_are_refused_before_any_work_naming_what_is_wrong() {
             &["--subap", "--subap-grid"],
         ),
         (&e_map, &[], 2, &["--subap-grid"]),
+        // An origin whose first window would end past the largest integer (it wrapped around
+        // to a window far outside the map, or panicked), and one merely beyond the map.
+        (
+            &e_map,
+            &["--subap-grid", "16,16,18446744073709551600,0"],
+            2,
+            &["--subap-grid", "X0 = 18446744073709551600"],
+        ),
+        (
+            &e_map,
+            &["--subap-grid", "4,4,0,18446744073709551614"],
+            2,
+            &["--subap-grid", "Y0 = 18446744073709551614"],
+        ),
+        (
+            &e_map,
+            &["--subap-grid", "4,4,18446744073709551599,1"],
+            2,
+            &["--subap-grid", "12x16 px map"],
+        ),
+        // A centroider that cannot read a 4x4 window: refused before --out exists.
+        (
+            &e_map,
+            &["--subap-grid", "4", "--centroider", "brightest-n:1000"],
+            2,
+            &["--centroider", "brightest-n:1000", "16 pixels"],
+        ),
     ];
     for (map, extra, code, needles) in cases {
         let o = subaps(map, &out, extra);
@@ -249,4 +276,236 @@ fn a_report_with_a_lenslet_grid_adds_the_map_and_is_otherwise_unchanged() {
     assert!(!std::fs::read_to_string(plain.join("index.html"))
         .unwrap()
         .contains("per sub-aperture</h2>"));
+}
+
+#[test]
+fn a_report_refuses_a_grid_that_wraps_before_any_work() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("report");
+    let darks = common::data("scmos-darks-64x64.fits");
+    for (grid, extra, needle) in [
+        (
+            "16,16,18446744073709551600,0",
+            None,
+            "X0 = 18446744073709551600",
+        ),
+        ("16,16,18446744073709551599,1", None, "64x64 px map"),
+        ("16", Some("brightest-n:1000"), "brightest-n:1000"),
+    ] {
+        let start = std::time::Instant::now();
+        let mut cmd = detnoise();
+        cmd.args(["report", "--darks"])
+            .arg(&darks)
+            .args(["--gain-e-per-adu", "0.25", "--quick", "--subap-grid", grid])
+            .arg("--out")
+            .arg(&out);
+        if let Some(c) = extra {
+            cmd.args(["--centroider", c]);
+        }
+        let o = cmd.output().unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{grid}: {err}");
+        assert!(err.contains(needle), "{grid}: {err}");
+        assert!(!out.exists(), "{grid}");
+        // Refused at once: the report's Monte-Carlo takes tens of seconds.
+        assert!(
+            start.elapsed().as_secs_f64() < 3.0,
+            "{grid}: {:?}",
+            start.elapsed()
+        );
+    }
+}
+
+#[test]
+fn a_usage_error_leaves_nothing_so_the_corrected_rerun_runs() {
+    let d = tempfile::tempdir().unwrap();
+    let map = map_file(d.path(), "rms_e.fits", Unit::Electrons);
+    let out = d.path().join("out");
+    let o = subaps(
+        &map,
+        &out,
+        &["--subap-grid", "4", "--centroider", "brightest-n:1000"],
+    );
+    assert_eq!(o.status.code(), Some(2));
+    assert!(!out.exists());
+    let o = subaps(
+        &map,
+        &out,
+        &["--subap-grid", "4", "--centroider", "brightest-n:4"],
+    );
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+#[test]
+fn a_mask_of_another_shape_than_the_grid_is_refused_naming_both() {
+    let d = tempfile::tempdir().unwrap();
+    let map = map_file(d.path(), "rms_e.fits", Unit::Electrons);
+    let mask = d.path().join("mask.fits");
+    // The 12x16 px map holds 3x4 sub-apertures of 4 px; the mask is 2x4.
+    Map::new(2, 4, vec![1.0; 8], Unit::Flags)
+        .write_fits(&mask, &[])
+        .unwrap();
+    let out = d.path().join("out");
+    let o = subaps(
+        &map,
+        &out,
+        &["--subap-grid", "4", "--subap-mask", mask.to_str().unwrap()],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    for n in ["--subap-mask", "2x4 cells", "3x4 sub-apertures"] {
+        assert!(err.contains(n), "{err} lacks {n}");
+    }
+    assert!(!out.exists());
+}
+
+/// Options of a run that takes a few seconds (the lock tests need it running).
+const SLOW: [&str; 6] = [
+    "--subap-grid",
+    "4",
+    "--iters",
+    "100000",
+    "--max-iters",
+    "100000",
+];
+
+fn slow_run(map: &Path, out: &Path) -> std::process::Child {
+    std::process::Command::new(env!("CARGO_BIN_EXE_detnoise"))
+        .args(["subaps", "--map"])
+        .arg(map)
+        .arg("--out")
+        .arg(out)
+        .args(["--target-se-e", "0", "--target-rel", "0"])
+        .args(SLOW)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+}
+
+/// Wait until `path` exists and holds at least `lines` lines (10 s at most).
+fn wait_for(path: &Path, lines: usize) {
+    let start = std::time::Instant::now();
+    while std::fs::read_to_string(path).map_or(true, |t| t.lines().count() < lines) {
+        assert!(
+            start.elapsed().as_secs() < 10,
+            "{} never came",
+            path.display()
+        );
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+}
+
+#[test]
+fn a_second_run_on_the_same_part_is_refused_naming_the_first_ones_pid() {
+    let d = tempfile::tempdir().unwrap();
+    let map = map_file(d.path(), "rms_e.fits", Unit::Electrons);
+    let out = d.path().join("out");
+    let first = slow_run(&map, &out);
+    let lock = out.join("subaps-1-of-1.part.lock");
+    wait_for(&lock, 1);
+    let second = detnoise()
+        .args(["subaps", "--map"])
+        .arg(&map)
+        .arg("--out")
+        .arg(&out)
+        .args(["--target-se-e", "0", "--target-rel", "0"])
+        .args(SLOW)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&second.stderr);
+    assert_eq!(second.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains(&format!("pid {}", first.id())) && err.contains("subaps-1-of-1.part"),
+        "{err}"
+    );
+    let o = first.wait_with_output().unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    // The first wrote every sub-aperture once, and its lock is gone.
+    let part = detnoise::subaps::read_part(&out.join("subaps-1-of-1.part")).unwrap();
+    assert_eq!((part.records.len(), part.torn), (12, false));
+    assert!(!lock.exists());
+    let csv = std::fs::read_to_string(out.join("subaps.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 13);
+}
+
+#[test]
+fn a_run_killed_with_its_lock_held_resumes() {
+    let d = tempfile::tempdir().unwrap();
+    let map = map_file(d.path(), "rms_e.fits", Unit::Electrons);
+    let out = d.path().join("out");
+    let mut first = slow_run(&map, &out);
+    // Killed (SIGKILL) once a sub-aperture is in the part: the lock file stays behind.
+    wait_for(&out.join("subaps-1-of-1.part"), 2);
+    first.kill().unwrap();
+    first.wait().unwrap();
+    let lock = out.join("subaps-1-of-1.part.lock");
+    assert!(lock.exists());
+    let o = slow_run(&map, &out).wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains(" 0 resumed"), "{err}");
+    assert!(!lock.exists());
+}
+
+#[test]
+fn damaged_and_edited_parts_are_refused_for_what_they_are() {
+    let d = tempfile::tempdir().unwrap();
+    let map = map_file(d.path(), "rms_e.fits", Unit::Electrons);
+    let (parts, merged) = (d.path().join("parts"), d.path().join("merged"));
+    for k in ["1/2", "2/2"] {
+        let o = subaps(&map, &parts, &["--subap-grid", "4", "--shard", k]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    let part = parts.join("subaps-1-of-2.part");
+    let text = std::fs::read_to_string(&part).unwrap();
+    // An edited signal (50 -> 500): the header no longer matches its checksum.
+    std::fs::write(
+        &part,
+        text.replacen("\"signal_photons\":50.0", "\"signal_photons\":500.0", 1),
+    )
+    .unwrap();
+    let o = detnoise()
+        .args(["subaps-merge", "--out"])
+        .arg(&merged)
+        .arg(&parts)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("subaps-1-of-2.part") && err.contains("binding_blake3"),
+        "{err}"
+    );
+    assert!(!merged.exists());
+    // One flipped byte in a record: the reason, without --force, naming the file.
+    let mut bytes = text.into_bytes();
+    let at = bytes.iter().position(|&b| b == b'\n').unwrap() + 5;
+    bytes[at] ^= 0x04;
+    std::fs::write(&part, &bytes).unwrap();
+    let o = subaps(&map, &parts, &["--subap-grid", "4", "--shard", "2/2"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("subaps-1-of-2.part: line 2 is damaged"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read(&part).unwrap(), bytes);
+}
+
+#[test]
+fn the_summary_names_the_map_as_read_after_a_rename() {
+    let d = tempfile::tempdir().unwrap();
+    let map = map_file(d.path(), "rms_e.fits", Unit::Electrons);
+    let out = d.path().join("out");
+    assert!(subaps(&map, &out, &["--subap-grid", "4"]).status.success());
+    let renamed = d.path().join("renamed_e.fits");
+    std::fs::rename(&map, &renamed).unwrap();
+    let o = subaps(&renamed, &out, &["--subap-grid", "4"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let s: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("subaps_summary.json")).unwrap())
+            .unwrap();
+    let source = s["map_source"].as_str().unwrap();
+    assert!(source.ends_with("renamed_e.fits"), "{source}");
 }

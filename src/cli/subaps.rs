@@ -19,12 +19,13 @@ use std::path::PathBuf;
 pub struct SubapGeometryArgs {
     /// Lenslet grid over the detector: `SIZE[,PITCH[,X0,Y0]]` in px (e.g. 16, or 16,18,4,4):
     /// square sub-apertures of SIZE px per side, PITCH px apart (the size if left out), the
-    /// first one's first pixel at column X0, row Y0 (0,0 if left out). Sub-apertures that do
-    /// not fit the map are left out (the count is stated).
+    /// first one's first pixel at column X0, row Y0 (0,0 if left out). The grid holds every
+    /// sub-aperture that fits the map.
     #[arg(long, value_name = "SIZE[,PITCH[,X0,Y0]]")]
     pub subap_grid: Option<String>,
     /// Mask of the valid sub-apertures (FITS/TIFF/EXR path): one pixel per cell of
-    /// --subap-grid, non-zero = valid; its shape is the grid's.
+    /// --subap-grid, non-zero = valid; a mask of another shape than the grid on the map is
+    /// refused.
     #[arg(long, value_name = "FILE", requires = "subap_grid")]
     pub subap_mask: Option<PathBuf>,
 }
@@ -178,7 +179,7 @@ pub fn run_cli(args: &SubapsArgs) -> Result<()> {
     let plan = job.plan()?;
     let l = &plan.layout;
     eprintln!(
-        "subaps: {} sub-apertures of {}x{} px on the {}x{} px map (grid {}x{}{}{}); shard {}/{}: {}",
+        "subaps: {} sub-apertures of {}x{} px on the {}x{} px map (grid {}x{}{}); shard {}/{}: {}",
         l.subaps.len(),
         geometry.grid.size_px,
         geometry.grid.size_px,
@@ -186,9 +187,8 @@ pub fn run_cli(args: &SubapsArgs) -> Result<()> {
         map.cols,
         l.grid_rows,
         l.grid_cols,
-        if l.masked > 0 { format!(", {} masked", l.masked) } else { String::new() },
-        if l.left_out > 0 {
-            format!(", {} valid cells left out: they do not fit the map", l.left_out)
+        if l.masked > 0 {
+            format!(", {} masked", l.masked)
         } else {
             String::new()
         },

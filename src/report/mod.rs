@@ -83,7 +83,7 @@ pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportRes
     stack.require_frames(2, "a read-noise map")?;
     // The geometry must fit the frames (known from the headers) before the work.
     if let Some(g) = &options.subaps {
-        g.layout(stack.shape.0, stack.shape.1)?;
+        subaps::check_geometry(options, &grid, g, stack.shape)?;
     }
     let mut result = match options.detector {
         DetectorKind::Scmos => scmos::run(options, &grid, &stack, &dir, observer)?,

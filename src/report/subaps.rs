@@ -7,11 +7,16 @@ use super::grid::Grid;
 use super::html::{figure, key, num};
 use super::options::ReportOptions;
 use crate::calib::Map;
+use crate::centroid::CentroiderSpec;
+use crate::detector::PerPixelSigma;
 use crate::effective::Status;
+use crate::montecarlo::SimConfig;
 use crate::output::html_escape as esc;
 use crate::output::OutputDir;
 use crate::progress::Observer;
-use crate::subaps::{solve_all, write_outputs, Geometry, SubapsJob, SubapsSummary, OUTPUT_NAMES};
+use crate::subaps::{
+    check_centroider, solve_all, write_outputs, Geometry, SubapsJob, SubapsSummary, OUTPUT_NAMES,
+};
 use crate::Result;
 use std::fmt::Write as _;
 
@@ -27,17 +32,44 @@ pub(crate) fn subaps_section(
     dir: &OutputDir,
     observer: &dyn Observer,
 ) -> Result<(SubapsSummary, Vec<String>)> {
-    let op = o.operating_point();
     let job = SubapsJob {
         map,
         geometry,
-        config: grid.config(geometry.grid.size_px, op.spot, op.signal_photons, o.qe),
+        config: config(o, grid, geometry),
         precision: o.precision_in_use(),
-        centroider: o.centroiders.first().copied().unwrap_or_default(),
+        centroider: centroider(o),
     };
     let (header, records) = solve_all(&job, observer)?;
     let (summary, _) = write_outputs(&header, &records, &dir.path(""))?;
     Ok((summary, OUTPUT_NAMES.map(String::from).to_vec()))
+}
+
+/// Check the geometry against the map the report will measure (`shape`, rows x cols px, from
+/// the frames' headers) and the centroider against its windows, before any work: the errors
+/// the section would otherwise meet after the whole report's Monte-Carlo.
+pub(crate) fn check_geometry(
+    o: &ReportOptions,
+    grid: &Grid,
+    geometry: &Geometry,
+    (rows, cols): (usize, usize),
+) -> Result<()> {
+    geometry.layout(rows, cols)?;
+    let cfg = config(o, grid, geometry);
+    let n = cfg.subap_px;
+    let window = PerPixelSigma::new(vec![1.0; n * n], "subap window".into());
+    check_centroider(&cfg, centroider(o), &window)
+}
+
+/// The configuration of every sub-aperture: the grid's size, the operating point's spot and
+/// signal, the report's iterations, seed, sampling and QE.
+fn config(o: &ReportOptions, grid: &Grid, geometry: &Geometry) -> SimConfig {
+    let op = o.operating_point();
+    grid.config(geometry.grid.size_px, op.spot, op.signal_photons, o.qe)
+}
+
+/// The centroider of the section: the report's first.
+fn centroider(o: &ReportOptions) -> CentroiderSpec {
+    o.centroiders.first().copied().unwrap_or_default()
 }
 
 /// The page's section: the chart, the spread of sigma_eff over the sub-apertures and the

@@ -81,6 +81,19 @@ impl GridSpec {
                 ),
             ));
         }
+        // The first window's far edge must be a number of px: an origin near the largest
+        // integer would wrap around and lay out windows outside any map.
+        for (axis, origin) in [("X0", self.x0_px), ("Y0", self.y0_px)] {
+            if origin.checked_add(self.size_px).is_none() {
+                return Err(Error::invalid(
+                    "subap_grid",
+                    format!(
+                        "{axis} = {origin} px: the first sub-aperture would end beyond the \
+                         largest pixel index"
+                    ),
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -92,13 +105,32 @@ impl GridSpec {
         )
     }
 
-    /// Grid cells along an axis of `len` px from `origin` whose sub-aperture fits.
+    /// Grid cells along an axis of `len` px from `origin` whose sub-aperture fits (checked
+    /// arithmetic: an origin beyond the map fits none, whatever its size).
     fn fitting(&self, len: usize, origin: usize) -> usize {
-        if origin + self.size_px > len {
-            0
-        } else {
-            (len - origin - self.size_px) / self.pitch_px + 1
+        match origin
+            .checked_add(self.size_px)
+            .and_then(|end| len.checked_sub(end))
+        {
+            Some(spare) => spare / self.pitch_px + 1,
+            None => 0,
         }
+    }
+
+    /// The first pixel along an axis of grid cell `cell` from `origin` (px), checked: a
+    /// fitting cell always has one.
+    fn start(&self, origin: usize, cell: usize) -> Result<usize> {
+        cell.checked_mul(self.pitch_px)
+            .and_then(|d| d.checked_add(origin))
+            .ok_or_else(|| {
+                Error::invalid(
+                    "subap_grid",
+                    format!(
+                        "{}: cell {cell} starts beyond the largest pixel index",
+                        self.text()
+                    ),
+                )
+            })
     }
 }
 
@@ -184,63 +216,84 @@ pub struct Subap {
 /// The sub-apertures of a geometry on a map.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Layout {
-    /// Grid rows (the mask's, or as many as fit the map).
+    /// Grid rows (as many as fit the map; a mask has exactly this shape).
     pub grid_rows: usize,
     /// Grid columns.
     pub grid_cols: usize,
     /// The sub-apertures, row-major.
     pub subaps: Vec<Subap>,
-    /// Valid mask cells whose sub-aperture does not fit the map (left out).
-    pub left_out: usize,
     /// Cells the mask marks invalid.
     pub masked: usize,
 }
 
 impl Geometry {
-    /// Lay the sub-apertures out on a map of `rows` x `cols` px. Without a mask the grid holds
-    /// every sub-aperture that fits; with one, the mask's cells, those that do not fit the map
-    /// left out (counted). No sub-aperture at all is an error of `subap_grid`.
+    /// Lay the sub-apertures out on a map of `rows` x `cols` px: the grid holds every
+    /// sub-aperture that fits, and a mask must have the grid's shape (a mask of another shape
+    /// is refused naming both, rather than shrinking or cutting the grid). No sub-aperture
+    /// fitting is an error of `subap_grid`; a mask of another shape, or marking none valid, of
+    /// `subap_mask`.
     pub fn layout(&self, rows: usize, cols: usize) -> Result<Layout> {
         let g = &self.grid;
-        let (fit_rows, fit_cols) = (g.fitting(rows, g.y0_px), g.fitting(cols, g.x0_px));
-        let (grid_rows, grid_cols) = match &self.mask {
-            Some(m) => (m.rows, m.cols),
-            None => (fit_rows, fit_cols),
-        };
+        g.validate()?;
+        let (grid_rows, grid_cols) = (g.fitting(rows, g.y0_px), g.fitting(cols, g.x0_px));
+        if grid_rows == 0 || grid_cols == 0 {
+            return Err(Error::invalid(
+                "subap_grid",
+                format!(
+                    "{}: no {}x{} px sub-aperture from ({}, {}) fits the {rows}x{cols} px map",
+                    g.text(),
+                    g.size_px,
+                    g.size_px,
+                    g.x0_px,
+                    g.y0_px
+                ),
+            ));
+        }
+        if let Some(m) = &self.mask {
+            if (m.rows, m.cols) != (grid_rows, grid_cols) {
+                return Err(Error::invalid(
+                    "subap_mask",
+                    format!(
+                        "the mask is {}x{} cells but the grid {} on the {rows}x{cols} px map is \
+                         {grid_rows}x{grid_cols} sub-apertures: give one mask cell per \
+                         sub-aperture of the grid",
+                        m.rows,
+                        m.cols,
+                        g.text()
+                    ),
+                ));
+            }
+        }
         let mut layout = Layout {
             grid_rows,
             grid_cols,
             subaps: Vec::new(),
-            left_out: 0,
             masked: 0,
         };
         for r in 0..grid_rows {
             for c in 0..grid_cols {
                 if self.mask.as_ref().is_some_and(|m| !m.valid[r * m.cols + c]) {
                     layout.masked += 1;
-                } else if r >= fit_rows || c >= fit_cols {
-                    layout.left_out += 1;
-                } else {
-                    layout.subaps.push(Subap {
-                        index: layout.subaps.len(),
-                        grid_row: r,
-                        grid_col: c,
-                        y0_px: g.y0_px + r * g.pitch_px,
-                        x0_px: g.x0_px + c * g.pitch_px,
-                    });
+                    continue;
                 }
+                layout.subaps.push(Subap {
+                    index: layout.subaps.len(),
+                    grid_row: r,
+                    grid_col: c,
+                    y0_px: g.start(g.y0_px, r)?,
+                    x0_px: g.start(g.x0_px, c)?,
+                });
             }
         }
         if layout.subaps.is_empty() {
-            let why = if fit_rows == 0 || fit_cols == 0 {
+            return Err(Error::invalid(
+                "subap_mask",
                 format!(
-                    "no {}x{} px sub-aperture from ({}, {}) fits the {rows}x{cols} px map",
-                    g.size_px, g.size_px, g.x0_px, g.y0_px
-                )
-            } else {
-                "the mask marks no sub-aperture that fits the map as valid".to_string()
-            };
-            return Err(Error::invalid("subap_grid", format!("{}: {why}", g.text())));
+                    "the mask marks none of the {grid_rows}x{grid_cols} sub-apertures of the \
+                     grid {} as valid",
+                    g.text()
+                ),
+            ));
         }
         Ok(layout)
     }

@@ -14,6 +14,7 @@
 mod chart;
 mod geometry;
 mod input;
+mod lock;
 mod merge;
 mod outputs;
 mod part;
@@ -35,4 +36,4 @@ pub use part::{
 };
 pub use resume::{merge_into_dir, run_into_dir, DirRun, DirTarget};
 pub use run::{solve_all, solve_each, Plan, SubapsJob};
-pub use solve::{solve_subap, NoiseMap, WindowStats};
+pub use solve::{check_centroider, solve_subap, NoiseMap, WindowStats};

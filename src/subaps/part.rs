@@ -9,6 +9,7 @@
 //! same bits: a merged result equals the one computed in a single run.
 
 use super::geometry::{GridSpec, Layout, ValidMask};
+use super::lock::PartLock;
 use super::solve::WindowStats;
 use crate::calib::Map;
 use crate::centroid::CentroiderSpec;
@@ -87,7 +88,8 @@ pub struct Binding {
     pub subaps: usize,
     /// BLAKE3 of the layout (grid shape and every sub-aperture's cell).
     pub layout_blake3: String,
-    /// Valid mask cells whose sub-aperture does not fit the map (left out).
+    /// Valid mask cells left out: always 0 (a mask must have the grid's shape), kept in the
+    /// part format.
     pub left_out: usize,
     /// Grid cells the mask marks invalid.
     pub masked: usize,
@@ -137,7 +139,7 @@ impl Binding {
             grid_shape: [layout.grid_rows, layout.grid_cols],
             subaps: layout.subaps.len(),
             layout_blake3: layout.digest(),
-            left_out: layout.left_out,
+            left_out: 0,
             masked: layout.masked,
             spot: cfg.spot.label(),
             sampling: cfg.sampling.label().into(),
@@ -367,13 +369,12 @@ pub fn read_part(path: &Path) -> Result<PartContent> {
         .iter()
         .position(|&b| b == b'\n')
         .ok_or_else(not_part)?;
-    let header: PartHeader = std::str::from_utf8(&bytes[..head_end])
-        .ok()
-        .and_then(|t| serde_json::from_str(t).ok())
-        .ok_or_else(not_part)?;
+    let head = std::str::from_utf8(&bytes[..head_end]).map_err(|_| not_part())?;
+    let header: PartHeader = serde_json::from_str(head).map_err(|_| not_part())?;
     if header.format != PART_FORMAT {
         return Err(not_part());
     }
+    check_header(&header, head).map_err(bad)?;
     let mut records = Vec::new();
     let mut pos = head_end + 1;
     let mut torn = false;
@@ -414,19 +415,61 @@ pub fn read_part(path: &Path) -> Result<PartContent> {
     })
 }
 
-/// An open part file that finished sub-apertures are appended to, one synced line each.
+/// Why the header `h`, parsed from the line `text`, cannot be a part file's as detnoise wrote
+/// it: its binding edited (its checksum no longer matches), a shard out of range, or a count
+/// of sub-apertures that is not its shard's.
+fn check_header(h: &PartHeader, text: &str) -> std::result::Result<(), String> {
+    // The checksum is of the binding's text as written: serde_json's parse of a float may be
+    // one unit in the last place off, so re-encoding the parsed binding could differ.
+    let written = binding_text(text).map(|b| blake3::hash(b.as_bytes()).to_hex().to_string());
+    if written.as_deref() != Some(h.binding_blake3.as_str()) {
+        return Err(
+            "its header's options do not match their checksum (binding_blake3): the header was \
+             edited; remove the part and rerun its shard to recompute it"
+                .to_string(),
+        );
+    }
+    let Shard { k, n } = h.shard;
+    if !(1..=n).contains(&k) {
+        return Err(format!(
+            "its header's shard {k}/{n} is not one of 1..N/N: the header was edited"
+        ));
+    }
+    let in_shard = h.binding.subaps.saturating_sub(k - 1).div_ceil(n);
+    if h.subaps_in_shard != in_shard {
+        return Err(format!(
+            "its header counts {} sub-apertures in shard {k}/{n} of a job of {}, not {in_shard}: \
+             the header was edited",
+            h.subaps_in_shard, h.binding.subaps
+        ));
+    }
+    Ok(())
+}
+
+/// The text of the binding in a header line: the last member, as [`PartHeader`] is written
+/// (a `,"` cannot occur inside a JSON string, whose quotes are escaped).
+fn binding_text(header: &str) -> Option<&str> {
+    const KEY: &str = ",\"binding\":";
+    let start = header.find(KEY)? + KEY.len();
+    header.strip_suffix('}')?.get(start..)
+}
+
+/// An open part file that finished sub-apertures are appended to, one synced line each,
+/// under its lock (no other run writes it meanwhile).
 pub struct PartWriter {
     file: Mutex<std::fs::File>,
     path: PathBuf,
+    _lock: PartLock,
 }
 
 impl PartWriter {
-    /// Open the part file of `header`'s shard in `dir` to resume it, or create it (the header
-    /// written atomically) when absent: returns the writer and the records already there. A
-    /// part written with other options is refused, naming the settings that differ; a torn
-    /// last line is cut off.
+    /// Lock the part file of `header`'s shard in `dir` (another run holding it is refused,
+    /// naming its pid), then resume it, or create it (the header written atomically) when
+    /// absent: returns the writer and the records already there. A part written with other
+    /// options is refused, naming the settings that differ; a torn last line is cut off.
     pub fn open(dir: &Path, header: &PartHeader) -> Result<(PartWriter, Vec<PartRecord>)> {
         let path = dir.join(header.shard.file_name());
+        let lock = PartLock::take(&path)?;
         let done = if path.exists() {
             let content = read_part(&path)?;
             check_same_job(&path, &content.header, header)?;
@@ -455,6 +498,7 @@ impl PartWriter {
             PartWriter {
                 file: Mutex::new(file),
                 path,
+                _lock: lock,
             },
             done,
         ))

@@ -3,6 +3,7 @@
 //! its part file), and merged into the outputs (a single run does so itself at the end, from
 //! its own part file, exactly as `subaps-merge` does from several).
 
+use super::lock::is_lock_name;
 use super::merge::{expand_parts, is_part_name, merge_parts, Merged};
 use super::outputs::{write_outputs, SubapsSummary, OUTPUT_NAMES};
 use super::part::{read_part, PartWriter, Shard};
@@ -79,13 +80,18 @@ pub fn run_into_dir(
     })?;
     let part = writer.path().to_path_buf();
     let summary = if shard == Shard::ALL {
-        let merged = merge_parts(std::slice::from_ref(&part))?;
+        let mut merged = merge_parts(std::slice::from_ref(&part))?;
+        // The map read by this run (the part's binding, its BLAKE3 included, is this run's),
+        // not the path a resumed part was begun with.
+        merged.header.map_source.clone_from(&header.map_source);
         let (summary, _) = write_merged(&merged, &dir)?;
         dir.commit()?;
         Some(summary)
     } else {
         None
     };
+    // The part stays locked until the outputs are in place.
+    drop(writer);
     Ok(DirRun {
         part,
         in_shard: header.subaps_in_shard,
@@ -124,18 +130,26 @@ fn write_merged(merged: &Merged, dir: &OutputDir) -> Result<(SubapsSummary, Vec<
 }
 
 /// Whether `out` is an existing directory whose entries detnoise did not list in a manifest
-/// are all part files (so that a rerun or another shard may write beside them without
-/// `force`).
+/// are all part files and their locks (so that a rerun or another shard may write beside
+/// them without `force`). A part file that cannot be read is an error saying why (damaged,
+/// edited), not a file detnoise did not write.
 fn holds_only_ours(out: &Path) -> Result<bool> {
     if !out.is_dir() {
         return Ok(false);
     }
     let s = survey(out).map_err(|e| Error::io(out, e))?;
-    Ok(s.foreign.iter().all(|p| {
+    for p in &s.foreign {
         let path = out.join(p);
         let name = p.to_string_lossy();
         // A part file being created by another shard: its header, written atomically.
         let creating = name.starts_with(".subaps-") && name.contains(".part.");
-        creating || (is_part_name(&path) && path.is_file() && read_part(&path).is_ok())
-    }))
+        if creating || is_lock_name(&path) {
+            continue;
+        }
+        if !(is_part_name(&path) && path.is_file()) {
+            return Ok(false);
+        }
+        read_part(&path)?;
+    }
+    Ok(true)
 }

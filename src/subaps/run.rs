@@ -3,7 +3,7 @@
 
 use super::geometry::{Geometry, Layout, Subap};
 use super::part::{Binding, PartHeader, PartRecord, Shard};
-use super::solve::{solve_subap, NoiseMap, WindowStats};
+use super::solve::{check_centroider, solve_subap, NoiseMap, WindowStats};
 use crate::calib::Map;
 use crate::centroid::CentroiderSpec;
 use crate::effective::{planned_work, Precision};
@@ -63,6 +63,10 @@ impl<'a> SubapsJob<'a> {
         self.centroider.validate()?;
         let noise = NoiseMap::new(self.map)?;
         let layout = self.geometry.layout(self.map.rows, self.map.cols)?;
+        // The centroider is built by each solve: one that cannot read these windows is
+        // refused now, before any output exists.
+        let first = noise.readout(&layout.subaps[0], g.size_px);
+        check_centroider(&self.config, self.centroider, &first)?;
         let binding = Binding::new(
             self.map,
             (g, self.geometry.mask.as_ref(), &layout),

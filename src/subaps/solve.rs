@@ -4,9 +4,9 @@
 use super::geometry::Subap;
 use crate::calib::{Map, Unit};
 use crate::centroid::CentroiderSpec;
-use crate::detector::PerPixelSigma;
+use crate::detector::{PerPixelSigma, Readout};
 use crate::effective::{effective_sigma_with, Effective, Precision};
-use crate::montecarlo::SimConfig;
+use crate::montecarlo::{Arm, Experiment, SimConfig};
 use crate::progress::Observer;
 use crate::{Error, Result};
 
@@ -115,4 +115,23 @@ pub fn solve_subap(
 ) -> Result<Effective> {
     let detector = map.readout(s, cfg.subap_px);
     effective_sigma_with(cfg, &detector, centroider, precision, observer)
+}
+
+/// Check that `centroider` can read the windows of configuration `cfg` (e.g. brightest-n's N
+/// below the window's pixels) by building it as each solve does, for `readout` (a window of
+/// the map, or any window of its size when the map is not read yet), before any work.
+pub fn check_centroider(
+    cfg: &SimConfig,
+    centroider: CentroiderSpec,
+    readout: &dyn Readout,
+) -> Result<()> {
+    Experiment::with_arms(
+        cfg,
+        &[readout],
+        &[Arm {
+            model: 0,
+            centroider,
+        }],
+    )
+    .map(|_| ())
 }

@@ -56,7 +56,7 @@ fn layouts_follow_size_pitch_origin_and_fit() {
     assert_eq!((last.y0_px, last.x0_px), (38, 40));
     // A partial fit: 40x40 px holds 2x2 of 16 px; nothing is left over to state without a mask.
     let l = grid("16").layout(40, 40).unwrap();
-    assert_eq!((l.subaps.len(), l.left_out), (4, 0));
+    assert_eq!(l.subaps.len(), 4);
     // Nothing fits: an error of the grid naming the map's size.
     let e = grid("16,16,50,0").layout(64, 64).unwrap_err();
     assert!(e.to_string().contains("64x64 px map"), "{e}");
@@ -65,20 +65,70 @@ fn layouts_follow_size_pitch_origin_and_fit() {
 }
 
 #[test]
-fn masks_select_cells_and_cells_beyond_the_map_are_left_out() {
-    // A 3x3 mask on a map that fits 2x2: the third row and column are left out (5 cells, of
-    // which one is masked), the masked cell (0, 1) is skipped.
-    let valid = vec![true, false, true, true, true, true, true, false, true];
-    let geo = Geometry {
-        grid: GridSpec::parse("4").unwrap(),
-        mask: Some(ValidMask::new(3, 3, valid)),
+fn grid_arithmetic_is_checked_and_never_wraps() {
+    // The origin of the issue: 16 px from column 2^64 - 16 would end at 2^64 (wraps to 0).
+    let e = GridSpec::parse("16,16,18446744073709551600,0").unwrap_err();
+    assert!(e.to_string().contains("X0 = 18446744073709551600"), "{e}");
+    assert_eq!(field(e), "subap_grid");
+    let e = GridSpec::parse("16,16,0,18446744073709551615").unwrap_err();
+    assert!(e.to_string().contains("Y0"), "{e}");
+    // An origin that is a number but beyond the map fits nothing: an error naming the map.
+    for text in [
+        "16,16,18446744073709551599,0",
+        "16,16,0,18446744073709551599",
+    ] {
+        let e = grid(text).layout(64, 64).unwrap_err();
+        assert!(e.to_string().contains("64x64 px map"), "{text}: {e}");
+        assert_eq!(field(e), "subap_grid");
+    }
+    // The largest pitch: one sub-aperture per axis, at the origin.
+    let l = grid("16,18446744073709551615,8,8").layout(64, 64).unwrap();
+    assert_eq!(l.subaps.len(), 1);
+    assert_eq!((l.subaps[0].x0_px, l.subaps[0].y0_px), (8, 8));
+    // A grid built in code without parse is checked by layout too.
+    let raw = Geometry {
+        grid: GridSpec {
+            size_px: 16,
+            pitch_px: 16,
+            x0_px: usize::MAX - 3,
+            y0_px: 0,
+        },
+        mask: None,
     };
-    let l = geo.layout(8, 8).unwrap();
-    assert_eq!((l.grid_rows, l.grid_cols), (3, 3));
+    assert_eq!(field(raw.layout(64, 64).unwrap_err()), "subap_grid");
+}
+
+#[test]
+fn masks_select_cells_and_must_have_the_grids_shape() {
+    // A 2x2 mask on a map that fits 2x2: the masked cell (0, 1) is skipped.
+    let mask = |rows, cols, valid: Vec<bool>| Geometry {
+        grid: GridSpec::parse("4").unwrap(),
+        mask: Some(ValidMask::new(rows, cols, valid)),
+    };
+    let l = mask(2, 2, vec![true, false, true, true])
+        .layout(8, 8)
+        .unwrap();
+    assert_eq!((l.grid_rows, l.grid_cols, l.masked), (2, 2, 1));
     let cells: Vec<(usize, usize)> = l.subaps.iter().map(|s| (s.grid_row, s.grid_col)).collect();
     assert_eq!(cells, [(0, 0), (1, 0), (1, 1)]);
-    assert_eq!((l.masked, l.left_out), (2, 4));
     assert_eq!(l.subaps[2].index, 2);
+    // A mask of another shape, smaller or larger, is refused naming both shapes (it neither
+    // shrinks the grid nor leaves cells out).
+    for (rows, cols) in [(1, 2), (3, 3), (2, 3)] {
+        let e = mask(rows, cols, vec![true; rows * cols])
+            .layout(8, 8)
+            .unwrap_err();
+        let msg = e.to_string();
+        assert!(
+            msg.contains(&format!("{rows}x{cols} cells")) && msg.contains("2x2 sub-apertures"),
+            "{msg}"
+        );
+        assert_eq!(field(e), "subap_mask");
+    }
+    // A mask with no valid cell.
+    let e = mask(2, 2, vec![false; 4]).layout(8, 8).unwrap_err();
+    assert!(e.to_string().contains("none"), "{e}");
+    assert_eq!(field(e), "subap_mask");
     // Read from a file: non-zero is valid; NaN is refused naming the file.
     let d = tempfile::tempdir().unwrap();
     let p = d.path().join("mask.fits");
@@ -555,4 +605,161 @@ fn a_large_grid_is_drawn_as_an_image_with_its_files_complete() {
     let sigma = Map::read(d.path().join("subaps_sigma_eff_e.fits"), Unit::Electrons).unwrap();
     assert_eq!(sigma.shape(), (30, 30));
     assert!(sigma.data[0].is_nan() && sigma.data[1] == 1.0 + 1.0 / 900.0);
+}
+
+#[test]
+fn a_centroider_that_cannot_read_the_windows_is_refused_before_any_output() {
+    let (map, geometry) = (small_map(), grid("4"));
+    let job = SubapsJob {
+        centroider: crate::centroid::CentroiderSpec::parse("brightest-n:1000").unwrap(),
+        ..small_job(&map, &geometry, 1)
+    };
+    let msg = job.plan().err().unwrap().to_string();
+    assert!(
+        msg.contains("brightest-n:1000") && msg.contains("16 pixels"),
+        "{msg}"
+    );
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out");
+    let e = run(&job, Shard::ALL, &out, &Silent).unwrap_err();
+    assert_eq!(field(e), "centroider");
+    assert!(!out.exists());
+    assert_eq!(std::fs::read_dir(d.path()).unwrap().count(), 0);
+}
+
+/// A part file of the small job's whole run in `dir`: its path and its text.
+fn whole_part(dir: &Path) -> (PathBuf, String) {
+    let (map, geometry) = (small_map(), grid("4"));
+    run(&small_job(&map, &geometry, 1), Shard::ALL, dir, &Silent).unwrap();
+    let p = dir.join(Shard::ALL.file_name());
+    let text = std::fs::read_to_string(&p).unwrap();
+    (p, text)
+}
+
+#[test]
+fn a_part_whose_header_was_edited_is_refused_naming_the_file() {
+    let d = tempfile::tempdir().unwrap();
+    let (p, text) = whole_part(&d.path().join("a"));
+    let out = d.path().join("merged");
+    let edits = [
+        (
+            "\"signal_photons\":50.0",
+            "\"signal_photons\":500.0",
+            "binding_blake3",
+        ),
+        (
+            "\"shard\":{\"k\":1,\"n\":1}",
+            "\"shard\":{\"k\":0,\"n\":0}",
+            "shard 0/0",
+        ),
+        (
+            "\"subaps_in_shard\":12",
+            "\"subaps_in_shard\":13",
+            "counts 13",
+        ),
+    ];
+    for (from, to, why) in edits {
+        assert!(text.contains(from), "{from} not in {text}");
+        std::fs::write(&p, text.replacen(from, to, 1)).unwrap();
+        let msg = read_part(&p).unwrap_err().to_string();
+        assert!(
+            msg.contains(why) && msg.contains("subaps-1-of-1.part"),
+            "{msg}"
+        );
+        let msg = merge_into_dir(std::slice::from_ref(&p), &out, false)
+            .unwrap_err()
+            .to_string();
+        assert!(msg.contains(why), "{msg}");
+        assert!(!out.exists());
+    }
+}
+
+#[test]
+fn a_damaged_part_in_the_output_directory_is_refused_for_what_it_is() {
+    let d = tempfile::tempdir().unwrap();
+    let dir = d.path().join("a");
+    let (p, text) = whole_part(&dir);
+    // One flipped byte in the first record: the reason, without --force.
+    let mut bytes = text.into_bytes();
+    let at = bytes.iter().position(|&b| b == b'\n').unwrap() + 3;
+    bytes[at] ^= 0x01;
+    std::fs::write(&p, &bytes).unwrap();
+    let (map, geometry) = (small_map(), grid("4"));
+    let e = run(&small_job(&map, &geometry, 1), Shard::ALL, &dir, &Silent).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("line 2 is damaged") && msg.contains("subaps-1-of-1.part"),
+        "{msg}"
+    );
+    assert_eq!(std::fs::read(&p).unwrap(), bytes, "the part is untouched");
+}
+
+#[test]
+fn a_part_is_written_by_one_run_at_a_time() {
+    let d = tempfile::tempdir().unwrap();
+    let (map, geometry) = (small_map(), grid("4"));
+    let plan = small_job(&map, &geometry, 1).plan().unwrap();
+    let header = plan.header(Shard { k: 1, n: 2 });
+    let (first, _) = part::PartWriter::open(d.path(), &header).unwrap();
+    let lock = d.path().join("subaps-1-of-2.part.lock");
+    assert_eq!(
+        std::fs::read_to_string(&lock).unwrap(),
+        format!("{}\n", std::process::id())
+    );
+    let before = std::fs::read(first.path()).unwrap();
+    let e = part::PartWriter::open(d.path(), &header).err().unwrap();
+    let msg = e.to_string();
+    assert!(
+        msg.contains(&format!("pid {}", std::process::id())) && msg.contains("subaps-1-of-2.part"),
+        "{msg}"
+    );
+    assert_eq!(field(e), "out");
+    assert_eq!(std::fs::read(first.path()).unwrap(), before);
+    // Another shard is another lock.
+    part::PartWriter::open(d.path(), &plan.header(Shard { k: 2, n: 2 })).unwrap();
+    // Released (and its file removed) when the writer ends; a lock file left by a killed run,
+    // whose process holds no lock, does not block.
+    drop(first);
+    assert!(!lock.exists());
+    std::fs::write(&lock, "999999\n").unwrap();
+    let (again, done) = part::PartWriter::open(d.path(), &header).unwrap();
+    assert!(done.is_empty());
+    drop(again);
+    assert!(!lock.exists());
+}
+
+#[test]
+fn the_summary_names_the_map_read_by_this_run() {
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out");
+    let geometry = grid("4");
+    let summary = |map: &Map| {
+        let r = run(&small_job(map, &geometry, 1), Shard::ALL, &out, &Silent).unwrap();
+        r.summary.unwrap().map_source
+    };
+    assert_eq!(summary(&small_map()), "small.fits");
+    // The same values under another name (the map renamed): resumed, and named as read now.
+    let renamed = small_map().with_source("renamed.fits");
+    assert_eq!(summary(&renamed), "renamed.fits");
+    let json = std::fs::read_to_string(out.join("subaps_summary.json")).unwrap();
+    assert!(
+        json.contains("renamed.fits") && !json.contains("small.fits"),
+        "{json}"
+    );
+}
+
+#[test]
+fn a_part_whose_floats_do_not_round_trip_through_json_parsing_still_resumes() {
+    // serde_json reads 0.9941414234139935 as 0.9941414234139936: the checksum is of the
+    // binding as written, not of the parsed one re-encoded.
+    let (map, geometry) = (small_map(), grid("4"));
+    let mut job = small_job(&map, &geometry, 1);
+    job.config.qe = 0.9941414234139935;
+    let d = tempfile::tempdir().unwrap();
+    let out = d.path().join("out");
+    run(&job, Shard::ALL, &out, &Silent).unwrap();
+    let again = run(&job, Shard::ALL, &out, &Silent).unwrap();
+    assert_eq!((again.resumed, again.computed), (12, 0));
+    let part = out.join(Shard::ALL.file_name());
+    merge_into_dir(&[part], &d.path().join("merged"), false).unwrap();
 }
