@@ -80,7 +80,7 @@ pub(crate) fn section_html(h: &mut String, s: &SubapsSummary) {
     let _ = write!(
         h,
         "<h2>Effective read noise per sub-aperture</h2><p>Each of the {} sub-apertures of the \
-         lenslet grid ({}×{} px, pitch {} px, first at x {} px, y {} px; grid {}×{}{}{}) reads \
+         lenslet grid ({}×{} px, pitch {} px, first at x {} px, y {} px; grid {}×{}{}) reads \
          through its own window of this camera's measured noise map, centroided with {}, at {}, \
          {} photons (the operating point's spot and signal), every sub-aperture on the same \
          random numbers: the \
@@ -96,11 +96,6 @@ pub(crate) fn section_html(h: &mut String, s: &SubapsSummary) {
         b.grid_shape[1],
         if b.masked > 0 {
             format!(", {} masked", b.masked)
-        } else {
-            String::new()
-        },
-        if b.left_out > 0 {
-            format!(", {} left out: they do not fit the map", b.left_out)
         } else {
             String::new()
         },

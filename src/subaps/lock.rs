@@ -33,11 +33,7 @@ impl PartLock {
                 .truncate(false)
                 .open(&path)
                 .map_err(|e| Error::io(&path, e))?;
-            // File::try_lock is std from Rust 1.89: the crate's rust-version (1.85) is to be
-            // raised to 1.89 with this (Cargo.toml, README), which lifts this allowance.
-            #[allow(clippy::incompatible_msrv)]
-            let locked = file.try_lock();
-            match locked {
+            match file.try_lock() {
                 Ok(()) => {}
                 Err(TryLockError::WouldBlock) => return Err(held(part, &path)),
                 Err(TryLockError::Error(e)) => return Err(Error::io(&path, e)),
