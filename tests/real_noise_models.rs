@@ -19,8 +19,9 @@ use detnoise::progress::Silent;
 const DARKS: &str = "scmos-darks-64x64.fits";
 const GAIN_E_PER_ADU: f64 = 0.25;
 
-/// The stack's per-pixel rms in e-: population standard deviation over its frames x gain,
-/// the spread `scmos-frames` draws from.
+/// The stack's per-pixel rms in e-: sample standard deviation over its frames (N - 1 in the
+/// denominator) x gain, the spread `scmos-frames` draws from (it undoes the (N - 1) / N that
+/// subtracting the stack's own mean takes).
 fn rms_e_map(path: &Path) -> Map {
     let stack = open(path);
     let npx = stack.pixels();
@@ -37,7 +38,9 @@ fn rms_e_map(path: &Path) -> Map {
     let rms: Vec<f64> = sum
         .iter()
         .zip(&sq)
-        .map(|(s, q)| ((q / n - (s / n) * (s / n)).max(0.0)).sqrt() * GAIN_E_PER_ADU)
+        .map(|(s, q)| {
+            ((q / n - (s / n) * (s / n)).max(0.0) * n / (n - 1.0)).sqrt() * GAIN_E_PER_ADU
+        })
         .collect();
     Map::new(stack.shape.0, stack.shape.1, rms, Unit::Electrons).with_source("computed")
 }
@@ -54,7 +57,8 @@ fn frames_of_a_gaussian_camera_give_the_effective_noise_of_its_map() {
     assert_eq!((frames.kept(), frames.total), (100, 100));
     let by_map = ScmosMap::new(map, 8).unwrap();
     let by_frames = ScmosFrames::new(frames, 8).unwrap();
-    // The frames' power is the map's: per-pixel variance of the stack (to f32 rounding).
+    // The frames' power is the map's: per-pixel sample variance of the stack (to f32
+    // rounding).
     let (a, b) = (by_map.noise_scale_e(), by_frames.noise_scale_e());
     assert!((a / b - 1.0).abs() < 1e-6, "rms {a} vs {b}");
     let cfg = SimConfig {

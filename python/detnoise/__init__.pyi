@@ -48,9 +48,11 @@ class ModelParams(TypedDict, total=False):
     #: Stages of the EM register, 1 to 2000 stages, and at least log2(gain) (a stage at most doubles
     #: the charge: p = gain^(1/stages) - 1 <= 1); whole number from 1 to 2000 stages; default: 520.
     stages: int
-    #: EMCCD read noise before division by the gain, e- rms; >= 0 e-; default: 50.
+    #: EMCCD read noise before division by the gain, e- rms, at most 1e4 (no camera reads noisier;
+    #: cameras: 10 to 100 e- at MHz rates); in [0, 10000] e-; default: 50.
     emccd_read_noise_e: float
-    #: Read noise of `scmos-constant` without its own `:SIGMA`, e- rms; >= 0 e-; default: 1.
+    #: Read noise of `scmos-constant` without its own `:SIGMA`, e- rms, at most 1e4 (no camera reads
+    #: noisier: its full well is ~1e6 e-); in [0, 10000] e-; default: 1.
     sigma_e: float
     #: `emccd-distribution` draws N(n g, n g^2) instead of Gamma(n, g) above this many input
     #: electrons, e- (the paper's switch, corrected); default: always the exact Gamma; whole number
@@ -86,10 +88,12 @@ class ModelParams(TypedDict, total=False):
     #: `gain_e_per_adu`, so that it has the levels in e-), of the camera of `map_e`; default: none.
     rts_table: Optional[_Path]
     #: Row-noise amplitude of `scmos-correlated`, e- rms: one draw per row of the window per frame
-    #: (darks: temporal_noise.row_rms_e in summary.json); >= 0 e-; default: none.
+    #: (darks: temporal_noise.row_rms_e in summary.json), at most 1e4 (no camera's); in [0, 10000]
+    #: e-; default: none.
     row_noise_e: Optional[float]
     #: Column-noise amplitude of `scmos-correlated`, e- rms: one draw per column of the window per
-    #: frame (darks: temporal_noise.column_rms_e in summary.json); >= 0 e-; default: none.
+    #: frame (darks: temporal_noise.column_rms_e in summary.json), at most 1e4 (no camera's); in [0,
+    #: 10000] e-; default: none.
     column_noise_e: Optional[float]
     #: Dark frames for `scmos-frames` (files, a directory or a glob; FITS, TIFF, OpenEXR): each
     #: pixel's mean over the stack is subtracted and the values converted with `gain_e_per_adu`;
@@ -99,7 +103,8 @@ class ModelParams(TypedDict, total=False):
     #: uniformly (a fixed-seed reservoir, reproducible) down to what fits, as f32 e-; > 0 MiB;
     #: default: 512.
     dark_frames_max_mib: float
-    #: Conversion gain of `dark_frames`, e- per adu; > 0 e- per adu; default: none.
+    #: Conversion gain of `dark_frames`, e- per adu, at most 1e4 (a 16-bit converter would then span
+    #: 100 full wells; cameras run at 0.1 to a few tens); in (0, 10000] e- per adu; default: none.
     gain_e_per_adu: Optional[float]
     # END settings
 

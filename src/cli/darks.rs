@@ -23,7 +23,7 @@ pub struct DarksArgs {
     #[arg(long)]
     pub force: bool,
     /// Conversion gain (e- per adu); when given, rms_e.fits is written too. Default: none.
-    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
+    #[arg(long, value_parser = real(Excluded(0.0), Included(crate::settings::MAX_GAIN_E_PER_ADU), "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Reject the N highest and N lowest samples of each pixel (cosmic rays), N up to 100,000
     /// (and 2N + 2 at most the frame count). Default: 0.

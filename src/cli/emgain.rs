@@ -1,6 +1,6 @@
 //! `detnoise emgain`: EM gain, bias, read noise and light level from EMCCD frames.
 
-use std::ops::Bound::{Excluded, Unbounded};
+use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::PathBuf;
 
 use super::args::{real, whole};
@@ -22,7 +22,7 @@ pub struct EmgainArgs {
     #[arg(long)]
     pub force: bool,
     /// Conversion gain (e- per adu): the EM gain is then reported in e-/e-. Default: none (adu/e-).
-    #[arg(long, conflicts_with = "gain_map", value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
+    #[arg(long, conflicts_with = "gain_map", value_parser = real(Excluded(0.0), Included(crate::settings::MAX_GAIN_E_PER_ADU), "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Conversion-gain map (e- per adu); its median is used as --gain-e-per-adu. Default: none.
     #[arg(long)]

@@ -1,6 +1,6 @@
 //! `detnoise fit-pdf`: fit models of the per-pixel read-noise pdf to a measured noise map.
 
-use std::ops::Bound::{Excluded, Unbounded};
+use std::ops::Bound::{Excluded, Included, Unbounded};
 use std::path::PathBuf;
 
 use super::args::real;
@@ -34,7 +34,7 @@ pub struct FitPdfArgs {
     #[arg(long, value_enum, default_value = "e")]
     pub unit: MapUnit,
     /// Conversion gain (e- per adu) for --unit adu. Default: none.
-    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
+    #[arg(long, value_parser = real(Excluded(0.0), Included(crate::settings::MAX_GAIN_E_PER_ADU), "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// Flag map (non-zero = hot/dead/RTS pixel, excluded). Default: flags.fits beside MAP if present.
     #[arg(long)]

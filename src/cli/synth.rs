@@ -71,7 +71,7 @@ pub struct SynthArgs {
     pub offset_spread_adu: f64,
     /// Conversion gain, e- per adu: sCMOS, the mean over the pixels (default 0.25); EMCCD, the
     /// output conversion factor (default 10).
-    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "e- per adu"))]
+    #[arg(long, value_parser = real(Excluded(0.0), Included(crate::settings::MAX_GAIN_E_PER_ADU), "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
     /// sCMOS relative pixel-to-pixel gain spread (standard deviation / mean, unitless), [0, 1].
     #[arg(long, default_value_t = 0.02, value_parser = real(Included(0.0), Included(1.0), ""))]
@@ -112,10 +112,10 @@ pub struct SynthArgs {
     #[arg(long, value_delimiter = ',')]
     pub rts_occupancy: Option<Vec<f64>>,
     /// sCMOS row noise (e-): one normal draw per row and frame, shared by the row.
-    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
+    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(crate::settings::MAX_NOISE_E), "e-"))]
     pub row_noise_e: f64,
     /// sCMOS column noise (e-): one normal draw per column and frame, shared by the column.
-    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Unbounded, "e-"))]
+    #[arg(long, default_value_t = 0.0, value_parser = real(Included(0.0), Included(crate::settings::MAX_NOISE_E), "e-"))]
     pub column_noise_e: f64,
     /// sCMOS fraction of hot pixels, [0, 1] (unitless); their dark signal goes to
     /// `<stem>.truth-hot_dark_e.fits`.

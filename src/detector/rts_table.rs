@@ -6,9 +6,12 @@
 //! levels and widths in e- (`level_k_e`, `width_k_e`): `darks` writes them only when it was
 //! given the conversion gain. Rows whose status is not `ok` are skipped (and counted).
 
+use std::borrow::Cow;
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use crate::progress::Observer;
+use crate::settings::MAX_NOISE_E;
 use crate::{Error, Result};
 
 /// Most levels of a telegraph pixel in the table (the writer's, `darks`').
@@ -17,6 +20,11 @@ pub use crate::calib::darks::MAX_LEVELS;
 /// Largest distance of a row's occupancies' sum from 1 accepted: the table's round-off
 /// (the occupancies are renormalised to sum to 1 exactly).
 const OCCUPANCY_SUM_TOLERANCE: f64 = 1e-3;
+
+/// Largest level either side of the pixel's offset, e-: a pixel's full well (~1e6 e-; the
+/// same bound as `synth`'s light). Beyond it the table is not of a camera, and the
+/// Monte-Carlo's centroid sums would leave single precision's range.
+pub const MAX_LEVEL_E: f64 = 1e6;
 
 /// One telegraph pixel: its place and its levels (ascending, in e-).
 #[derive(Debug, Clone, PartialEq)]
@@ -62,9 +70,24 @@ impl RtsTable {
     /// Read `path` (an `rts.csv` written by `darks`); the rows skipped for their status are
     /// reported to `observer` as a warning.
     pub fn read(path: &Path, observer: &dyn Observer) -> Result<RtsTable> {
-        let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        let bytes = std::fs::read(path).map_err(|source| Error::Io {
             path: path.to_path_buf(),
             source,
+        })?;
+        if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
+            return Err(Error::input(
+                path,
+                "UTF-16 text (its byte-order mark says so): save the table as UTF-8",
+            ));
+        }
+        let text = String::from_utf8(bytes).map_err(|e| {
+            Error::input(
+                path,
+                format!(
+                    "not UTF-8 text (byte {} is not): not an rts.csv table",
+                    e.utf8_error().valid_up_to()
+                ),
+            )
         })?;
         let table = RtsTable::parse(&text, path)?;
         if table.skipped > 0 {
@@ -81,21 +104,28 @@ impl RtsTable {
         Ok(table)
     }
 
-    /// Parse the text of an `rts.csv`; `source` names it in errors.
+    /// Parse the text of an `rts.csv`; `source` names it in errors. Cells are CSV cells: a
+    /// cell in double quotes is unquoted (`""` inside it is one quote), and a UTF-8 byte-order
+    /// mark before the header (spreadsheets write one) is dropped. A table with no `ok` row is
+    /// refused: `scmos-rts` would then be `scmos-map` under another name.
     pub fn parse(text: &str, source: &Path) -> Result<RtsTable> {
         let bad = |line: usize, what: String| Error::input(source, format!("line {line}: {what}"));
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let mut lines = text.lines().enumerate().map(|(i, l)| (i + 1, l));
-        let Some((_, header)) = lines.find(|(_, l)| !l.trim().is_empty()) else {
+        let Some((first, header)) = lines.find(|(_, l)| !l.trim().is_empty()) else {
             return Err(Error::input(source, "empty file: not an rts.csv table"));
         };
-        let cols = Columns::find(header, source)?;
+        let names = cells(header).map_err(|why| bad(first, why))?;
+        let cols = Columns::find(&names, header, source)?;
         let mut table = RtsTable {
             source: source.to_path_buf(),
             pixels: Vec::new(),
             skipped: 0,
         };
+        // First line of each pixel: a hash map keeps the duplicate check linear in the rows.
+        let mut seen: HashMap<(usize, usize), usize> = HashMap::new();
         for (line, text) in lines.filter(|(_, l)| !l.trim().is_empty()) {
-            let cells: Vec<&str> = text.split(',').map(str::trim).collect();
+            let cells = cells(text).map_err(|why| bad(line, why))?;
             if cells.len() != cols.count {
                 let n = cols.count;
                 return Err(bad(
@@ -103,35 +133,96 @@ impl RtsTable {
                     format!("{} cells, but the header has {n} columns", cells.len()),
                 ));
             }
-            let cell = |c: usize| cells[c];
-            if cell(cols.status) != "ok" {
+            if cells[cols.status] != "ok" {
                 table.skipped += 1;
                 continue;
             }
             let pixel = cols.pixel(&cells, line).map_err(|why| bad(line, why))?;
-            if let Some(first) = table
-                .pixels
-                .iter()
-                .find(|p| (p.x_px, p.y_px) == (pixel.x_px, pixel.y_px))
-            {
+            if let Some(first) = seen.insert((pixel.x_px, pixel.y_px), line) {
                 return Err(bad(
                     line,
                     format!(
-                        "pixel (x_px {}, y_px {}) is listed twice (also on line {})",
-                        pixel.x_px, pixel.y_px, first.line
+                        "pixel (x_px {}, y_px {}) is listed twice (also on line {first})",
+                        pixel.x_px, pixel.y_px
                     ),
                 ));
             }
             table.pixels.push(pixel);
         }
+        if table.pixels.is_empty() {
+            return Err(Error::input(source, no_pixels(table.skipped)));
+        }
         Ok(table)
     }
 }
 
+/// Why a table without a usable telegraph pixel is refused (`skipped` rows not `ok`).
+fn no_pixels(skipped: usize) -> String {
+    let what = if skipped == 0 {
+        "the table has no rows".to_string()
+    } else {
+        format!("all {skipped} rows have a status other than `ok` (fits too poor to use)")
+    };
+    format!(
+        "no RTS pixels in the table: {what}, so `scmos-rts` would simulate nothing but the \
+         map; use `scmos-map` for a camera without telegraph pixels"
+    )
+}
+
+/// The cells of one CSV line, trimmed; a cell in double quotes is unquoted (`""` is a quote
+/// inside it). Err for a quote left open or text after a closing quote.
+fn cells(line: &str) -> std::result::Result<Vec<Cow<'_, str>>, String> {
+    let mut out = Vec::new();
+    let mut rest = line;
+    loop {
+        let trimmed = rest.trim_start();
+        let Some(quoted) = trimmed.strip_prefix('"') else {
+            let end = rest.find(',').unwrap_or(rest.len());
+            out.push(Cow::Borrowed(rest[..end].trim()));
+            match rest.get(end + 1..) {
+                Some(next) => rest = next,
+                None => return Ok(out),
+            }
+            continue;
+        };
+        let cell = out.len() + 1;
+        let mut value = String::new();
+        let mut inside = quoted;
+        loop {
+            let Some(q) = inside.find('"') else {
+                return Err(format!(
+                    "cell {cell}: a quote is opened and not closed on this line"
+                ));
+            };
+            value.push_str(&inside[..q]);
+            inside = &inside[q + 1..];
+            match inside.strip_prefix('"') {
+                Some(after) => {
+                    value.push('"');
+                    inside = after;
+                }
+                None => break,
+            }
+        }
+        let after = inside.trim_start();
+        out.push(Cow::Owned(value.trim().to_string()));
+        match after.strip_prefix(',') {
+            Some(next) => rest = next,
+            None if after.is_empty() => return Ok(out),
+            None => {
+                return Err(format!(
+                    "cell {cell}: text after its closing quote (a quote inside a quoted cell \
+                     is written twice)"
+                ))
+            }
+        }
+    }
+}
+
 impl Columns {
-    /// The columns of `header`; an error names the first required column that is missing.
-    fn find(header: &str, source: &Path) -> Result<Columns> {
-        let names: Vec<&str> = header.split(',').map(str::trim).collect();
+    /// The columns of the header `names` (the line `header` as written, for messages); an
+    /// error names the first required column that is missing.
+    fn find(names: &[Cow<str>], header: &str, source: &Path) -> Result<Columns> {
         let at = |name: &str| names.iter().position(|n| *n == name);
         let need = |name: &str| {
             at(name).ok_or_else(|| {
@@ -169,8 +260,8 @@ impl Columns {
     }
 
     /// The telegraph pixel of one `ok` row; Err says what is wrong with the row.
-    fn pixel(&self, cells: &[&str], line: usize) -> std::result::Result<RtsPixel, String> {
-        let cell = |c: Option<usize>| c.and_then(|c| cells.get(c)).copied().unwrap_or("");
+    fn pixel(&self, cells: &[Cow<str>], line: usize) -> std::result::Result<RtsPixel, String> {
+        let cell = |c: Option<usize>| c.and_then(|c| cells.get(c)).map_or("", |c| c.as_ref());
         let whole = |c: usize, name: &str| {
             let text = cell(Some(c));
             text.parse::<usize>()
@@ -196,21 +287,35 @@ impl Columns {
             if level.is_empty() || width.is_empty() {
                 return Err(no_electrons(k));
             }
-            let number = |text: &str, name: String| {
+            // The column's name is formatted only for a message (a million rows are read).
+            let number = |text: &str, name: &dyn Fn() -> String| {
                 text.parse::<f64>()
                     .ok()
                     .filter(|v| v.is_finite())
-                    .ok_or_else(|| format!("'{name}' is '{text}', not a finite number"))
+                    .ok_or_else(|| format!("'{}' is '{text}', not a finite number", name()))
             };
-            let occ = number(cell(*occupancy), format!("occupancy_{k}"))?;
-            let w = number(width, format!("width_{k}_e"))?;
+            let occ = number(cell(*occupancy), &|| format!("occupancy_{k}"))?;
+            let w = number(width, &|| format!("width_{k}_e"))?;
             if !(0.0..=1.0).contains(&occ) {
                 return Err(format!("'occupancy_{k}' is {occ}: must be in [0, 1]"));
             }
             if w < 0.0 {
                 return Err(format!("'width_{k}_e' is {w}: must be >= 0 e-"));
             }
-            pixel.levels_e.push(number(level, format!("level_{k}_e"))?);
+            let l = number(level, &|| format!("level_{k}_e"))?;
+            if w > MAX_NOISE_E {
+                return Err(format!(
+                    "'width_{k}_e' is {w}: at most {MAX_NOISE_E:e} e- (a read noise above that \
+                     is no camera's)"
+                ));
+            }
+            if l.abs() > MAX_LEVEL_E {
+                return Err(format!(
+                    "'level_{k}_e' is {l}: at most {MAX_LEVEL_E:e} e- either side of the \
+                     offset (a pixel's full well; a telegraph step is a few to a few hundred e-)"
+                ));
+            }
+            pixel.levels_e.push(l);
             pixel.occupancy.push(occ);
             pixel.widths_e.push(w);
         }

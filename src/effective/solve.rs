@@ -218,7 +218,7 @@ pub(super) fn solve(
     let models = with_detector(detector, &references);
     Ok(match s.refine(&models, &grid, start, &mut budget)? {
         Refined::Settled(e) => *e,
-        Refined::Outside(side, exp) => s.bound(side, &exp, &grid),
+        Refined::Outside(side, exp) => s.bound(side, &exp, &grid)?,
     })
 }
 
@@ -312,7 +312,7 @@ impl Solver<'_> {
         let mut exp = self.experiment(&cfg, &models)?;
         let weight = models.len() as u64 * pixels(&cfg);
         exp.extend_to(cfg.iters, self.observer, weight)?;
-        let (det, refs) = split(exp.results());
+        let (det, refs) = split(exp.results()?);
         Ok(match invert(det.r_px, &r_values(&refs), &grid) {
             Ok(inv) => inv.x,
             Err(Outside::Below) => grid[0],
@@ -335,7 +335,7 @@ impl Solver<'_> {
         loop {
             budget.spend((to - exp.iters()) * weight, self.observer);
             exp.extend_to(to, self.observer, weight)?;
-            let runs = split(exp.results());
+            let runs = split(exp.results()?);
             let (det, refs) = (&runs.0, &runs.1);
             if det.no_eligible_level {
                 let none = (f64::NAN, f64::NAN);
@@ -367,10 +367,10 @@ impl Solver<'_> {
 
     /// The result when the detector's R lies outside R of the whole wide `grid` (`grid[0]` the
     /// foot): the foot's value below it, none above it.
-    fn bound(&self, side: Outside, exp: &Experiment, grid: &[f64]) -> Solved {
-        let runs = split(exp.results());
+    fn bound(&self, side: Outside, exp: &Experiment, grid: &[f64]) -> Result<Solved> {
+        let runs = split(exp.results()?);
         let (det, refs) = (&runs.0, &runs.1);
-        match side {
+        Ok(match side {
             Outside::Below => {
                 // The SE of a value at the foot of the grid: R_det - R(foot) over the first slope.
                 let at_foot = Inversion {
@@ -386,7 +386,7 @@ impl Solver<'_> {
                 let none = (f64::NAN, f64::NAN);
                 self.assemble(exp, &runs, grid, none, Outcome::Beyond)
             }
-        }
+        })
     }
 
     /// A result from the experiment on `grid`, its results `(detector, references)` and the

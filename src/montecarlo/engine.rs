@@ -102,7 +102,7 @@ pub fn run(
 ) -> Result<Vec<SimResult>> {
     let mut experiment = Experiment::new(cfg, models)?;
     experiment.extend_to(cfg.iters, observer, 1)?;
-    Ok(experiment.results())
+    experiment.results()
 }
 
 /// A Monte-Carlo run of several readout models on common random numbers that can be continued:
@@ -267,18 +267,22 @@ impl<'m> Experiment<'m> {
     }
 
     /// Every arm's result over the iterations run so far (with [`Experiment::new`], one per
-    /// model).
-    pub fn results(&self) -> Vec<SimResult> {
+    /// model). An error when an arm's mean radial error is not finite at some setting: its
+    /// readout's values overflowed the centroid sums (an amplitude beyond any camera's), and
+    /// an empty R with SE 0 is no result.
+    pub fn results(&self) -> Result<Vec<SimResult>> {
         self.arms
             .iter()
             .zip(&self.totals)
             .map(|(a, acc)| {
+                let readout = self.models[a.model];
                 let head = Head {
-                    model: self.models[a.model].name(),
+                    model: readout.name(),
                     centroider: a.label.clone(),
                     param_name: a.centroider.param_name(),
                 };
-                summarise(head, acc, &a.settings, &self.cfg, self.done)
+                let result = summarise(head, acc, &a.settings, &self.cfg, self.done);
+                finite(result, readout.noise_scale_e())
             })
             .collect()
     }
@@ -368,6 +372,28 @@ fn peak_expected_e(cfg: &SimConfig, renderer: &SpotRenderer) -> f64 {
     } else {
         0.0
     }
+}
+
+/// `result` if its R is finite at every setting; else an error naming the model, the setting
+/// and the readout's noise scale (`scale_e`, e-).
+fn finite(result: SimResult, scale_e: f64) -> Result<SimResult> {
+    let Some(bad) = result
+        .levels
+        .iter()
+        .find(|l| !(l.r_px.is_finite() && l.r_se_px.is_finite()))
+    else {
+        return Ok(result);
+    };
+    let at = match bad.param {
+        Some(p) => format!("parameter {p}, background {} e-", bad.b_e),
+        None => format!("background {} e-", bad.b_e),
+    };
+    Err(Error::Numeric(format!(
+        "{} through {}: the mean radial error is not finite ({at}): the readout's values \
+         (noise scale {scale_e:e} e-) overflow the centroid sums; no camera reads that noisily, \
+         check the amplitudes given (noise map, RTS levels, gains)",
+        result.model, result.centroider
+    )))
 }
 
 /// What names a result: its model, centroider and the centroider's parameter name.

@@ -109,7 +109,7 @@ fn run_all(
             .collect();
         let mut exp = Experiment::with_arms(cfg, &refs, &arms)?;
         exp.extend_to(cfg.iters, observer, 1)?;
-        for (arm, r) in arms.iter().zip(exp.results()) {
+        for (arm, r) in arms.iter().zip(exp.results()?) {
             let spec = &specs[arm.model];
             if r.b_at_grid_edge {
                 observer.warn(&format!(

@@ -12,6 +12,19 @@ const NON_NEGATIVE: Kind = Real(Included(0.0), Unbounded);
 const POSITIVE: Kind = Real(Excluded(0.0), Unbounded);
 const ANY_SEED: Kind = Whole(0, u64::MAX);
 
+/// Largest read-noise amplitude of any setting (and of an RTS table's widths), e- rms: read
+/// noise above 1e4 e- rms is no camera's (a full well is ~1e6 e-, so its signal-to-noise would
+/// stay below 100 at saturation), and a bound keeps the Monte-Carlo's centroid sums far inside
+/// their range (at 1e20 e- they overflowed, and R came out empty).
+pub const MAX_NOISE_E: f64 = 1e4;
+/// A read-noise amplitude, e- rms: 0 to [`MAX_NOISE_E`].
+const NOISE_E: Kind = Real(Included(0.0), Included(MAX_NOISE_E));
+
+/// Largest conversion gain, e- per adu: a 16-bit converter at 1e4 e-/adu spans 6.5e8 e-, a
+/// hundred times the full well of any pixel or EM register (~1e6 e-); cameras run at 0.1 to
+/// a few tens of e-/adu.
+pub const MAX_GAIN_E_PER_ADU: f64 = 1e4;
+
 /// EMCCD mean EM gain, e-/e-.
 pub const EM_GAIN: Setting = Setting::new(
     "em_gain",
@@ -38,8 +51,9 @@ pub const STAGES: Setting = Setting::new(
 pub const EMCCD_READ_NOISE_E: Setting = Setting::new(
     "emccd_read_noise_e",
     "--emccd-read-noise",
-    NON_NEGATIVE,
-    "EMCCD read noise before division by the gain, e- rms",
+    NOISE_E,
+    "EMCCD read noise before division by the gain, e- rms, at most 1e4 (no camera reads \
+     noisier; cameras: 10 to 100 e- at MHz rates)",
 )
 .unit("e-")
 .default("50");
@@ -69,8 +83,9 @@ pub const REGISTER: Setting = Setting::new(
 pub const SIGMA_E: Setting = Setting::new(
     "sigma_e",
     "--sigma",
-    NON_NEGATIVE,
-    "Read noise of `scmos-constant` without its own `:SIGMA`, e- rms",
+    NOISE_E,
+    "Read noise of `scmos-constant` without its own `:SIGMA`, e- rms, at most 1e4 (no camera \
+     reads noisier: its full well is ~1e6 e-)",
 )
 .unit("e-")
 .default("1");
@@ -151,9 +166,9 @@ pub const RTS_TABLE: Setting = Setting::new(
 pub const ROW_NOISE_E: Setting = Setting::new(
     "row_noise_e",
     "--row-noise-e",
-    NON_NEGATIVE,
+    NOISE_E,
     "Row-noise amplitude of `scmos-correlated`, e- rms: one draw per row of the window per \
-     frame (darks: temporal_noise.row_rms_e in summary.json)",
+     frame (darks: temporal_noise.row_rms_e in summary.json), at most 1e4 (no camera's)",
 )
 .unit("e-")
 .needed_as("the row-noise amplitude (e- rms; 0 for none)");
@@ -162,9 +177,9 @@ pub const ROW_NOISE_E: Setting = Setting::new(
 pub const COLUMN_NOISE_E: Setting = Setting::new(
     "column_noise_e",
     "--column-noise-e",
-    NON_NEGATIVE,
+    NOISE_E,
     "Column-noise amplitude of `scmos-correlated`, e- rms: one draw per column of the window \
-     per frame (darks: temporal_noise.column_rms_e in summary.json)",
+     per frame (darks: temporal_noise.column_rms_e in summary.json), at most 1e4 (no camera's)",
 )
 .unit("e-")
 .needed_as("the column-noise amplitude (e- rms; 0 for none)");
@@ -194,8 +209,9 @@ pub const DARK_FRAMES_MAX_MIB: Setting = Setting::new(
 pub const GAIN_E_PER_ADU: Setting = Setting::new(
     "gain_e_per_adu",
     "--gain-e-per-adu",
-    POSITIVE,
-    "Conversion gain of --dark-frames, e- per adu",
+    Real(Excluded(0.0), Included(MAX_GAIN_E_PER_ADU)),
+    "Conversion gain of --dark-frames, e- per adu, at most 1e4 (a 16-bit converter would then \
+     span 100 full wells; cameras run at 0.1 to a few tens)",
 )
 .unit("e- per adu");
 

@@ -180,7 +180,10 @@ fn parse_and_check_agree_at_the_ends_of_every_range() {
 #[test]
 fn messages_state_the_range_and_unit() {
     assert_eq!(QE.expected(), "must be a number in (0, 1]");
-    assert_eq!(EMCCD_READ_NOISE_E.expected(), "must be a number >= 0 e-");
+    assert_eq!(
+        EMCCD_READ_NOISE_E.expected(),
+        "must be a number in [0, 10000] e-"
+    );
     assert_eq!(
         STAGES.expected(),
         "must be a whole number from 1 to 2000 stages"
@@ -216,4 +219,40 @@ fn precision_defaults_are_the_librarys() {
     assert_eq!(v.real(&TARGET_SE_E), Some(Precision::DEFAULT_TARGET_SE_E));
     assert_eq!(v.real(&TARGET_REL), Some(Precision::DEFAULT_TARGET_REL));
     assert_eq!(v.whole(&MAX_ITERS), None);
+}
+
+#[test]
+fn every_amplitude_has_a_physical_upper_bound() {
+    // Issue 30: 1e20 e- of read noise (or 1e300 e-/adu) ran, and its centroid sums overflowed
+    // into an empty R. Each amplitude's range ends at a bound its help gives a reason for.
+    let amplitudes = [
+        (&EMCCD_READ_NOISE_E, MAX_NOISE_E),
+        (&SIGMA_E, MAX_NOISE_E),
+        (&ROW_NOISE_E, MAX_NOISE_E),
+        (&COLUMN_NOISE_E, MAX_NOISE_E),
+        (&GAIN_E_PER_ADU, MAX_GAIN_E_PER_ADU),
+    ];
+    for (s, max) in amplitudes {
+        let Kind::Real(_, hi) = s.kind else {
+            panic!("{} is a number", s.field)
+        };
+        assert_eq!(hi, Included(max), "{}", s.field);
+        assert!(s.help.contains("at most 1e4 ("), "{}: {}", s.field, s.help);
+        assert!(
+            s.parse("1e20").is_err() && s.parse("1e4").is_ok(),
+            "{}",
+            s.field
+        );
+    }
+    // Whatever else is read in e- is bounded too, or is no amplitude (a precision target).
+    for s in all() {
+        if let Kind::Real(_, Unbounded) = s.kind {
+            assert!(
+                !s.unit.starts_with("e-") || s.field == "target_se_e",
+                "{} ({}) is unbounded",
+                s.field,
+                s.unit
+            );
+        }
+    }
 }

@@ -199,7 +199,7 @@ fn a_continued_experiment_is_the_same_experiment() {
     parts.extend_to(2 * CHUNK, &Silent, 1).unwrap();
     parts.extend_to(cfg.iters, &Silent, 1).unwrap();
     assert_eq!(parts.iters(), cfg.iters);
-    assert_eq!(bits(&parts.results()), bits(&whole));
+    assert_eq!(bits(&parts.results().unwrap()), bits(&whole));
     let blocked = |steps: &[u64]| {
         let mut e = Experiment::new(&cfg, &m).unwrap().with_blocks();
         for &s in steps {
@@ -208,7 +208,7 @@ fn a_continued_experiment_is_the_same_experiment() {
         e
     };
     let (one, two) = (blocked(&[cfg.iters]), blocked(&[CHUNK, cfg.iters]));
-    assert_eq!(bits(&one.results()), bits(&two.results()));
+    assert_eq!(bits(&one.results().unwrap()), bits(&two.results().unwrap()));
     let terms = [
         Term {
             model: 0,
@@ -226,7 +226,7 @@ fn a_continued_experiment_is_the_same_experiment() {
         two.paired_se(&terms).to_bits()
     );
     let odd = blocked(&[300, 301, 777, cfg.iters]);
-    for (a, b) in odd.results().iter().zip(&whole) {
+    for (a, b) in odd.results().unwrap().iter().zip(&whole) {
         assert!(
             (a.r_px - b.r_px).abs() < 1e-12 * b.r_px,
             "{} {}",
@@ -267,7 +267,7 @@ fn blocks_of_a_continued_experiment_do_not_depend_on_thread_count() {
             let mut e = Experiment::new(&cfg, &m).unwrap().with_blocks();
             e.extend_to(1000, &Silent, 1).unwrap();
             e.extend_to(cfg.iters, &Silent, 1).unwrap();
-            (bits(&e.results()), e.paired_se(&terms).to_bits())
+            (bits(&e.results().unwrap()), e.paired_se(&terms).to_bits())
         })
     };
     let (a, b) = (run_with(1), run_with(3));
@@ -318,5 +318,36 @@ fn a_cancelled_run_stops_between_batches_and_can_be_continued() {
     assert_eq!(exp.iters(), CHUNK * BATCH_CHUNKS);
     exp.extend_to(cfg.iters, &Silent, 1).unwrap();
     let whole = run(&cfg, &[&m], &Silent).unwrap().remove(0);
-    assert_eq!(exp.results()[0].r_px.to_bits(), whole.r_px.to_bits());
+    assert_eq!(
+        exp.results().unwrap()[0].r_px.to_bits(),
+        whole.r_px.to_bits()
+    );
+}
+
+#[test]
+fn a_readout_that_overflows_the_sums_is_an_error_not_an_empty_r() {
+    // Issue 30: 1e20 e- of read noise overflowed the single-precision centroid sums, and the
+    // run exited 0 with R empty, SE 0 and no_eligible_level false. Now an error naming the
+    // model, the setting and the noise scale; a sane model in the same run changes nothing.
+    let mut cfg = SimConfig::paper(8);
+    cfg.iters = 600;
+    let absurd = ScmosConstant::new(1e20, "scmos-constant:1e20".into());
+    let sane = ScmosConstant::new(1.0, "scmos-constant:1".into());
+    let err = run(&cfg, &[&sane, &absurd], &Silent).unwrap_err();
+    let msg = err.to_string();
+    assert!(
+        msg.starts_with("scmos-constant:1e20 through cog: the mean radial error is not finite")
+            && msg.contains("noise scale 1e20 e-"),
+        "{msg}"
+    );
+    assert_eq!(err.exit_code(), 1);
+    let alone = run(&cfg, &[&sane], &Silent).unwrap();
+    assert!(alone[0].r_px.is_finite() && alone[0].r_se_px > 0.0);
+    // The effective read noise refuses the same way, before any value is settled.
+    let precision = crate::effective::Precision {
+        max_iters: 600,
+        ..crate::effective::Precision::default()
+    };
+    let e = crate::effective::effective_sigma(&cfg, &absurd, &precision, &Silent).unwrap_err();
+    assert!(e.to_string().contains("is not finite"), "{e}");
 }
