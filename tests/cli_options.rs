@@ -172,7 +172,10 @@ fn negative_values_reach_the_range_check_in_every_spelling() {
 fn report_checks_every_option_before_reading_the_darks() {
     let base = ["report", "--darks", "BIG", "--out", "OUT", "--quick"];
     let cases: &[(&[&str], &[&str])] = &[
-        (&["--gain-e-per-adu", "0"], &["--gain-e-per-adu", "(0, 10000]"]),
+        (
+            &["--gain-e-per-adu", "0"],
+            &["--gain-e-per-adu", "(0, 10000]"],
+        ),
         (&["--gain-e-per-adu", "1", "--iters", "0"], &["--iters"]),
         (
             &["--gain-e-per-adu", "1", "--subap", "0"],

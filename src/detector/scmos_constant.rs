@@ -14,10 +14,15 @@ pub const CONSTANT: ModelEntry = ModelEntry {
     params: &["sigma_e"],
     parse: |_, arg| match arg {
         None => Ok(ModelSpec::ScmosConstant(None)),
-        Some(a) => match a.parse::<f64>() {
-            Ok(s) if s.is_finite() && s >= 0.0 => Ok(ModelSpec::ScmosConstant(Some(s))),
-            _ => Err("sigma must be a number >= 0 (e-)".into()),
-        },
+        // The same range as `--sigma` (the registry's), so `scmos-constant:1e20` is refused
+        // as `--sigma 1e20` is, not run into single-precision overflow.
+        Some(a) => crate::settings::SIGMA_E
+            .parse(a)
+            .and_then(|v| match v {
+                crate::settings::Value::Real(s) => Ok(ModelSpec::ScmosConstant(Some(s))),
+                _ => Err("sigma must be a number of e-".into()),
+            })
+            .map_err(|e| format!("sigma {e}")),
     },
     build: |spec, p, _| {
         let ModelSpec::ScmosConstant(s) = spec else {

@@ -177,8 +177,10 @@ fn errors_name_the_model_and_map_fields() {
         .to_string();
     assert_eq!(
         bad,
-        "invalid `model`: 'scmos-constant:-1': sigma must be a number >= 0 (e-)"
+        "invalid `model`: 'scmos-constant:-1': sigma must be a number in [0, 10000] e-"
     );
+    let huge = ModelSpec::parse("scmos-constant:1e20").unwrap_err();
+    assert!(huge.to_string().contains("[0, 10000] e-"), "{huge}");
     let bad = ModelSpec::parse("scmos-fixed:x").unwrap_err().to_string();
     assert_eq!(
         bad,
