@@ -105,7 +105,14 @@ fn cell_value(c: Class, old: &str, rng: &mut Rng) -> (String, Expect) {
     let same = [
         (format!(" {old} "), Kept),
         (format!("\"{old}\""), Kept),
-        (format!("+{old}"), if v < 0.0 { R } else { Same }),
+        (
+            format!("+{old}"),
+            if v < 0.0 && c != Class::Unread {
+                R
+            } else {
+                Same
+            },
+        ),
     ];
     let mut choices: Vec<(String, Expect)> = match c {
         Class::Coord => vec![
