@@ -266,7 +266,8 @@ fn wrong(path: &Path, kind: Kind, data: Option<&[f64]>) -> Option<String> {
 }
 
 /// The failure, if any, of the mask at `path` (allowing `expect`): read, then laid out by a
-/// 4 px grid on a 16x16 px map (an error of the layout names `subap_grid`: allowed).
+/// 4 px grid on a 16x16 px map (an error of the layout naming `subap_grid` or `subap_mask`,
+/// e.g. a mask of another shape than the grid: allowed).
 pub fn judge_mask(path: &Path, expect: Expect, kind: Kind) -> Option<String> {
     let r = caught(|| ValidMask::read(path));
     let grid = GridSpec::parse("4").unwrap();
@@ -280,7 +281,11 @@ pub fn judge_mask(path: &Path, expect: Expect, kind: Kind) -> Option<String> {
             differs: (m.valid != MASK.map(|v| v != 0.0)).then(|| "other cells".into()),
             wrong: match layout {
                 Err(p) => Some(format!("PANIC in the layout: {p}")),
-                Ok(Err(detnoise::Error::Usage { field, .. })) if field == "subap_grid" => None,
+                Ok(Err(detnoise::Error::Usage { field, .. }))
+                    if field == "subap_grid" || field == "subap_mask" =>
+                {
+                    None
+                }
                 Ok(Err(e)) => Some(format!("layout: {e}")),
                 Ok(Ok(_)) => None,
             }
