@@ -8,7 +8,8 @@
 //! outcomes it allows.
 //!
 //! Failing mutants are written to `<target tmp>/mutation-inputs-failures/` to be replayed
-//! with the binary; the failures are listed by class, then one by one.
+//! with the binary, with `failures.txt` listing them; the assertion lists them by class,
+//! three examples each.
 
 mod mutants;
 
