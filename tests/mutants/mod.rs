@@ -1,14 +1,20 @@
 //! Shared machinery of the hostile-file tests (`tests/mutation.rs`, `tests/hostile_files.rs`):
 //! an allocation guard, a seeded generator, small fixtures written from the bundled data,
 //! structure-aware mutators for FITS, TIFF and EXR, and the library entry points of
-//! `darks`, `emgain` and `fit-pdf` run on one file.
+//! `darks`, `emgain` and `fit-pdf` run on one file; and for `tests/mutation_inputs.rs`,
+//! mutants of part files, RTS tables, masks and maps with the outcomes each allows.
 #![allow(dead_code)]
 
 pub mod alloc;
 pub mod bytes;
+pub mod expect;
 pub mod exr;
 pub mod fits;
 pub mod fixtures;
+pub mod images;
+pub mod lines;
+pub mod part;
+pub mod rts;
 pub mod run;
 pub mod tiff;
 
