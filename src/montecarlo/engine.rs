@@ -325,7 +325,7 @@ impl<'m> Experiment<'m> {
             }
             batch.centroid(&scene, (end - first) as usize, &mut workers, &mut accs);
             first = end;
-            if end % sub == 0 || end == iters.end {
+            if end.is_multiple_of(sub) || end == iters.end {
                 // A sub-block ends: its sums join the chunk's (into zeros when it is the whole
                 // chunk, which leaves them exact) and, when kept, the block list.
                 if self.blocks.is_some() {

@@ -23,7 +23,7 @@ pub fn median(values: &[f64]) -> f64 {
     let Some(hi) = upper.iter().copied().min_by(f64::total_cmp) else {
         return lo;
     };
-    between(lo, hi, if n % 2 == 0 { 0.5 } else { 0.0 })
+    between(lo, hi, if n.is_multiple_of(2) { 0.5 } else { 0.0 })
 }
 
 /// Percentile `p` (0..100) of the finite values, linear interpolation (NaN if none). Found
