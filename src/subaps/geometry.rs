@@ -105,6 +105,15 @@ impl GridSpec {
         )
     }
 
+    /// Grid cells (rows, columns) that fit a map of `rows` x `cols` px; the grid must have
+    /// passed [`GridSpec::validate`] (its pitch is then not zero).
+    pub(crate) fn shape_on(&self, rows: usize, cols: usize) -> [usize; 2] {
+        [
+            self.fitting(rows, self.y0_px),
+            self.fitting(cols, self.x0_px),
+        ]
+    }
+
     /// Grid cells along an axis of `len` px from `origin` whose sub-aperture fits (checked
     /// arithmetic: an origin beyond the map fits none, whatever its size).
     fn fitting(&self, len: usize, origin: usize) -> usize {

@@ -443,6 +443,22 @@ fn check_header(h: &PartHeader, text: &str) -> std::result::Result<(), String> {
             h.subaps_in_shard, h.binding.subaps
         ));
     }
+    // A forged grid (its checksum recomputed) must not lay windows beyond the map: every
+    // window start computed from it is then a pixel of the map.
+    let b = &h.binding;
+    b.grid
+        .validate()
+        .map_err(|e| format!("its header's grid is not one detnoise runs: {e}"))?;
+    let [rows, cols] = b.map_shape;
+    if b.grid.shape_on(rows, cols) != b.grid_shape {
+        return Err(format!(
+            "its header's grid {} on a {rows}x{cols} px map is not {}x{} sub-apertures: the \
+             header was edited",
+            b.grid.text(),
+            b.grid_shape[0],
+            b.grid_shape[1]
+        ));
+    }
     Ok(())
 }
 
@@ -552,6 +568,17 @@ fn check_same_job(path: &Path, found: &PartHeader, want: &PartHeader) -> Result<
 fn check_records(path: &Path, content: &PartContent, shard: Shard) -> Result<()> {
     let mut seen = std::collections::HashSet::new();
     for r in &content.records {
+        let [grid_rows, grid_cols] = content.header.binding.grid_shape;
+        if r.grid_row >= grid_rows || r.grid_col >= grid_cols {
+            return Err(Error::input(
+                path,
+                format!(
+                    "holds sub-aperture {} at grid cell ({}, {}), outside the {grid_rows}x\
+                     {grid_cols} grid: the file was altered",
+                    r.index, r.grid_row, r.grid_col
+                ),
+            ));
+        }
         if r.index >= content.header.binding.subaps || r.index % shard.n != shard.k - 1 {
             return Err(Error::input(
                 path,
