@@ -154,14 +154,18 @@ fn rms_pdf(values: &Values) -> Result<Arc<dyn RmsPdf>> {
     }
 }
 
-/// The measured noise map of `map`: an array given, or a file in e-.
+/// The measured noise map of `map`: an array given, or a file in e-; either refused when it
+/// cannot be a read-noise map (negative or only zero values).
 fn noise_map(values: &Values) -> Result<Option<Arc<Map>>> {
     match values.get(&s::MAP) {
         None => Ok(None),
-        Some(Value::Map(map)) => Ok(Some(map)),
+        Some(Value::Map(map)) => match map.noise_problem() {
+            Some(problem) => Err(Error::invalid(s::MAP.field, problem)),
+            None => Ok(Some(map)),
+        },
         Some(_) => {
             let path = values.path(&s::MAP).expect("given");
-            Ok(Some(Arc::new(Map::read(path, Unit::Electrons)?)))
+            Ok(Some(Arc::new(Map::read_noise(path, Unit::Electrons)?)))
         }
     }
 }
@@ -176,4 +180,35 @@ fn dark_frames(values: &Values) -> Result<Option<Arc<DarkFrames>>> {
     let gain = values.real(&s::GAIN_E_PER_ADU).unwrap_or(f64::NAN);
     let max_mib = values.real(&s::DARK_FRAMES_MAX_MIB).expect("has a default");
     Ok(Some(Arc::new(DarkFrames::read(&paths, gain, max_mib)?)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_map_given_as_values_is_checked_as_a_noise_map() {
+        let with = |data: Vec<f64>| {
+            let mut v = Values::default();
+            let map = Map::new(1, 3, data, Unit::Electrons).with_source("`map_e`");
+            v.set(&s::MAP, Value::Map(Arc::new(map)));
+            ModelParams::from_settings(&v, &crate::progress::Silent)
+        };
+        assert!(with(vec![0.5, f64::NAN, 2.0]).unwrap().map.is_some());
+        for (data, says) in [
+            (
+                vec![0.5, -1.0, 2.0],
+                "1 negative pixel(s), the first at row 0, column 1",
+            ),
+            (vec![0.0, 0.0, f64::NAN], "every pixel is 0"),
+        ] {
+            match with(data) {
+                Err(Error::Usage { field, message }) => {
+                    assert_eq!(field, "map");
+                    assert!(message.contains(says), "{message}");
+                }
+                other => panic!("{:?}", other.map(|p| p.map)),
+            }
+        }
+    }
 }

@@ -114,6 +114,7 @@ pub struct FitsFrames {
     shape: (usize, usize),
     sample_type: SampleType,
     bytes: Vec<u8>,
+    bunit: Option<String>,
 }
 
 fn sample_type_of(path: &Path, hdu: c_int, stored: c_int, equiv: c_int) -> Result<SampleType> {
@@ -239,12 +240,18 @@ impl FitsFrames {
             shape,
             sample_type,
             bytes: Vec::new(),
+            bunit: images.first().and_then(|i| i.bunit.clone()),
         })
     }
 
     /// Total frames in the file.
     pub fn frames(&self) -> usize {
         self.hdus.iter().map(|h| h.frames).sum()
+    }
+
+    /// The BUNIT (unit of the values) of the HDU holding the first frame, if stated.
+    pub fn bunit(&self) -> Option<&str> {
+        self.bunit.as_deref()
     }
 }
 
