@@ -66,6 +66,29 @@ pub(crate) fn measured_inputs(
     Ok(described)
 }
 
+/// An error unless the dark frames given for `scmos-frames` (`dark_frames`, if any) have the
+/// darks' frame shape (rows, cols): the report labels them the camera's own dark frames, and
+/// windows read through frames of another camera would say nothing about this one.
+pub(crate) fn check_given_frames(params: &ModelParams, darks_shape: (usize, usize)) -> Result<()> {
+    let Some(frames) = &params.dark_frames else {
+        return Ok(());
+    };
+    let (rows, cols) = darks_shape;
+    if (frames.rows, frames.cols) == darks_shape {
+        return Ok(());
+    }
+    Err(crate::Error::invalid(
+        "dark_frames",
+        format!(
+            "{} holds frames of {}x{} px, the darks {rows}x{cols} px: give the camera's own dark \
+             frames, of the darks' shape (or leave `dark_frames` out to use the darks)",
+            frames.source.display(),
+            frames.rows,
+            frames.cols
+        ),
+    ))
+}
+
 /// The models compared with the measured map, with their labels on the page.
 const MODELS: [(&str, &str); 3] = [
     ("scmos-rts", "scmos-rts (map + telegraph pixels)"),
