@@ -79,6 +79,17 @@ fn a_path_that_is_not_utf8_is_refused_naming_it() {
         &said,
         &out,
     );
+    // A TIFF stack too: its path would fail to go into summary.json after the work.
+    let tif = d.path().join(OsStr::from_bytes(b"t\xff.tif"));
+    std::fs::copy(common::data("scmos-darks-64x64.tif"), &tif).unwrap();
+    let args = [os("darks"), tif.as_os_str(), os("--out"), out.as_os_str()];
+    refused(
+        d.path(),
+        &args,
+        1,
+        &["t\u{fffd}.tif: the path is not valid UTF-8"],
+        &out,
+    );
     let subaps = [
         os("subaps"),
         os("--subap-grid"),

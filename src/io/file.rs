@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::checks::{check_samples, prefix_frame};
+use super::checks::{check_samples, prefix_frame, utf8_path};
 use super::format::{SampleType, StackFormat};
 use super::frame::FileFrames;
 use super::{exr, fits, tiff};
@@ -28,6 +28,7 @@ pub struct SourceFile {
 
 /// Header facts of the file at `path` (headers only; no sample is read).
 pub(crate) fn scan_file(path: &Path) -> Result<SourceFile> {
+    utf8_path(path)?;
     let format = StackFormat::detect(path)?;
     let (frames, shape, sample_type) = match format {
         StackFormat::Fits => fits::scan(path)?,

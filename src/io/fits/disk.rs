@@ -15,13 +15,7 @@ use crate::error::{Error, Result};
 
 /// The name of `path` as CFITSIO takes it (UTF-8 without NUL), or an error naming the path.
 pub(crate) fn c_name(path: &Path) -> Result<CString> {
-    let name = path.to_str().ok_or_else(|| {
-        Error::input(
-            path,
-            "the path is not valid UTF-8 (shown with U+FFFD for the bytes that are not): the \
-             FITS library takes UTF-8 file names only; rename the file or directory",
-        )
-    })?;
+    let name = crate::io::checks::utf8_path(path)?;
     CString::new(name).map_err(|_| Error::input(path, "the path holds a NUL byte"))
 }
 
