@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::io::fits::{write_image, ImageData, Keyword};
 
 /// The unit of a map's values; written as the FITS `BUNIT` keyword.
@@ -28,6 +28,52 @@ impl Unit {
             Unit::EPerAdu => "electron/adu",
             Unit::Flags => "",
         }
+    }
+
+    /// The BUNIT values that state this unit, compared without case (a blank BUNIT states
+    /// none).
+    fn spellings(self) -> &'static [&'static str] {
+        match self {
+            Unit::Adu => &["adu", "adus", "dn", "count", "counts"],
+            Unit::Electrons => &["electron", "electrons", "e-", "e"],
+            Unit::EPerAdu => &["electron/adu", "electrons/adu", "e-/adu", "e/adu"],
+            Unit::Flags => &["dimensionless", "1"],
+        }
+    }
+
+    /// The unit in words, for messages.
+    fn words(self) -> &'static str {
+        match self {
+            Unit::Adu => "adu",
+            Unit::Electrons => "electrons (e-)",
+            Unit::EPerAdu => "e- per adu",
+            Unit::Flags => "flags (no unit)",
+        }
+    }
+
+    /// An error naming `path` unless its FITS `bunit` agrees with this unit. No BUNIT, or a
+    /// blank one, states nothing: the caller's word is taken.
+    fn check_bunit(self, path: &Path, bunit: Option<&str>) -> Result<()> {
+        let Some(found) = bunit.map(str::trim).filter(|b| !b.is_empty()) else {
+            return Ok(());
+        };
+        if self.spellings().contains(&found.to_lowercase().as_str()) {
+            return Ok(());
+        }
+        let hint = match self {
+            Unit::Electrons => {
+                ": give the map in e- (e.g. rms_e.fits from `detnoise darks --gain-e-per-adu`)"
+            }
+            _ => "",
+        };
+        Err(Error::input(
+            path,
+            format!(
+                "the map's BUNIT is {found:?}, expected {} (BUNIT {}){hint}",
+                self.words(),
+                self.spellings().join(", ")
+            ),
+        ))
     }
 }
 
@@ -81,12 +127,55 @@ impl Map {
         self
     }
 
-    /// Read the first frame of a FITS, TIFF or EXR file as a map whose values are in `unit`
-    /// (the caller's knowledge: files rarely state it). NaN values are kept (masked pixels).
+    /// Read a FITS, TIFF or EXR file of one image as a map whose values are in `unit` (the
+    /// caller's knowledge where the file states none). Refused, naming the file: several
+    /// frames (a stack is not a map), a FITS BUNIT that states another unit. NaN values are
+    /// kept (masked pixels).
     pub fn read(path: impl AsRef<Path>, unit: Unit) -> Result<Map> {
         let path = path.as_ref();
-        let ((rows, cols), data) = crate::io::read_first_frame(path)?;
-        Ok(Map::new(rows, cols, data, unit).with_source(path.display().to_string()))
+        let image = crate::io::read_image(path)?;
+        unit.check_bunit(path, image.bunit.as_deref())?;
+        let (rows, cols) = image.shape;
+        Ok(Map::new(rows, cols, image.data, unit).with_source(path.display().to_string()))
+    }
+
+    /// Read a read-noise (rms) map in `unit` as [`Map::read`] does, refused (naming the file)
+    /// when it cannot be one ([`Map::noise_problem`]): the one reader of noise maps.
+    pub fn read_noise(path: impl AsRef<Path>, unit: Unit) -> Result<Map> {
+        let path = path.as_ref();
+        let map = Map::read(path, unit)?;
+        match map.noise_problem() {
+            Some(problem) => Err(Error::input(path, problem)),
+            None => Ok(map),
+        }
+    }
+
+    /// Why these values cannot be a read-noise map, or None: an rms is never negative (an
+    /// offset map or a difference of maps is not a noise map), and a map of zeros only would
+    /// give an effective noise of 0 without an error. Non-finite pixels (no value) are
+    /// skipped.
+    pub fn noise_problem(&self) -> Option<String> {
+        let negative = self.data.iter().filter(|v| **v < 0.0).count();
+        if let Some(i) = self.data.iter().position(|v| *v < 0.0) {
+            return Some(format!(
+                "{negative} negative pixel(s), the first at row {}, column {} ({} {}): a \
+                 read-noise map holds rms values >= 0 (an offset map or a difference of maps is \
+                 not one)",
+                i / self.cols,
+                i % self.cols,
+                self.data[i],
+                self.unit.bunit()
+            ));
+        }
+        let finite = self.data.iter().filter(|v| v.is_finite());
+        if finite.clone().count() > 0 && finite.clone().all(|v| *v == 0.0) {
+            return Some(
+                "every pixel is 0: not a measured read-noise map; for a noise-free camera use \
+                 the model `scmos-constant:0` (or `--sigma 0`)"
+                    .into(),
+            );
+        }
+        None
     }
 
     /// Value at (row, col).
@@ -205,5 +294,116 @@ mod tests {
         for (a, b) in m.data.iter().zip(&r.data) {
             assert!(a == b || (a.is_nan() && b.is_nan()));
         }
+    }
+
+    /// `m` written as a FITS image with BUNIT `bunit` (none if empty) to `dir`/`name`.
+    fn written(dir: &Path, name: &str, m: &Map, bunit: &str) -> std::path::PathBuf {
+        let p = dir.join(name);
+        write_image(&p, m.shape(), ImageData::F64(&m.data), bunit, &[]).unwrap();
+        p
+    }
+
+    fn refusal(r: Result<Map>) -> String {
+        match r {
+            Err(Error::Input { path, message }) => format!("{}: {message}", path.display()),
+            other => panic!("not an input error: {other:?}"),
+        }
+    }
+
+    #[test]
+    fn a_bunit_that_states_another_unit_is_refused() {
+        let d = tempfile::tempdir().unwrap();
+        let m = Map::filled(2, 2, 1.5, Unit::Adu);
+        let units = [Unit::Adu, Unit::Electrons, Unit::EPerAdu, Unit::Flags];
+        // As detnoise writes each unit (flags: BUNIT '' as `darks` writes flags.fits), and as
+        // other tools spell it.
+        for (bunit, reads_as) in [
+            ("adu", Unit::Adu),
+            ("ADU", Unit::Adu),
+            ("electron", Unit::Electrons),
+            ("e-", Unit::Electrons),
+            ("electron/adu", Unit::EPerAdu),
+            ("dimensionless", Unit::Flags),
+        ] {
+            let p = written(d.path(), "m.fits", &m, bunit);
+            for unit in units {
+                let r = Map::read(&p, unit);
+                if unit == reads_as {
+                    assert_eq!(r.unwrap().unit, unit);
+                } else {
+                    let e = refusal(r);
+                    assert!(
+                        e.contains(&format!(
+                            "m.fits: the map's BUNIT is {bunit:?}, expected {}",
+                            unit.words()
+                        )),
+                        "{e}"
+                    );
+                }
+            }
+        }
+        // No BUNIT, or a blank one, states nothing: every unit is taken as the caller says.
+        let blank = d.path().join("blank.fits");
+        let empty = crate::io::fits::KeyValue::Str(String::new());
+        let keys = [crate::io::fits::key("BUNIT", empty, "")];
+        write_image(&blank, (2, 2), ImageData::F64(&m.data), "", &keys).unwrap();
+        for p in [written(d.path(), "none.fits", &m, ""), blank] {
+            for unit in units {
+                assert_eq!(Map::read(&p, unit).unwrap().unit, unit);
+            }
+        }
+        let e = refusal(Map::read(
+            written(d.path(), "jy.fits", &m, "Jy"),
+            Unit::Electrons,
+        ));
+        assert!(
+            e.contains("BUNIT is \"Jy\"") && e.contains("rms_e.fits"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn a_stack_is_not_a_map() {
+        let d = tempfile::tempdir().unwrap();
+        let p = d.path().join("stack.fits");
+        let mut next = || vec![100.0; 6];
+        crate::io::fits::write_cube(&p, (2, 3), 5, true, &mut next, &[]).unwrap();
+        for unit in [Unit::Electrons, Unit::Flags] {
+            let e = refusal(Map::read(&p, unit));
+            assert!(e.contains("stack.fits: holds 5 frames of 2x3"), "{e}");
+        }
+    }
+
+    #[test]
+    fn a_noise_map_has_no_negative_pixel_and_not_only_zeros() {
+        let d = tempfile::tempdir().unwrap();
+        let mut m = Map::new(
+            2,
+            3,
+            vec![1.0, f64::NAN, 2.0, 0.5, -1.0, -2.0],
+            Unit::Electrons,
+        );
+        let p = written(d.path(), "neg.fits", &m, "electron");
+        let e = refusal(Map::read_noise(&p, Unit::Electrons));
+        assert!(
+            e.contains("neg.fits: 2 negative pixel(s), the first at row 1, column 1 (-1 electron)"),
+            "{e}"
+        );
+        // An offset map may be negative: only noise maps are checked.
+        assert!(Map::read(&p, Unit::Electrons).is_ok());
+        m.data = vec![0.0, f64::NAN, 0.0, 0.0, 0.0, 0.0];
+        let p = written(d.path(), "zero.fits", &m, "electron");
+        let e = refusal(Map::read_noise(&p, Unit::Electrons));
+        assert!(
+            e.contains("zero.fits: every pixel is 0") && e.contains("scmos-constant:0"),
+            "{e}"
+        );
+        // One pixel above 0 is a map (a nearly noise-free camera), as is one without a value.
+        m.data[5] = 0.25;
+        assert_eq!(m.noise_problem(), None);
+        assert_eq!(
+            Map::filled(1, 1, f64::NAN, Unit::Electrons).noise_problem(),
+            None
+        );
     }
 }

@@ -7,8 +7,8 @@ use crate::centroid::CentroiderSpec;
 use crate::montecarlo::SimConfig;
 use crate::settings::Value;
 use crate::subaps::{
-    merge_into_dir, read_map_e, run_into_dir, DirTarget, Geometry, GridSpec, Shard, SubapsJob,
-    SubapsSummary, ValidMask,
+    merge_into_dir, run_into_dir, DirTarget, Geometry, GridSpec, Shard, SubapsJob, SubapsSummary,
+    ValidMask,
 };
 use crate::{Error, Result};
 use std::path::PathBuf;
@@ -164,7 +164,7 @@ impl SubapsArgs {
 /// Entry point of `detnoise subaps`.
 pub fn run_cli(args: &SubapsArgs) -> Result<()> {
     let (_, cfg, shard) = args.validate()?;
-    let map = read_map_e(&args.map)?;
+    let map = crate::calib::Map::read_noise(&args.map, crate::calib::Unit::Electrons)?;
     let geometry = args
         .geometry
         .geometry()?

@@ -123,7 +123,7 @@ impl ModelParams {
                 .transpose()?,
             row_noise_e: real(&s::ROW_NOISE_E),
             column_noise_e: real(&s::COLUMN_NOISE_E),
-            dark_frames: dark_frames(values)?,
+            dark_frames: dark_frames(values, observer)?,
         })
     }
 
@@ -154,20 +154,25 @@ fn rms_pdf(values: &Values) -> Result<Arc<dyn RmsPdf>> {
     }
 }
 
-/// The measured noise map of `map`: an array given, or a file in e-.
+/// The measured noise map of `map`: an array given, or a file in e-; either refused when it
+/// cannot be a read-noise map (negative or only zero values).
 fn noise_map(values: &Values) -> Result<Option<Arc<Map>>> {
     match values.get(&s::MAP) {
         None => Ok(None),
-        Some(Value::Map(map)) => Ok(Some(map)),
+        Some(Value::Map(map)) => match map.noise_problem() {
+            Some(problem) => Err(Error::invalid(s::MAP.field, problem)),
+            None => Ok(Some(map)),
+        },
         Some(_) => {
             let path = values.path(&s::MAP).expect("given");
-            Ok(Some(Arc::new(Map::read(path, Unit::Electrons)?)))
+            Ok(Some(Arc::new(Map::read_noise(path, Unit::Electrons)?)))
         }
     }
 }
 
-/// The dark frames of `dark_frames`, converted with `gain_e_per_adu`.
-fn dark_frames(values: &Values) -> Result<Option<Arc<DarkFrames>>> {
+/// The dark frames of `dark_frames`, converted with `gain_e_per_adu` (a stack too short to
+/// stand for its camera warned of).
+fn dark_frames(values: &Values, observer: &dyn Observer) -> Result<Option<Arc<DarkFrames>>> {
     let paths = values.paths(&s::DARK_FRAMES);
     if paths.is_empty() {
         return Ok(None);
@@ -175,5 +180,63 @@ fn dark_frames(values: &Values) -> Result<Option<Arc<DarkFrames>>> {
     // `check_settings` has refused dark frames without a gain.
     let gain = values.real(&s::GAIN_E_PER_ADU).unwrap_or(f64::NAN);
     let max_mib = values.real(&s::DARK_FRAMES_MAX_MIB).expect("has a default");
-    Ok(Some(Arc::new(DarkFrames::read(&paths, gain, max_mib)?)))
+    let frames = DarkFrames::read(&paths, gain, max_mib)?;
+    if let Some(warning) = crate::detector::scmos_frames::few_frames(&frames) {
+        observer.warn(&warning);
+    }
+    Ok(Some(Arc::new(frames)))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dark_frames_of_a_short_stack_are_warned_of() {
+        let dir = tempfile::tempdir().unwrap();
+        let read = |count: usize| {
+            let path = dir.path().join(format!("darks-{count}.fits"));
+            let mut next = || vec![100.0; 16];
+            crate::io::fits::write_cube(&path, (4, 4), count, false, &mut next, &[]).unwrap();
+            let mut v = Values::default();
+            v.set(&s::DARK_FRAMES, Value::Paths(vec![path]));
+            v.set(&s::GAIN_E_PER_ADU, Value::Real(1.0));
+            let seen = crate::progress::Recorder::default();
+            ModelParams::from_settings(&v, &seen).unwrap();
+            seen.warnings.into_inner().unwrap()
+        };
+        let warned = read(5);
+        assert_eq!(warned.len(), 1, "{warned:?}");
+        assert!(
+            warned[0].contains("darks-5.fits: only 5 dark frames"),
+            "{warned:?}"
+        );
+        assert!(read(100).is_empty());
+    }
+
+    #[test]
+    fn a_map_given_as_values_is_checked_as_a_noise_map() {
+        let with = |data: Vec<f64>| {
+            let mut v = Values::default();
+            let map = Map::new(1, 3, data, Unit::Electrons).with_source("`map_e`");
+            v.set(&s::MAP, Value::Map(Arc::new(map)));
+            ModelParams::from_settings(&v, &crate::progress::Silent)
+        };
+        assert!(with(vec![0.5, f64::NAN, 2.0]).unwrap().map.is_some());
+        for (data, says) in [
+            (
+                vec![0.5, -1.0, 2.0],
+                "1 negative pixel(s), the first at row 0, column 1",
+            ),
+            (vec![0.0, 0.0, f64::NAN], "every pixel is 0"),
+        ] {
+            match with(data) {
+                Err(Error::Usage { field, message }) => {
+                    assert_eq!(field, "map");
+                    assert!(message.contains(says), "{message}");
+                }
+                other => panic!("{:?}", other.map(|p| p.map)),
+            }
+        }
+    }
 }

@@ -58,6 +58,19 @@ pub(crate) fn check_samples(path: &Path, cols: usize, values: &[f64], nan_ok: bo
     ))
 }
 
+/// The path as UTF-8, or an error naming it (lossily): the FITS library opens files by UTF-8
+/// names only, and the JSON summaries record every input's path.
+pub(crate) fn utf8_path(path: &Path) -> Result<&str> {
+    path.to_str().ok_or_else(|| {
+        Error::input(
+            path,
+            "the path is not valid UTF-8 (shown with U+FFFD for the bytes that are not): detnoise \
+             takes UTF-8 file names only (the FITS library and the JSON summaries need them); \
+             rename the file or directory",
+        )
+    })
+}
+
 /// Prefix the message of an input error with `frame k: `.
 pub(crate) fn prefix_frame(e: Error, k: usize) -> Error {
     match e {

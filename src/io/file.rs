@@ -5,7 +5,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use super::checks::{check_samples, prefix_frame};
+use super::checks::{check_samples, prefix_frame, utf8_path};
 use super::format::{SampleType, StackFormat};
 use super::frame::FileFrames;
 use super::{exr, fits, tiff};
@@ -28,6 +28,7 @@ pub struct SourceFile {
 
 /// Header facts of the file at `path` (headers only; no sample is read).
 pub(crate) fn scan_file(path: &Path) -> Result<SourceFile> {
+    utf8_path(path)?;
     let format = StackFormat::detect(path)?;
     let (frames, shape, sample_type) = match format {
         StackFormat::Fits => fits::scan(path)?,
@@ -75,13 +76,50 @@ pub(crate) fn open_file(src: &SourceFile) -> Result<Box<dyn FileFrames>> {
     }
 }
 
-/// Read the first frame of a FITS, TIFF or EXR file as (shape (rows, cols), row-major values),
-/// e.g. a map. NaN is allowed (it marks masked pixels); infinities and values beyond
-/// [`MAX_SAMPLE_ABS`](super::MAX_SAMPLE_ABS) are not.
-pub fn read_first_frame(path: &Path) -> Result<((usize, usize), Vec<f64>)> {
+/// One image read whole: a map or a mask.
+#[derive(Clone, Debug)]
+pub struct Image {
+    /// Shape (rows, cols).
+    pub shape: (usize, usize),
+    /// Values, row-major.
+    pub data: Vec<f64>,
+    /// The FITS BUNIT of its HDU, if stated (TIFF and EXR state no unit).
+    pub bunit: Option<String>,
+}
+
+/// Read the one frame of a FITS, TIFF or EXR file as an image (e.g. a map or a mask), with
+/// the unit its FITS header states. A file of several frames is refused, naming their count:
+/// a stack is not a map, and which frame would be meant cannot be told. NaN is allowed (it
+/// marks masked pixels); infinities and values beyond [`MAX_SAMPLE_ABS`](super::MAX_SAMPLE_ABS)
+/// are not.
+pub fn read_image(path: &Path) -> Result<Image> {
     let src = scan_file(path)?;
+    if src.frames != 1 {
+        return Err(Error::input(
+            path,
+            format!(
+                "holds {} frames of {}x{}, where one image (a map or a mask) is expected: a \
+                 frame stack is not a map (`detnoise darks` makes the maps of a dark stack)",
+                src.frames, src.shape.0, src.shape.1
+            ),
+        ));
+    }
     let mut data = vec![0.0; src.shape.0 * src.shape.1];
-    open_file(&src)?.read_frame(0, &mut data)?;
+    let bunit = match src.format {
+        StackFormat::Fits => {
+            let mut f = fits::FitsFrames::open(path)?;
+            f.read_frame(0, &mut data)?;
+            f.bunit().map(str::to_string)
+        }
+        _ => {
+            open_file(&src)?.read_frame(0, &mut data)?;
+            None
+        }
+    };
     check_samples(path, src.shape.1, &data, true).map_err(|e| prefix_frame(e, 0))?;
-    Ok((src.shape, data))
+    Ok(Image {
+        shape: src.shape,
+        data,
+        bunit,
+    })
 }

@@ -29,7 +29,7 @@ pub use checks::{name_file, MAX_EXPANSION, MAX_SAMPLE_ABS};
 #[cfg(test)]
 pub(crate) use digest::one_shot_digest;
 pub use digest::{checksum_file, hash_stack_while, ByteTap, Checksum};
-pub use file::{read_first_frame, SourceFile};
+pub use file::{read_image, Image, SourceFile};
 pub use format::{SampleType, StackFormat};
 pub use frame::{FrameData, FrameOrigin, RawKind, RawLayout};
 pub use inputs::expand_inputs;

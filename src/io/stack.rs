@@ -30,6 +30,7 @@ impl FrameStack {
     /// saved as .fits, .tif and .exr in one directory are not a stack three times as long.
     pub fn open(inputs: &[PathBuf]) -> Result<FrameStack> {
         let files = expand_inputs(inputs)?;
+        check_distinct(&files)?;
         let sources = files
             .iter()
             .map(|p| scan_file(p))
@@ -120,6 +121,34 @@ impl FrameStack {
         }
         Ok(())
     }
+}
+
+/// An error naming the first file that the stack's arguments give twice (the same file by
+/// another name, a link, or inside a directory also given): its frames would be read twice,
+/// which doubles their weight and makes a noise stack look non-Gaussian. Files are compared
+/// by device and inode, which sees through every spelling of a path (a copy is another file).
+fn check_distinct(files: &[PathBuf]) -> Result<()> {
+    use std::collections::HashMap;
+    use std::os::unix::fs::MetadataExt;
+    let mut seen: HashMap<(u64, u64), &Path> = HashMap::new();
+    for f in files {
+        let m = std::fs::metadata(f).map_err(|e| Error::io(f, e))?;
+        if let Some(first) = seen.insert((m.dev(), m.ino()), f) {
+            let same = if first.as_os_str() == f.as_os_str() {
+                String::new()
+            } else {
+                format!(" (also as {})", first.display())
+            };
+            return Err(Error::input(
+                f,
+                format!(
+                    "given twice among the stack's files{same}: its frames would be read twice; \
+                     give each file once"
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// True when `path` is named as `synth` names the truth maps it writes beside a stack
@@ -262,6 +291,40 @@ mod tests {
             Error::Input { path, message } => (path, message),
             other => panic!("not an input error: {other}"),
         }
+    }
+
+    #[test]
+    fn a_file_given_twice_is_refused_naming_it() {
+        let d = tempfile::tempdir().unwrap();
+        let [stack, _, single] = files(d.path());
+        let elsewhere = tempfile::tempdir().unwrap();
+        let link = elsewhere.path().join("link.fits");
+        std::os::unix::fs::symlink(&stack, &link).unwrap();
+        let dotted = d.path().join(".").join("x.fits");
+        let cases: [(Vec<PathBuf>, &Path, &str); 4] = [
+            (vec![stack.clone(), stack.clone()], &stack, "given twice"),
+            (
+                vec![stack.clone(), single.clone(), dotted.clone()],
+                &dotted,
+                "also as",
+            ),
+            (vec![link.clone(), stack.clone()], &stack, "link.fits"),
+            // A directory holds the file given beside it.
+            (
+                vec![d.path().to_path_buf(), single.clone()],
+                &single,
+                "given twice",
+            ),
+        ];
+        for (inputs, named, says) in cases {
+            let (path, m) = message(FrameStack::open(&inputs).unwrap_err());
+            assert_eq!(path, named, "{inputs:?}");
+            assert!(m.contains(says) && m.contains("read twice"), "{m}");
+        }
+        // The same frames in another file (a copy) are another file.
+        let copy = d.path().join("copy.fits");
+        std::fs::copy(&stack, &copy).unwrap();
+        assert_eq!(FrameStack::open(&[stack, copy]).unwrap().frames, 6);
     }
 
     #[test]

@@ -81,6 +81,7 @@ pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportRes
     )?;
     let stack = FrameStack::open(&options.darks_paths)?;
     stack.require_frames(2, "a read-noise map")?;
+    real_noise::check_given_frames(&options.model_params, stack.shape)?;
     // The geometry must fit the frames (known from the headers) before the work.
     if let Some(g) = &options.subaps {
         subaps::check_geometry(options, &grid, g, stack.shape)?;

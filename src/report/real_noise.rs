@@ -59,11 +59,40 @@ pub(crate) fn measured_inputs(
     }
     let frames = match params.dark_frames.take() {
         Some(given) => given,
-        None => Arc::new(DarkFrames::read(darks, gain_e_per_adu, DEFAULT_MAX_MIB)?),
+        None => {
+            let frames = DarkFrames::read(darks, gain_e_per_adu, DEFAULT_MAX_MIB)?;
+            if let Some(warning) = crate::detector::scmos_frames::few_frames(&frames) {
+                observer.warn(&warning);
+            }
+            Arc::new(frames)
+        }
     };
     let described = frames.summary();
     params.dark_frames = Some(frames);
     Ok(described)
+}
+
+/// An error unless the dark frames given for `scmos-frames` (`dark_frames`, if any) have the
+/// darks' frame shape (rows, cols): the report labels them the camera's own dark frames, and
+/// windows read through frames of another camera would say nothing about this one.
+pub(crate) fn check_given_frames(params: &ModelParams, darks_shape: (usize, usize)) -> Result<()> {
+    let Some(frames) = &params.dark_frames else {
+        return Ok(());
+    };
+    let (rows, cols) = darks_shape;
+    if (frames.rows, frames.cols) == darks_shape {
+        return Ok(());
+    }
+    Err(crate::Error::invalid(
+        "dark_frames",
+        format!(
+            "{} holds frames of {}x{} px, the darks {rows}x{cols} px: give the camera's own dark \
+             frames, of the darks' shape (or leave `dark_frames` out to use the darks)",
+            frames.source.display(),
+            frames.rows,
+            frames.cols
+        ),
+    ))
 }
 
 /// The models compared with the measured map, with their labels on the page.

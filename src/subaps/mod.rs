@@ -13,7 +13,6 @@
 
 mod chart;
 mod geometry;
-mod input;
 mod lock;
 mod merge;
 mod outputs;
@@ -26,7 +25,6 @@ mod solve;
 mod tests;
 
 pub use geometry::{Geometry, GridSpec, Layout, Subap, ValidMask};
-pub use input::read_map_e;
 pub use merge::{expand_parts, is_part_name, merge_parts, Merged};
 pub use outputs::{
     status_code, write_outputs, Spread, SubapRow, SubapsSummary, NO_SUBAP_CODE, OUTPUT_NAMES,

@@ -143,7 +143,7 @@ pub fn rms_pdf(spec: &str) -> Result<Box<dyn RmsPdf>> {
                 .ok_or_else(|| Error::invalid("rms_pdf", "bad constant"))?,
         ));
     }
-    let map = Map::read(spec, Unit::Electrons)?;
+    let map = Map::read_noise(spec, Unit::Electrons)?;
     let values: Vec<f64> = map.data.into_iter().filter(|v| v.is_finite()).collect();
     let pdf = crate::pdf::EmpiricalPdf::new(&values, &format!("map {spec}"))
         .ok_or_else(|| Error::input(spec, "frame 0: noise map has no finite value"))?;

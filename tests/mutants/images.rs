@@ -2,7 +2,7 @@
 //! `subaps` and of the readout models) as FITS, TIFF and EXR images: the image mutators of
 //! the readers' test, plus mutants that keep the file valid and change what it means (a
 //! second frame, a negative or all-zero map, a BUNIT that is not electrons), judged through
-//! `ValidMask::read` and the layout on a map, `subaps::read_map_e`, and `detector::params`
+//! `ValidMask::read` and the layout on a map, `Map::read_noise` (the map reader of `subaps`), and `detector::params`
 //! with the `scmos-map` readout built on the map.
 //!
 //! What each mutant allows (an error naming the file is always allowed):
@@ -19,7 +19,7 @@ use detnoise::detector::{ModelParams, ModelSpec};
 use detnoise::io::FrameStack;
 use detnoise::progress::Silent;
 use detnoise::settings::{Value, Values, MAP};
-use detnoise::subaps::{read_map_e, Geometry, GridSpec, ValidMask};
+use detnoise::subaps::{Geometry, GridSpec, ValidMask};
 
 use super::expect::{caught, verdict, Case, Expect, Seen};
 use super::fixtures::{self, Kind};
@@ -302,7 +302,7 @@ pub fn judge_map(path: &Path, expect: Expect, kind: Kind, seed: &[f64]) -> Vec<S
         wrong: wrong(path, kind, Some(&m.data)),
     };
     let mut bad = Vec::new();
-    let r = caught(|| read_map_e(path));
+    let r = caught(|| Map::read_noise(path, Unit::Electrons));
     bad.extend(verdict("subaps map", expect, path, r, seen));
     let r = caught(|| {
         let mut values = Values::default();

@@ -6,7 +6,6 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use fitsio::tables::{ColumnDataType, ColumnDescription};
-use fitsio::FitsFile;
 
 use super::telegraph::TelegraphFit;
 use crate::error::{Error, Result};
@@ -154,10 +153,7 @@ fn fits_err(path: &Path, e: fitsio::errors::Error) -> Error {
 /// NaN, the FITS convention for undefined reals) to `path`, atomically.
 pub fn write_rts_fits(path: &Path, rows: &[RtsRow]) -> Result<()> {
     write_atomic_with(path, |tmp| {
-        let mut f = FitsFile::create(tmp)
-            .overwrite()
-            .open()
-            .map_err(|e| fits_err(tmp, e))?;
+        let mut f = crate::io::fits::create_file(tmp, None)?;
         let names = rts_columns();
         let mut units: Vec<&str> = vec!["pixel", "pixel", "", ""];
         for _ in 0..MAX_LEVELS {
@@ -276,7 +272,7 @@ mod tests {
         let d = tempfile::tempdir().unwrap();
         let p = d.path().join("rts.fits");
         write_rts_fits(&p, &[row(2, Some(0.5)), row(3, None)]).unwrap();
-        let mut f = FitsFile::open(&p).unwrap();
+        let mut f = fitsio::FitsFile::open(&p).unwrap();
         let hdu = f.hdu("RTS").unwrap();
         let x: Vec<i64> = hdu.read_col(&mut f, "x_px").unwrap();
         assert_eq!(x, [3, 3]);

@@ -83,7 +83,7 @@ impl FitPdfRun {
     /// The map's values in e-, without flagged pixels (unless kept).
     pub fn values_e(&self) -> Result<Vec<f64>> {
         self.validate()?;
-        let map = Map::read(&self.map, self.unit)?;
+        let map = Map::read_noise(&self.map, self.unit)?;
         let map = match (map.unit, self.gain_e_per_adu) {
             (Unit::Adu, Some(g)) => map.to_electrons(g),
             _ => map,

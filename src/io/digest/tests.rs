@@ -142,6 +142,8 @@ fn tapped_digests_are_the_files_digests_in_every_format() {
     let blank = d.path().join("blank.fits");
     fits_with_blank(&blank);
     let cube = fixture("astropy-u16-bzero.fits");
+    let copy = d.path().join("copy.fits");
+    std::fs::copy(&cube, &copy).unwrap();
     let stacks: Vec<Vec<PathBuf>> = vec![
         vec![cube.clone()],
         vec![fixture("astropy-mef.fits")],
@@ -150,8 +152,9 @@ fn tapped_digests_are_the_files_digests_in_every_format() {
         vec![fixture("tifffile-multipage.tif")],
         vec![fixture("openexr-f32-layers.exr")],
         vec![blank.clone()],
-        // One file twice and another: each entry is hashed on its own.
-        vec![cube.clone(), fixture("astropy-mef.fits"), cube.clone()],
+        // One file, another, and a copy of the first (a file is given once): each entry is
+        // hashed on its own.
+        vec![cube.clone(), fixture("astropy-mef.fits"), copy],
     ];
     for algorithm in [Checksum::Blake3, Checksum::Sha256] {
         for paths in &stacks {
@@ -253,7 +256,9 @@ fn the_reader_finishes_a_previous_file_only_when_little_of_it_is_left() {
     };
     crate::io::fits::write_cube(&cube, (64, 64), 8, true, &mut next, &[]).unwrap();
     assert!(std::fs::metadata(&cube).unwrap().len() > INLINE_GAP);
-    let paths = [cube.clone(), cube.clone()];
+    let copy = d.path().join("copy.fits");
+    std::fs::copy(&cube, &copy).unwrap();
+    let paths = [cube.clone(), copy];
     let stack = FrameStack::open(&paths).unwrap();
     let abort = AtomicBool::new(false);
     let frames: Vec<(FrameOrigin, FrameData)> = {

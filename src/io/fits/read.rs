@@ -5,37 +5,22 @@
 //! BLANK take a raw-read fast path (big-endian decode in Rust), several times faster than
 //! CFITSIO's per-pixel conversion; it gives the same values (tested).
 
-use std::ffi::{c_char, c_int, CString};
+use std::ffi::{c_int, CString};
 use std::os::unix::fs::FileExt;
 use std::path::{Path, PathBuf};
 
 use fitsio::sys;
 use fitsio::FitsFile;
 
+use super::disk::{self, status_text};
 use super::header;
 use crate::error::{Error, Result};
-use crate::io::checks::{frame_error, MAX_SAMPLE_ABS};
+use crate::io::checks::{frame_error, prefix_frame, MAX_SAMPLE_ABS};
 use crate::io::format::SampleType;
 use crate::io::frame::{FileFrames, RawKind, RawLayout};
 
 const IMAGE_HDU: c_int = 0;
 const KEY_NO_EXIST: c_int = 202;
-
-/// CFITSIO's message for `status`.
-fn status_text(status: c_int) -> String {
-    let mut buf = [0 as c_char; 32];
-    // SAFETY: ffgerr writes at most 31 characters and a NUL into the 32-byte buffer.
-    unsafe { sys::ffgerr(status, buf.as_mut_ptr()) };
-    let bytes: Vec<u8> = buf
-        .iter()
-        .take_while(|c| **c != 0)
-        .map(|c| *c as u8)
-        .collect();
-    format!(
-        "CFITSIO error {status}: {}",
-        String::from_utf8_lossy(&bytes)
-    )
-}
 
 fn check(path: &Path, status: c_int, what: &str) -> Result<()> {
     if status == 0 {
@@ -129,6 +114,7 @@ pub struct FitsFrames {
     shape: (usize, usize),
     sample_type: SampleType,
     bytes: Vec<u8>,
+    bunit: Option<String>,
 }
 
 fn sample_type_of(path: &Path, hdu: c_int, stored: c_int, equiv: c_int) -> Result<SampleType> {
@@ -198,9 +184,9 @@ impl FitsFrames {
     /// Open `path` and list its image HDUs; all must have one frame shape. The headers are
     /// checked first (module `header`), so CFITSIO never sees an unchecked size.
     pub fn open(path: &Path) -> Result<FitsFrames> {
+        disk::c_name(path)?;
         let images = header::check(path)?;
-        let mut file = FitsFile::open(path)
-            .map_err(|e| Error::input(path, format!("frame 0: cannot open as FITS: {e}")))?;
+        let mut file = disk::open(path).map_err(|e| prefix_frame(e, 0))?;
         // SAFETY: the pointer stays owned by `file`, which outlives every use below.
         let fptr = unsafe { file.as_raw() };
         let plain = is_plain_fits(path);
@@ -254,12 +240,18 @@ impl FitsFrames {
             shape,
             sample_type,
             bytes: Vec::new(),
+            bunit: images.first().and_then(|i| i.bunit.clone()),
         })
     }
 
     /// Total frames in the file.
     pub fn frames(&self) -> usize {
         self.hdus.iter().map(|h| h.frames).sum()
+    }
+
+    /// The BUNIT (unit of the values) of the HDU holding the first frame, if stated.
+    pub fn bunit(&self) -> Option<&str> {
+        self.bunit.as_deref()
     }
 }
 

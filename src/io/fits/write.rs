@@ -116,11 +116,7 @@ fn create_primary(
         data_type,
         dimensions,
     };
-    let mut f = FitsFile::create(tmp)
-        .with_custom_primary(&desc)
-        .overwrite()
-        .open()
-        .map_err(|e| fits_err(tmp, e))?;
+    let mut f = super::disk::create(tmp, Some(&desc))?;
     let hdu = f.primary_hdu().map_err(|e| fits_err(tmp, e))?;
     Ok((f, hdu))
 }

@@ -22,6 +22,8 @@ pub(crate) struct ImageHdu {
     pub dims: Vec<usize>,
     /// Tile-compressed (a BINTABLE with ZIMAGE = T).
     pub compressed: bool,
+    /// Its BUNIT (the unit of its values), if stated.
+    pub bunit: Option<String>,
 }
 
 impl ImageHdu {
@@ -234,6 +236,7 @@ pub(crate) fn check(path: &Path) -> Result<Vec<ImageHdu>> {
                 hdu,
                 dims,
                 compressed: table.is_some(),
+                bunit: h.string("BUNIT"),
             };
             frames_before = frames_before.saturating_add(img.frames());
             images.push(img);
