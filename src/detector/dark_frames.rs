@@ -85,7 +85,28 @@ impl Reservoir {
     }
 }
 
+/// Frames below which a stack is too short to stand for its camera (see [`DarkFrames::few_frames`]):
+/// each pixel's rms is then known to worse than 1 / sqrt(2 (100 - 1)) = 7 %.
+pub const FEW_FRAMES: usize = 100;
+
 impl DarkFrames {
+    /// A warning for a stack of fewer than [`FEW_FRAMES`] frames (None from that many on): the
+    /// (N - 1) / N bias is corrected, but each pixel's noise is still only N values, so its rms is
+    /// known to about 1 / sqrt(2 (N - 1)) and its tails and telegraph levels hardly at all.
+    pub fn few_frames(&self) -> Option<String> {
+        let n = self.total;
+        (n < FEW_FRAMES).then(|| {
+            let rel = 100.0 / (2.0 * (n as f64 - 1.0)).sqrt();
+            format!(
+                "{}: only {n} dark frames: each pixel's rms is known to about {rel:.0} % and its \
+                 tails and telegraph levels hardly at all (the mean's share of the variance, \
+                 (N - 1) / N, is corrected); `scmos-frames` needs {FEW_FRAMES} frames or more to \
+                 stand for the camera",
+                self.source.display()
+            )
+        })
+    }
+
     /// Read the stack `paths` (files, directories or globs; any format the stack reader
     /// reads), subtract each pixel's mean over the stack, convert with `gain_e_per_adu`
     /// (e- per adu) and keep a uniform sample of at most `max_mib` MiB of frames.

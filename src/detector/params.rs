@@ -181,7 +181,7 @@ fn dark_frames(values: &Values, observer: &dyn Observer) -> Result<Option<Arc<Da
     let gain = values.real(&s::GAIN_E_PER_ADU).unwrap_or(f64::NAN);
     let max_mib = values.real(&s::DARK_FRAMES_MAX_MIB).expect("has a default");
     let frames = DarkFrames::read(&paths, gain, max_mib)?;
-    if let Some(warning) = crate::detector::scmos_frames::few_frames(&frames) {
+    if let Some(warning) = frames.few_frames() {
         observer.warn(&warning);
     }
     Ok(Some(Arc::new(frames)))

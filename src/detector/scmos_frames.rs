@@ -28,10 +28,6 @@ pub const ENTRY: ModelEntry = ModelEntry {
     },
 };
 
-/// Frames below which a stack is too short to stand for its camera (see [`few_frames`]):
-/// each pixel's rms is then known to worse than 1 / sqrt(2 (100 - 1)) = 7 %.
-pub const FEW_FRAMES: usize = 100;
-
 /// `scmos-frames`: each frame adds to the photo-electrons an n x n window, at a random place, of
 /// a random kept dark frame (bias-subtracted with each pixel's mean over the stack, in e-).
 /// It carries everything the camera does that a dark frame shows: per-pixel noise, telegraph
@@ -57,23 +53,6 @@ pub struct ScmosFrames {
 pub fn unbias_factor(n: usize) -> f64 {
     let n = n as f64;
     (n / (n - 1.0)).sqrt()
-}
-
-/// A warning for a stack of fewer than [`FEW_FRAMES`] frames (None from that many on): the
-/// (N - 1) / N bias is corrected, but each pixel's noise is still only N values, so its rms is
-/// known to about 1 / sqrt(2 (N - 1)) and its tails and telegraph levels hardly at all.
-pub fn few_frames(frames: &DarkFrames) -> Option<String> {
-    let n = frames.total;
-    (n < FEW_FRAMES).then(|| {
-        let rel = 100.0 / (2.0 * (n as f64 - 1.0)).sqrt();
-        format!(
-            "{}: only {n} dark frames: each pixel's rms is known to about {rel:.0} % and its \
-             tails and telegraph levels hardly at all (the mean's share of the variance, \
-             (N - 1) / N, is corrected); `scmos-frames` needs {FEW_FRAMES} frames or more to \
-             stand for the camera",
-            frames.source.display()
-        )
-    })
 }
 
 impl ScmosFrames {

@@ -61,7 +61,7 @@ pub(crate) fn measured_inputs(
         Some(given) => given,
         None => {
             let frames = DarkFrames::read(darks, gain_e_per_adu, DEFAULT_MAX_MIB)?;
-            if let Some(warning) = crate::detector::scmos_frames::few_frames(&frames) {
+            if let Some(warning) = frames.few_frames() {
                 observer.warn(&warning);
             }
             Arc::new(frames)

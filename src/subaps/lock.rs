@@ -11,7 +11,7 @@ use std::os::unix::fs::MetadataExt as _;
 use std::path::{Path, PathBuf};
 
 /// Suffix of a part's lock file (`subaps-K-of-N.part.lock`).
-const SUFFIX: &str = ".lock";
+pub(crate) const SUFFIX: &str = ".lock";
 
 /// The held lock of one part file; dropping it removes the lock file and releases the lock.
 #[derive(Debug)]
@@ -71,13 +71,6 @@ fn lock_path(part: &Path) -> PathBuf {
     let mut name = part.as_os_str().to_owned();
     name.push(SUFFIX);
     PathBuf::from(name)
-}
-
-/// Whether `path` has the name of a part's lock file (`subaps-K-of-N.part.lock`).
-pub(crate) fn is_lock_name(path: &Path) -> bool {
-    path.to_str()
-        .and_then(|p| p.strip_suffix(SUFFIX))
-        .is_some_and(|part| super::merge::is_part_name(Path::new(part)))
 }
 
 /// Whether the open `file` is the file now at `path`.

@@ -60,6 +60,13 @@ pub fn is_part_name(path: &Path) -> bool {
         .is_some_and(|(k, n)| k.parse::<usize>().is_ok() && n.parse::<usize>().is_ok())
 }
 
+/// Whether `path` has the name of a part's lock file (`subaps-K-of-N.part.lock`).
+pub(crate) fn is_lock_name(path: &Path) -> bool {
+    path.to_str()
+        .and_then(|p| p.strip_suffix(super::lock::SUFFIX))
+        .is_some_and(|part| is_part_name(Path::new(part)))
+}
+
 /// Read and merge the part files `paths`: one job (the same binding), every sub-aperture
 /// exactly once. A missing one is an error naming how many are missing and the incomplete
 /// parts; a duplicate names both files.

@@ -3,8 +3,7 @@
 //! its part file), and merged into the outputs (a single run does so itself at the end, from
 //! its own part file, exactly as `subaps-merge` does from several).
 
-use super::lock::is_lock_name;
-use super::merge::{expand_parts, is_part_name, merge_parts, Merged};
+use super::merge::{expand_parts, is_lock_name, is_part_name, merge_parts, Merged};
 use super::outputs::{write_outputs, SubapsSummary, OUTPUT_NAMES};
 use super::part::{read_part, PartWriter, Shard};
 use super::run::{solve_each, SubapsJob};

@@ -160,8 +160,8 @@ fn few_frames_give_the_r_of_the_cameras_map() {
             "{count} frames: R {r_frames} against the map's {r_map} (SE {se})"
         );
         // The few-frame warning names the stack and its count, below 100 frames only.
-        let warning = few_frames(&d);
-        assert_eq!(warning.is_some(), count < FEW_FRAMES, "{count}: {warning:?}");
+        let warning = d.few_frames();
+        assert_eq!(warning.is_some(), count < crate::detector::dark_frames::FEW_FRAMES, "{count}: {warning:?}");
         if let Some(w) = warning {
             assert!(w.contains("darks.fits") && w.contains(&format!("only {count} dark frames")));
         }
