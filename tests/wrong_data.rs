@@ -432,3 +432,42 @@ fn light_levels_split_at_gaps_not_at_drift_or_noise() {
     assert_eq!(l[0].frames, (0..40).collect::<Vec<_>>());
     assert!((l[1].mean_adu / l[0].mean_adu - 2.0).abs() < 1e-3);
 }
+
+#[test]
+fn an_8_bit_dark_with_its_offset_high_in_the_range_is_a_dark() {
+    // Issue 31: an 8-bit camera whose offset sits at 80 adu (31 % of 255) was refused as
+    // illuminated by the level alone. 50 frames of 64x64 px, offsets 80 +- 2 adu, 1.5 adu of
+    // Gaussian noise, rounded to uint8 (fixed seed).
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    use tiff::encoder::{colortype, TiffEncoder};
+    let d = tempfile::tempdir().unwrap();
+    let p = d.path().join("darks-u8.tif");
+    let mut rng = rand::rngs::StdRng::seed_from_u64(31);
+    let offsets: Vec<f64> = (0..64 * 64)
+        .map(|_| Normal::new(80.0, 2.0).unwrap().sample(&mut rng))
+        .collect();
+    let noise = Normal::new(0.0, 1.5).unwrap();
+    let mut enc = TiffEncoder::new(std::fs::File::create(&p).unwrap()).unwrap();
+    for _ in 0..50 {
+        let frame: Vec<u8> = offsets
+            .iter()
+            .map(|o| (o + noise.sample(&mut rng)).round().clamp(0.0, 255.0) as u8)
+            .collect();
+        enc.write_image::<colortype::Gray8>(64, 64, &frame).unwrap();
+    }
+    drop(enc);
+    let seen = illumination(&p);
+    assert!(seen.level_fraction_of_range.unwrap() > 0.3);
+    assert!(!seen.illuminated, "{}", seen.describe());
+    let out = d.path().join("out");
+    let a = detnoise()
+        .arg("darks")
+        .arg(&p)
+        .arg("--out")
+        .arg(&out)
+        .assert()
+        .success();
+    assert!(!stderr(&a).contains("illuminated"));
+    assert!(out.join("rms_adu.fits").exists());
+}

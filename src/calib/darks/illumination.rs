@@ -17,9 +17,15 @@ const LIGHT_MIN_ELECTRONS: f64 = 4.0;
 /// flat: below, the correlation comes from rare events on a dark level (EMCCD clock-induced
 /// charge: ~0.3 % of the level); above, the slope is too shallow for shot noise.
 const LIGHT_SIGNAL_FRACTION: (f64, f64) = (0.05, 2.0);
-/// A dark level above this fraction of the stored integer range is light (dark offsets sit a
-/// few percent above zero to keep the dynamic range).
+/// A dark level above this fraction of the stored integer range, and above
+/// [`LIGHT_LEVEL_MIN_ADU`], is light (dark offsets of 12- and 16-bit cameras sit a few percent
+/// above zero to keep the dynamic range).
 const LIGHT_LEVEL_FRACTION: f64 = 0.25;
+/// Lowest level (adu) that the level alone marks as light: the type's range must not decide by
+/// itself, since an 8-bit camera's offset may sit at a third of its 255 adu (issue 31), while
+/// no camera's bias reaches 1000 adu at a quarter of its range (the real EMCCD frames at EM gain
+/// 300, 3x3 px and so too few for the slope, sit at 25,689 adu: 39 % of uint16).
+const LIGHT_LEVEL_MIN_ADU: f64 = 1000.0;
 /// Fewest pixels for the photon-transfer test across pixels.
 const LIGHT_MIN_PIXELS: usize = 64;
 
@@ -83,7 +89,8 @@ impl Illumination {
         let follows_light = slope_t >= LIGHT_SLOPE_T
             && implied_electrons >= LIGHT_MIN_ELECTRONS
             && (f_lo..=f_hi).contains(&implied_signal_fraction);
-        let too_high = level_fraction_of_range.is_some_and(|f| f >= LIGHT_LEVEL_FRACTION);
+        let too_high = level_fraction_of_range.is_some_and(|f| f >= LIGHT_LEVEL_FRACTION)
+            && level_adu >= LIGHT_LEVEL_MIN_ADU;
         Illumination {
             pixels: x.len(),
             level_adu,
@@ -163,5 +170,37 @@ pub fn require_dark(
                 seen.describe()
             ),
         )),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::stream;
+    use rand_distr::{Distribution, Normal};
+
+    /// Maps of a dark on `pixels` pixels at `offset_adu` (spread 2 adu) with 1.5 adu of noise.
+    fn dark_maps(pixels: usize, offset_adu: f64) -> (Vec<f64>, Vec<f64>) {
+        let mut rng = stream(31, 8, 0);
+        let spread = Normal::new(offset_adu, 2.0).unwrap();
+        let offsets = (0..pixels).map(|_| spread.sample(&mut rng)).collect();
+        let rms = (0..pixels)
+            .map(|_| 1.5 + 0.1 * Normal::new(0.0, 1.0).unwrap().sample(&mut rng))
+            .collect();
+        (offsets, rms)
+    }
+
+    #[test]
+    fn the_types_range_alone_does_not_make_a_dark_light() {
+        // An 8-bit camera with its offset at 80 adu (31 % of 255): dark (was refused).
+        let (off, rms) = dark_maps(4096, 80.0);
+        let seen = Illumination::measure(&off, &rms, Some(255.0));
+        assert!(seen.level_fraction_of_range.unwrap() > LIGHT_LEVEL_FRACTION);
+        assert!(!seen.illuminated, "{}", seen.describe());
+        // A 16-bit stack of 9 px (too few for the slope) at 39 % of its range: light.
+        let (off, rms) = dark_maps(9, 25_689.0);
+        let seen = Illumination::measure(&off, &rms, Some(65_535.0));
+        assert!(!seen.slope_t.is_finite());
+        assert!(seen.illuminated, "{}", seen.describe());
     }
 }
