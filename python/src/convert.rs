@@ -85,7 +85,8 @@ pub fn map_from(obj: &Bound<'_, PyAny>, unit: Unit, name: &str) -> PyResult<Map>
 pub const MAX_EXPANDED_ELEMENTS: u128 = 1 << 27;
 
 /// Argument `name` (anything `numpy.asarray` takes) as a numpy array, not copied when it is
-/// one; refused, naming `name`, when complex (float64 would drop the imaginary part) or when
+/// one; refused, naming `name`, when not of numbers (text, objects, dates), when complex
+/// (float64 would drop the imaginary part) or when
 /// its shape has more elements than both the memory it spans holds and
 /// [`MAX_EXPANDED_ELEMENTS`] (checked before anything of its shape is allocated).
 pub fn checked_array<'py>(
@@ -103,6 +104,16 @@ pub fn checked_array<'py>(
             format!(
                 "complex values (dtype {dtype}): detnoise takes real numbers and would drop the \
                  imaginary part; pass `.real` or `abs()` of the array"
+            ),
+        ));
+    }
+    if !matches!(dtype.kind(), b'b' | b'i' | b'u' | b'f') {
+        return Err(invalid(
+            name,
+            format!(
+                "values of dtype {dtype}, not numbers: detnoise takes arrays of real numbers \
+                 (integer or float), and would not guess at text or objects; convert them \
+                 first, e.g. with `numpy.asarray(x, dtype=float)`"
             ),
         ));
     }

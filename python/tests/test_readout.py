@@ -188,3 +188,17 @@ def test_complex_arrays_are_refused_naming_the_argument():
     ]:
         with pytest.raises(ValueError, match=f"{keyword}: complex values"):
             call()
+
+
+def test_arrays_of_text_or_objects_are_refused_naming_the_argument():
+    # numpy would read ["1.5"] as 1.5 and objects as whatever float() makes of them.
+    cam = detnoise.Readout("scmos-constant:1", gain_e_per_adu=2.0)
+    for call, keyword, dtype in [
+        (lambda: cam.read(np.array([["1.5", "2"], ["0", "0"]])), "`image_e`", "<U3"),
+        (lambda: cam.read(np.array([[1.0, None], [0, 0]], dtype=object)), "`image_e`", "object"),
+        (lambda: detnoise.fit_pdf(np.array(["1.0"] * 16)), "`rms_e`", "<U3"),
+    ]:
+        with pytest.raises(ValueError, match=f"{keyword}: values of dtype {dtype}, not numbers"):
+            call()
+    # Booleans and integers are numbers.
+    assert cam.read(np.ones((4, 4), dtype=np.int16), seed=1).shape == (4, 4)
