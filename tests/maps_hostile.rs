@@ -254,6 +254,23 @@ fn a_file_given_twice_is_refused_naming_it() {
     ]);
     args.extend([os("--out"), out.as_os_str()]);
     refused(d.path(), &args, 1, &said, &out);
+    // One flat given as two light levels: refused before the darks are calibrated.
+    let flat = stack(d.path(), b"flat.fits", (16, 16), 20);
+    let mut args = [os("report"), os("--darks"), f, os("--quick")].to_vec();
+    args.extend([
+        os("--flats"),
+        flat.as_os_str(),
+        os("--flats"),
+        flat.as_os_str(),
+    ]);
+    args.extend([os("--out"), out.as_os_str()]);
+    refused(
+        d.path(),
+        &args,
+        1,
+        &["flat.fits: given twice among the flats' files"],
+        &out,
+    );
 }
 
 #[test]

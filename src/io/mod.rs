@@ -36,5 +36,5 @@ pub use inputs::expand_inputs;
 pub use reader::StackReader;
 #[cfg(test)]
 pub(crate) use stack::named_as_truth_map;
-pub use stack::FrameStack;
+pub use stack::{check_distinct, FrameStack};
 pub use stream::{read_batches, FrameBatch};

@@ -30,7 +30,7 @@ impl FrameStack {
     /// saved as .fits, .tif and .exr in one directory are not a stack three times as long.
     pub fn open(inputs: &[PathBuf]) -> Result<FrameStack> {
         let files = expand_inputs(inputs)?;
-        check_distinct(&files)?;
+        check_distinct(&files, "the stack's files")?;
         let sources = files
             .iter()
             .map(|p| scan_file(p))
@@ -123,11 +123,12 @@ impl FrameStack {
     }
 }
 
-/// An error naming the first file that the stack's arguments give twice (the same file by
-/// another name, a link, or inside a directory also given): its frames would be read twice,
-/// which doubles their weight and makes a noise stack look non-Gaussian. Files are compared
-/// by device and inode, which sees through every spelling of a path (a copy is another file).
-fn check_distinct(files: &[PathBuf]) -> Result<()> {
+/// An error naming the first file that `files` (described as `among`, e.g. "the stack's
+/// files") give twice (the same file by another name, a link, or inside a directory also
+/// given): its frames would be read twice, which doubles their weight and makes a noise stack
+/// look non-Gaussian. Files are compared by device and inode, which sees through every
+/// spelling of a path (a copy is another file).
+pub fn check_distinct(files: &[PathBuf], among: &str) -> Result<()> {
     use std::collections::HashMap;
     use std::os::unix::fs::MetadataExt;
     let mut seen: HashMap<(u64, u64), &Path> = HashMap::new();
@@ -142,8 +143,8 @@ fn check_distinct(files: &[PathBuf]) -> Result<()> {
             return Err(Error::input(
                 f,
                 format!(
-                    "given twice among the stack's files{same}: its frames would be read twice; \
-                     give each file once"
+                    "given twice among {among}{same}: its frames would be read twice; give \
+                     each file once"
                 ),
             ));
         }
