@@ -385,3 +385,21 @@ fn one_light_level_has_no_reduced_chi2_and_says_so() {
     assert!(json["reduced_chi2"].is_null());
     assert_eq!(json["fit_check"], "no_degrees_of_freedom");
 }
+
+#[test]
+fn em_gain_given_for_plain_shot_noise_flats_is_warned_of() {
+    // sCMOS flats (K = 0.5 e/adu) analysed as if an EM register of G = 100 had amplified them.
+    let d = tempfile::tempdir().unwrap();
+    let told = PtcOptions {
+        em_gain: 100.0,
+        excess_noise_factor_sq: 2.0,
+        ..Default::default()
+    };
+    let p = own_flats_run(d.path(), &[50.0, 100.0, 200.0], 0.5, 1.5, None, told).result;
+    eprintln!(
+        "sCMOS told G = 100: excess ratio {:.3} +/- {:.3}",
+        p.excess_noise.ratio, p.excess_noise.ratio_se
+    );
+    assert_eq!(p.warnings.len(), 1, "{:?}", p.warnings);
+    assert!(p.warnings[0].contains("plain shot noise"));
+}
