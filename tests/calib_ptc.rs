@@ -240,3 +240,166 @@ fn the_written_points_reproduce_the_fitted_gain_and_each_level_measures_it() {
         assert!(pull.abs() < 4.0, "pull {pull}");
     }
 }
+
+/// Frames of `shape` written as a uint16 FITS cube at `p`, each pixel `offset + draw() / k`
+/// (adu; `draw` gives electrons, read noise included).
+fn write_flat(
+    p: &Path,
+    shape: (usize, usize),
+    frames: usize,
+    k: f64,
+    mut draw: impl FnMut() -> f64,
+) -> PathBuf {
+    let mut next = || {
+        (0..shape.0 * shape.1)
+            .map(|_| (500.0 + draw() / k).round())
+            .collect()
+    };
+    detnoise::io::fits::write_cube(p, shape, frames, true, &mut next, &[]).unwrap();
+    p.to_path_buf()
+}
+
+/// A `ptc` run of darks and flats at `levels` (mean e- per pixel) made here, not by `synth`:
+/// 64x64 pixels, 64 frames, conversion gain `k` (e/adu), read noise `read_e` (e-), and an EM
+/// register of gain `em` when given (each photo-electron's output Gamma/exponential, F^2 = 2).
+fn own_flats_run(
+    dir: &Path,
+    levels: &[f64],
+    k: f64,
+    read_e: f64,
+    em: Option<f64>,
+    options: PtcOptions,
+) -> detnoise::calib::ptc::PtcRunResult {
+    use rand_distr::{Distribution, Gamma, Normal, Poisson};
+    let (shape, frames) = ((64, 64), 64);
+    let mut rng = detnoise::rng::stream(31, 0, 0);
+    let read = Normal::new(0.0, read_e).unwrap();
+    let darks = write_flat(&dir.join("dark.fits"), shape, frames, k, || {
+        read.sample(&mut rng)
+    });
+    let flats = levels
+        .iter()
+        .map(|&l| {
+            let light = Poisson::new(l).unwrap();
+            write_flat(
+                &dir.join(format!("flat-{l}.fits")),
+                shape,
+                frames,
+                k,
+                || {
+                    let n: f64 = light.sample(&mut rng);
+                    let e = match em {
+                        Some(g) if n > 0.0 => Gamma::new(n, g).unwrap().sample(&mut rng),
+                        Some(_) => 0.0,
+                        None => n,
+                    };
+                    e + read.sample(&mut rng)
+                },
+            )
+        })
+        .collect();
+    detnoise::calib::ptc::run(&detnoise::calib::ptc::PtcRun {
+        darks: detnoise::calib::ptc::DarkInput::Stack(darks),
+        flats,
+        out: dir.join("out"),
+        force: false,
+        options,
+    })
+    .unwrap()
+}
+
+#[test]
+fn emccd_flats_without_em_gain_are_flagged_and_with_it_give_the_gain() {
+    use detnoise::calib::ptc::ExcessVerdict;
+    // K = 10 e/adu, read noise 50 e-, G = 100: without --em-gain the slope is G F^2 / K, the
+    // gain 10 / 200 = 0.05 e/adu.
+    let levels = [20.0, 50.0, 100.0, 200.0];
+    let d = tempfile::tempdir().unwrap();
+    let r = own_flats_run(
+        d.path(),
+        &levels,
+        10.0,
+        50.0,
+        Some(100.0),
+        PtcOptions::default(),
+    );
+    let (p, s) = (&r.result, &r.summary);
+    let x = &p.excess_noise;
+    eprintln!(
+        "no --em-gain: gain {:.5} e/adu, excess ratio {:.3} +/- {:.3}, {:?}",
+        p.gain_e_per_adu, x.ratio, x.ratio_se, x.verdict
+    );
+    assert!(
+        (p.gain_e_per_adu / 0.05 - 1.0).abs() < 0.1,
+        "the trap is real"
+    );
+    assert_eq!(x.verdict, ExcessVerdict::EmRegister);
+    assert!(
+        p.warnings.iter().any(|w| w.contains("--em-gain")),
+        "{:?}",
+        p.warnings
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(r.out.join("ptc.json")).unwrap()).unwrap();
+    assert_eq!(json["excess_noise"]["verdict"], "em_register");
+    assert_eq!(json["warnings"].as_array().unwrap().len(), s.warnings.len());
+    assert!(json["warnings"][0].as_str().unwrap().contains("--em-gain"));
+    // Told the EM gain and F^2, the same flats give K = 10 and no warning.
+    let d = tempfile::tempdir().unwrap();
+    let told = PtcOptions {
+        em_gain: 100.0,
+        excess_noise_factor_sq: 2.0,
+        ..Default::default()
+    };
+    let p = own_flats_run(d.path(), &levels, 10.0, 50.0, Some(100.0), told).result;
+    let pull = (p.gain_e_per_adu - 10.0) / p.gain_err_e_per_adu;
+    eprintln!(
+        "--em-gain 100: gain {:.4} +/- {:.4} e/adu (pull {pull:.2}), {:?}",
+        p.gain_e_per_adu, p.gain_err_e_per_adu, p.excess_noise.verdict
+    );
+    assert!(pull.abs() < 4.0, "pull {pull}");
+    assert_eq!(p.excess_noise.verdict, ExcessVerdict::EmRegister);
+    assert!(p.warnings.is_empty(), "{:?}", p.warnings);
+}
+
+#[test]
+fn one_light_level_has_no_reduced_chi2_and_says_so() {
+    use detnoise::calib::ptc::ExcessVerdict;
+    // sCMOS: K = 0.5 e/adu, read noise 1.5 e-, one level of 100 e-.
+    let d = tempfile::tempdir().unwrap();
+    let r = own_flats_run(d.path(), &[100.0], 0.5, 1.5, None, PtcOptions::default());
+    let p = &r.result;
+    eprintln!(
+        "one level: gain {:.4} +/- {:.4} e/adu, excess ratio {:.3} +/- {:.3}",
+        p.gain_e_per_adu, p.gain_err_e_per_adu, p.excess_noise.ratio, p.excess_noise.ratio_se
+    );
+    assert_eq!(p.reduced_chi2, None);
+    assert!((p.gain_e_per_adu - 0.5).abs() < 4.0 * p.gain_err_e_per_adu);
+    // Plain shot noise is told apart from an EM register, so no EM warning.
+    assert_eq!(p.excess_noise.verdict, ExcessVerdict::ShotNoise);
+    assert_eq!(p.warnings.len(), 1, "{:?}", p.warnings);
+    assert!(p.warnings[0].contains("cannot be checked"));
+    let text = std::fs::read_to_string(r.out.join("ptc.json")).unwrap();
+    assert!(!text.contains("NaN"));
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(json["reduced_chi2"].is_null());
+    assert_eq!(json["fit_check"], "no_degrees_of_freedom");
+}
+
+#[test]
+fn em_gain_given_for_plain_shot_noise_flats_is_warned_of() {
+    // sCMOS flats (K = 0.5 e/adu) analysed as if an EM register of G = 100 had amplified them.
+    let d = tempfile::tempdir().unwrap();
+    let told = PtcOptions {
+        em_gain: 100.0,
+        excess_noise_factor_sq: 2.0,
+        ..Default::default()
+    };
+    let p = own_flats_run(d.path(), &[50.0, 100.0, 200.0], 0.5, 1.5, None, told).result;
+    eprintln!(
+        "sCMOS told G = 100: excess ratio {:.3} +/- {:.3}",
+        p.excess_noise.ratio, p.excess_noise.ratio_se
+    );
+    assert_eq!(p.warnings.len(), 1, "{:?}", p.warnings);
+    assert!(p.warnings[0].contains("plain shot noise"));
+}

@@ -76,14 +76,19 @@ pub fn run(args: &PtcArgs) -> Result<()> {
     let r = run_ptc(&job)?;
     let p = &r.result;
     p.notes.iter().for_each(|n| eprintln!("{n}"));
+    let chi2 = match p.reduced_chi2 {
+        Some(c) => format!("reduced chi2 {c:.2}"),
+        None => "reduced chi2 n/a: no degrees of freedom, the fit cannot be checked".into(),
+    };
     eprintln!(
-        "conversion gain {:.5} +/- {:.5} e/adu over {} levels (reduced chi2 {:.2}); median read noise {:.3} e-; wrote {}",
+        "conversion gain {:.5} +/- {:.5} e/adu over {} levels ({chi2}); median read noise {:.3} e-; wrote {}",
         p.gain_e_per_adu,
         p.gain_err_e_per_adu,
         p.levels.len(),
-        p.reduced_chi2,
         p.read_noise_e_median,
         r.out.display()
     );
+    // Last, so they are not lost above the summary.
+    p.warnings.iter().for_each(|w| eprintln!("{w}"));
     Ok(())
 }

@@ -5,11 +5,13 @@
 //! writes the levels as a table, and `run` is the whole `ptc` command as one call (maps, chart,
 //! points and ptc.json written).
 
+mod excess;
 mod levels;
 mod points;
 mod run;
 mod transfer;
 
+pub use excess::{ExcessNoise, ExcessVerdict};
 pub use levels::{light_levels, LightLevel};
 pub use points::{points, write_points, PtcPoint, POINTS_NAMES};
 pub use run::{chart, run, DarkInput, PtcRun, PtcRunResult, PtcSummary, OUTPUT_NAMES};

@@ -6,6 +6,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use super::excess::ExcessNoise;
 use super::points::{write_points, POINTS_NAMES};
 use super::transfer::{photon_transfer, DarkReference, Level, PtcOptions, PtcResult};
 use crate::calib::darks::{pixel_stats, Clip};
@@ -72,8 +73,14 @@ pub struct PtcSummary {
     pub gain_err_e_per_adu: f64,
     /// Fitted intercept of dark-subtracted variance vs mean (adu^2).
     pub intercept_adu2: f64,
-    /// Reduced chi-square of the global fit.
-    pub reduced_chi2: f64,
+    /// Reduced chi-square of the global fit; null with 1 or 2 levels (no degrees of freedom).
+    pub reduced_chi2: Option<f64>,
+    /// `checked` when the reduced chi-square exists, `no_degrees_of_freedom` when it does not.
+    pub fit_check: &'static str,
+    /// The flats' excess-noise signature (third-moment ratio, 1 shot noise, 1.5 EM register).
+    pub excess_noise: ExcessNoise,
+    /// Results to distrust (EM gain missing or not seen, a fit that cannot be checked).
+    pub warnings: Vec<String>,
     /// Median read noise (e-) = median dark rms (adu) x global gain.
     pub read_noise_e_median: f64,
     /// Per-pixel gain distribution (e per adu).
@@ -173,6 +180,12 @@ pub fn run(job: &PtcRun) -> Result<PtcRunResult> {
         gain_err_e_per_adu: r.gain_err_e_per_adu,
         intercept_adu2: r.intercept_adu2,
         reduced_chi2: r.reduced_chi2,
+        fit_check: match r.reduced_chi2 {
+            Some(_) => "checked",
+            None => "no_degrees_of_freedom",
+        },
+        excess_noise: r.excess_noise,
+        warnings: r.warnings.clone(),
         read_noise_e_median: r.read_noise_e_median,
         gain_map: Distribution::of(&r.gain_map.data),
         read_noise_e_map: Distribution::of(&r.read_noise_e_map.data),

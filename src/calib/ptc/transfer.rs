@@ -20,6 +20,7 @@
 
 use serde::Serialize;
 
+use super::excess::{level_ratio, ExcessNoise, ExcessVerdict};
 use super::levels::{clean, describe_levels, light_levels};
 use crate::calib::darks::{pixel_stats_of, Clip, FrameHook, PixelStats};
 use crate::calib::{Map, Unit};
@@ -115,8 +116,11 @@ pub struct PtcResult {
     pub slope: f64,
     /// Fitted intercept of variance vs mean (adu^2; near 0 after dark subtraction).
     pub intercept_adu2: f64,
-    /// Reduced chi-square of the global fit (NaN with fewer than 3 levels).
-    pub reduced_chi2: f64,
+    /// Reduced chi-square of the global fit; None with 1 or 2 levels (no degrees of freedom:
+    /// the straight line cannot be checked against the points).
+    pub reduced_chi2: Option<f64>,
+    /// The flats' excess-noise signature: whether an EM register amplified them.
+    pub excess_noise: ExcessNoise,
     /// Per-pixel conversion gain (e per adu; NaN where no level is usable).
     pub gain_map: Map,
     /// Per-pixel standard error of the gain (e per adu).
@@ -127,6 +131,8 @@ pub struct PtcResult {
     pub read_noise_e_median: f64,
     /// What was done to the input beyond the plain analysis (stacks split into light levels).
     pub notes: Vec<String>,
+    /// Results to distrust: EM gain missing or not seen, a fit that cannot be checked.
+    pub warnings: Vec<String>,
 }
 
 /// Statistics of one flat stack with optional flicker removal, relative to `dark`, with each
@@ -208,8 +214,9 @@ pub fn photon_transfer(
     }
     let (rows, cols) = (dark.offset_adu.rows, dark.offset_adu.cols);
     let gain_factor = opts.em_gain * opts.excess_noise_factor_sq;
-    let (levels, points, notes) = flat_levels(flats, dark, opts)?;
+    let (levels, points, ratios, notes) = flat_levels(flats, dark, opts)?;
     let (slope, slope_err, intercept, chi2) = fit_line(&levels)?;
+    let excess_noise = ExcessNoise::combine(&ratios);
     if slope.is_nan() || slope <= 0.0 {
         return Err(Error::Numeric(format!(
             "photon transfer slope {slope} adu is not positive: flats brighter than darks?"
@@ -222,6 +229,7 @@ pub fn photon_transfer(
         .map(|i| dark.var_adu2[i].sqrt() * gain_map[i])
         .collect();
     let dark_rms: Vec<f64> = dark.var_adu2.iter().map(|v| v.sqrt()).collect();
+    let warnings = warnings(levels.len(), chi2, &excess_noise, opts, gain);
     Ok(PtcResult {
         levels,
         gain_e_per_adu: gain,
@@ -229,12 +237,44 @@ pub fn photon_transfer(
         slope,
         intercept_adu2: intercept,
         reduced_chi2: chi2,
+        excess_noise,
         gain_map: Map::new(rows, cols, gain_map, Unit::EPerAdu),
         gain_err_map: Map::new(rows, cols, gain_err_map, Unit::EPerAdu),
         read_noise_e_map: Map::new(rows, cols, rn, Unit::Electrons),
         read_noise_e_median: median(&dark_rms) * gain,
         notes,
+        warnings,
     })
+}
+
+/// Warnings on a result: flats amplified by an EM register but no `em_gain` given (the gain is
+/// then G F^2 too small), `em_gain` given but no register seen, or too few levels to check
+/// the fit.
+fn warnings(
+    levels: usize,
+    chi2: Option<f64>,
+    excess: &ExcessNoise,
+    opts: &PtcOptions,
+    gain: f64,
+) -> Vec<String> {
+    let mut w = Vec::new();
+    let r = format!("{:.2} +/- {:.2}", excess.ratio, excess.ratio_se);
+    match excess.verdict {
+        ExcessVerdict::EmRegister if opts.em_gain == 1.0 => w.push(format!(
+            "WARNING: these flats show an EM register's excess noise (third-moment ratio {r}; 1 for plain shot noise, 1.5 for EM-multiplied light) but no --em-gain was given: the conversion gain {gain:.5} e/adu is too small by the EM gain x F^2 (about 200 at G = 100). Give --em-gain G and --excess-noise-factor-sq 2"
+        )),
+        ExcessVerdict::ShotNoise if opts.em_gain > 1.0 => w.push(format!(
+            "WARNING: --em-gain {} was given but these flats show plain shot noise (third-moment ratio {r}; an EM register gives 1.5): the conversion gain is too large by the EM gain x F^2 if the register was off",
+            opts.em_gain
+        )),
+        _ => {}
+    }
+    if chi2.is_none() {
+        w.push(format!(
+            "WARNING: {levels} light level(s) leave the photon-transfer fit no degrees of freedom: its reduced chi-square is not available and the straight line cannot be checked (give 3 or more levels)"
+        ));
+    }
+    w
 }
 
 /// The light levels of `flats` with their per-pixel points: a stack per level, or a stack
@@ -244,10 +284,11 @@ fn flat_levels(
     flats: &[FrameStack],
     dark: &DarkReference,
     opts: &PtcOptions,
-) -> Result<(Vec<Level>, Vec<LevelPoints>, Vec<String>)> {
+) -> Result<FlatLevels> {
     let mut levels = Vec::new();
     // Per level: each pixel's dark-subtracted (mean, variance), NaN where masked; frames.
     let mut points: Vec<LevelPoints> = Vec::new();
+    let mut ratios = Vec::new();
     let mut notes = Vec::new();
     for stack in flats {
         stack.require_frames(2, "a flat variance")?;
@@ -255,6 +296,16 @@ fn flat_levels(
         let groups = light_levels(&frame_means);
         if groups.len() == 1 {
             let (level, p) = level_of(stack, &stats, &frame_means, dark, opts)?;
+            ratios.push(third_moment(
+                stack,
+                None,
+                &stats,
+                &frame_means,
+                dark,
+                opts,
+                &level,
+                &p,
+            )?);
             levels.push(level);
             points.push(p);
             continue;
@@ -276,6 +327,16 @@ fn flat_levels(
             g.frames.iter().for_each(|k| select[*k] = true);
             let (stats, means) = flat_stats_of(stack, dark, opts, Some(&select))?;
             let (level, p) = level_of(stack, &stats, &means, dark, opts)?;
+            ratios.push(third_moment(
+                stack,
+                Some(&select),
+                &stats,
+                &means,
+                dark,
+                opts,
+                &level,
+                &p,
+            )?);
             levels.push(level);
             points.push(p);
         }
@@ -286,7 +347,43 @@ fn flat_levels(
             groups.len()
         ));
     }
-    Ok((levels, points, notes))
+    Ok((levels, points, ratios, notes))
+}
+
+/// The excess-noise ratio (and its SE) of one level: its frames read again, flicker removed
+/// as for the variances, centred on each pixel's mean.
+#[allow(clippy::too_many_arguments)]
+fn third_moment(
+    stack: &FrameStack,
+    select: Option<&[bool]>,
+    stats: &PixelStats,
+    frame_means: &[f64],
+    dark: &DarkReference,
+    opts: &PtcOptions,
+    level: &Level,
+    (pm, _, _): &LevelPoints,
+) -> Result<(f64, f64)> {
+    let big_m = frame_means.iter().sum::<f64>() / frame_means.len() as f64;
+    let scale: Vec<f64> = frame_means
+        .iter()
+        .map(|m| {
+            if opts.flicker && *m > 0.0 {
+                big_m / m
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let usable: Vec<bool> = pm.iter().map(|m| m.is_finite()).collect();
+    level_ratio(
+        stack,
+        select,
+        &scale,
+        &dark.offset_adu.data,
+        &stats.mean.data,
+        &usable,
+        (level.mean_adu, level.var_adu2),
+    )
 }
 
 /// Per-pixel conversion gain and its standard error (e per adu; NaN where no level counts).
@@ -323,6 +420,9 @@ fn pixel_gains(
     }
     (gain_map, gain_err_map)
 }
+
+/// Levels, their per-pixel points, their excess-noise ratios (R, SE) and notes.
+type FlatLevels = (Vec<Level>, Vec<LevelPoints>, Vec<(f64, f64)>, Vec<String>);
 
 /// One level's pixels: dark-subtracted mean (adu) and variance (adu^2), NaN where masked,
 /// and the frame count.
@@ -390,7 +490,8 @@ fn level_of(
 }
 
 /// Weighted fit v = a + b m over levels: (b, se(b), a, reduced chi2). One level: a = 0.
-fn fit_line(levels: &[Level]) -> Result<(f64, f64, f64, f64)> {
+/// The reduced chi2 is None without degrees of freedom (1 or 2 levels).
+fn fit_line(levels: &[Level]) -> Result<(f64, f64, f64, Option<f64>)> {
     let w: Vec<f64> = levels
         .iter()
         .map(|l| 1.0 / l.var_err_adu2.powi(2))
@@ -401,7 +502,7 @@ fn fit_line(levels: &[Level]) -> Result<(f64, f64, f64, f64)> {
             l.var_adu2 / l.mean_adu,
             l.var_err_adu2 / l.mean_adu,
             0.0,
-            f64::NAN,
+            None,
         ));
     }
     let (mut s, mut sx, mut sy, mut sxx, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
@@ -427,10 +528,10 @@ fn fit_line(levels: &[Level]) -> Result<(f64, f64, f64, f64)> {
         .map(|(l, w)| w * (l.var_adu2 - a - b * l.mean_adu).powi(2))
         .sum();
     let dof = levels.len() as f64 - 2.0;
-    let red = if dof > 0.0 { chi2 / dof } else { f64::NAN };
+    let red = (dof > 0.0).then(|| chi2 / dof);
     // Scatter beyond the stated errors (nonlinearity, residual flicker) widens the error.
-    if red > 1.0 {
-        se_b *= red.sqrt();
+    if let Some(r) = red.filter(|r| *r > 1.0) {
+        se_b *= r.sqrt();
     }
     Ok((b, se_b, a, red))
 }
