@@ -82,6 +82,11 @@ pub(super) fn calibrate(
         observer.warn(&warning);
     }
     let gain = conversion_gain(o, &maps)?;
+    // What photon transfer says to distrust (an EM register in the flats, a fit that cannot
+    // be checked) is the report's to say too.
+    for warning in gain.ptc.iter().flat_map(|p| &p.warnings) {
+        observer.warn(warning);
+    }
     let summary = write_dark_outputs(
         &dir.path(""),
         stack,
