@@ -268,9 +268,25 @@ fn a_file_given_twice_is_refused_naming_it() {
         d.path(),
         &args,
         1,
-        &["flat.fits: given twice among the flats' files"],
+        &["flat.fits: given twice among the darks' and flats' files"],
         &out,
     );
+    // ptc: the same, and the darks given as a flat.
+    let mut args = [os("ptc"), os("--darks"), f].to_vec();
+    args.extend([
+        os("--flats"),
+        flat.as_os_str(),
+        os("--flats"),
+        flat.as_os_str(),
+    ]);
+    args.extend([os("--out"), out.as_os_str()]);
+    let said = ["flat.fits: given twice among the darks' and flats' files"];
+    refused(d.path(), &args, 1, &said, &out);
+    let mut args = [os("ptc"), os("--darks"), f].to_vec();
+    args.extend([os("--flats"), flat.as_os_str(), os("--flats"), f]);
+    args.extend([os("--out"), out.as_os_str()]);
+    let said = ["darks.fits: given twice among the darks' and flats' files"];
+    refused(d.path(), &args, 1, &said, &out);
 }
 
 #[test]

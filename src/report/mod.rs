@@ -61,11 +61,17 @@ pub fn output_names(with_subaps: bool) -> Vec<&'static str> {
 /// into `options.out_dir`.
 pub fn run(options: &ReportOptions, observer: &dyn Observer) -> Result<ReportResult> {
     options.validate()?;
-    // Each flat is its own stack, which checks only its own files: one file given twice
-    // across the flats would count as two light levels.
+    // Each flat is its own stack, which checks only its own files: one file given as two
+    // flats (two light levels of one) or as the darks and a flat is refused here.
     if !options.flats_paths.is_empty() {
-        let flats = crate::io::expand_inputs(&options.flats_paths)?;
-        crate::io::check_distinct(&flats, "the flats' files")?;
+        let stacks: Vec<PathBuf> = options
+            .flats_paths
+            .iter()
+            .chain(&options.darks_paths)
+            .cloned()
+            .collect();
+        let files = crate::io::expand_inputs(&stacks)?;
+        crate::io::check_distinct(&files, "the darks' and flats' files")?;
     }
     let grid = options.grid();
     let inputs: Vec<PathBuf> = options

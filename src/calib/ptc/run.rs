@@ -151,6 +151,16 @@ pub fn run(job: &PtcRun) -> Result<PtcRunResult> {
         DarkInput::Maps { offset, rms } => vec![offset.clone(), rms.clone()],
     };
     let input_paths: Vec<PathBuf> = dark_paths.into_iter().chain(job.flats.clone()).collect();
+    // Each stack checks only its own files: one file given as two flats (two light levels of
+    // one) or as the darks and a flat is refused here, before any output.
+    let mut stacks = job.flats.clone();
+    if let DarkInput::Stack(d) = &job.darks {
+        stacks.push(d.clone());
+    }
+    if !stacks.is_empty() {
+        let files = crate::io::expand_inputs(&stacks)?;
+        crate::io::check_distinct(&files, "the darks' and flats' files")?;
+    }
     let dir = OutputDir::prepare(
         &job.out,
         DirPlan {
