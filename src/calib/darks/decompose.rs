@@ -13,7 +13,9 @@
 //!
 //! a linear system solved for (p, r, c, f), so each component is counted once (with a single
 //! row or column the frame term is one with the line term that spans the frame, and is not
-//! separated; `--common-mode` removes it before). Standard errors are those of Gaussian
+//! separated). After `--common-mode` the frame term is what taking off an estimated level
+//! leaves: the estimate's own noise, less the pixel noise it takes with it (-p / (M N) for
+//! the frame mean), with the row and column terms unchanged. Standard errors are those of Gaussian
 //! noise: a sample variance over n frames has variance 2 v^2 / (n - 1), and two of them
 //! 2 cov^2 / (n - 1), with the covariances the components imply (pixels of a row share
 //! r + f, of a column c + f, any two f; row means share c / N + f, column means r / M + f),
