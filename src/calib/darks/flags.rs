@@ -137,6 +137,7 @@ mod tests {
                 pixel: (0.0, 0.0),
                 row: None,
                 column: None,
+                frame: None,
             },
             per_frame: vec![],
         }

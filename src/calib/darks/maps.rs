@@ -2,6 +2,7 @@
 //! the common-mode offsets removed, and the telegraph fits of the RTS pixels.
 
 use super::accumulate::{stats_tapped, FrameHook, PixelStats};
+use super::common_mode::common_level;
 use super::flags::flag_pixels;
 use super::options::DarkOptions;
 use super::rts::{fit_rts, RtsFits};
@@ -9,7 +10,7 @@ use crate::calib::summary::{with_inputs_hashed, Checksum, InputFile};
 use crate::calib::{Map, Unit};
 use crate::error::Result;
 use crate::io::{ByteTap, FrameStack};
-use crate::stats::{correlation, median};
+use crate::stats::correlation;
 
 /// Dark-stack calibration: offset and read-noise maps, flags and summary figures.
 #[derive(Clone, Debug)]
@@ -48,7 +49,7 @@ pub fn dark_maps_hashed(
 /// Dark maps, handing the frames read to `tap`.
 fn maps(stack: &FrameStack, opts: &DarkOptions, tap: Option<&ByteTap>) -> Result<DarkMaps> {
     let cm = |_k: usize, f: &mut [f64]| {
-        let m = median(f);
+        let m = common_level(f);
         f.iter_mut().for_each(|v| *v -= m);
         m
     };

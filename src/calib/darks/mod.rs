@@ -4,13 +4,14 @@
 //!
 //! Layout: `accumulate` computes the per-pixel statistics of any stack (its per-pixel sums in
 //! `tile`, its inner loop in `kernel`, every frame's row and column sums in `lines`), `maps`
-//! turns those of a dark stack into its maps, `flags` flags pixels, `decompose` splits the
-//! temporal noise into pixel, row and column parts, `kurtosis` gives the per-pixel excess
+//! turns those of a dark stack into its maps (`common_mode` the level taken off each frame), `flags` flags pixels, `decompose` splits the
+//! temporal noise into pixel, row, column and frame parts, `kurtosis` gives the per-pixel excess
 //! kurtosis, `rts` reads and fits (`telegraph`) the RTS pixels and `rts_table` writes their
 //! table, `illumination` refuses flats given as darks, `outputs` writes the maps and summary,
 //! and `run` is the whole `darks` command as one call.
 
 mod accumulate;
+mod common_mode;
 mod decompose;
 mod flags;
 mod illumination;
