@@ -32,7 +32,8 @@ pub struct DarksArgs {
     /// Reject samples more than K standard deviations from the pixel mean (two passes). Default: off.
     #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "standard deviations"))]
     pub sigma_clip: Option<f64>,
-    /// Subtract each frame's median (common-mode offset, adu) before accumulating. Default: off.
+    /// Subtract each frame's median (common-mode offset, adu; read between integer steps when
+    /// values tie, so integer data leave no rounding residue) before accumulating. Default: off.
     #[arg(long)]
     pub common_mode: bool,
     /// Hot-pixel threshold: offset above median + K robust sigmas of the offset map.
