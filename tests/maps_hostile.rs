@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::detnoise;
+use common::{detnoise, FAST};
 use detnoise::calib::{Map, Unit};
 use detnoise::io::fits::write_cube;
 use std::ffi::OsStr;
@@ -51,17 +51,6 @@ fn refused(dir: &Path, args: &[&OsStr], code: i32, says: &[&str], out: &Path) ->
 fn os(s: &str) -> &OsStr {
     OsStr::new(s)
 }
-
-const FAST: [&str; 8] = [
-    "--iters",
-    "1000",
-    "--max-iters",
-    "1000",
-    "--target-se-e",
-    "0",
-    "--target-rel",
-    "0",
-];
 
 #[test]
 fn a_path_that_is_not_utf8_is_refused_naming_it() {
@@ -254,39 +243,31 @@ fn a_file_given_twice_is_refused_naming_it() {
     ]);
     args.extend([os("--out"), out.as_os_str()]);
     refused(d.path(), &args, 1, &said, &out);
-    // One flat given as two light levels: refused before the darks are calibrated.
+    // One flat given as two light levels (report and ptc), or the darks given as a flat
+    // (ptc): refused before the darks are calibrated.
     let flat = stack(d.path(), b"flat.fits", (16, 16), 20);
-    let mut args = [os("report"), os("--darks"), f, os("--quick")].to_vec();
-    args.extend([
-        os("--flats"),
-        flat.as_os_str(),
-        os("--flats"),
-        flat.as_os_str(),
-    ]);
-    args.extend([os("--out"), out.as_os_str()]);
-    refused(
-        d.path(),
-        &args,
-        1,
-        &["flat.fits: given twice among the darks' and flats' files"],
-        &out,
-    );
-    // ptc: the same, and the darks given as a flat.
-    let mut args = [os("ptc"), os("--darks"), f].to_vec();
-    args.extend([
-        os("--flats"),
-        flat.as_os_str(),
-        os("--flats"),
-        flat.as_os_str(),
-    ]);
-    args.extend([os("--out"), out.as_os_str()]);
-    let said = ["flat.fits: given twice among the darks' and flats' files"];
-    refused(d.path(), &args, 1, &said, &out);
-    let mut args = [os("ptc"), os("--darks"), f].to_vec();
-    args.extend([os("--flats"), flat.as_os_str(), os("--flats"), f]);
-    args.extend([os("--out"), out.as_os_str()]);
-    let said = ["darks.fits: given twice among the darks' and flats' files"];
-    refused(d.path(), &args, 1, &said, &out);
+    let g = flat.as_os_str();
+    let cases: [(&[&OsStr], &[&OsStr], &str); 3] = [
+        (
+            &[os("report"), os("--darks"), f, os("--quick")],
+            &[g, g],
+            "flat.fits",
+        ),
+        (&[os("ptc"), os("--darks"), f], &[g, g], "flat.fits"),
+        (&[os("ptc"), os("--darks"), f], &[g, f], "darks.fits"),
+    ];
+    for (command, flats, twice) in cases {
+        let mut args = command.to_vec();
+        for flat in flats {
+            args.extend([os("--flats"), flat]);
+        }
+        args.extend([os("--out"), out.as_os_str()]);
+        let said = [format!(
+            "{twice}: given twice among the darks' and flats' files"
+        )];
+        let said: Vec<&str> = said.iter().map(String::as_str).collect();
+        refused(d.path(), &args, 1, &said, &out);
+    }
 }
 
 #[test]

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::detnoise;
+use common::{detnoise, FAST};
 use detnoise::calib::{Map, Unit};
 use detnoise::io::fits::{key, KeyValue};
 use std::path::{Path, PathBuf};
@@ -21,18 +21,6 @@ fn map_file(dir: &Path, name: &str, unit: Unit) -> PathBuf {
         .unwrap();
     p
 }
-
-/// The fast options of every run: 4 px sub-apertures, 1,000 iterations, no precision target.
-const FAST: [&str; 8] = [
-    "--iters",
-    "1000",
-    "--max-iters",
-    "1000",
-    "--target-se-e",
-    "0",
-    "--target-rel",
-    "0",
-];
 
 fn subaps(map: &Path, out: &Path, extra: &[&str]) -> std::process::Output {
     detnoise()

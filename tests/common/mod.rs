@@ -8,6 +8,18 @@ use std::path::{Path, PathBuf};
 use assert_cmd::Command;
 use detnoise::io::FrameStack;
 
+/// Options that make a Monte-Carlo run fast: 1,000 iterations, no precision target.
+pub const FAST: [&str; 8] = [
+    "--iters",
+    "1000",
+    "--max-iters",
+    "1000",
+    "--target-se-e",
+    "0",
+    "--target-rel",
+    "0",
+];
+
 /// The `detnoise` binary built for this test run (needs the `cli` feature).
 pub fn detnoise() -> Command {
     Command::cargo_bin("detnoise").unwrap()
