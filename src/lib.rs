@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub mod calib;
+pub mod campaign;
 pub mod centroid;
 pub mod charts;
 #[cfg(feature = "cli")]
