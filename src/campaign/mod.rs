@@ -2,7 +2,25 @@
 //! times, EM gains and temperatures, each streamed once to per-pixel moments
 //! ([`ConditionStats`]), and the per-pixel decomposition of the mean dark into a fixed offset,
 //! clock-induced charge and dark current with their standard errors.
+//!
+//! Layout: `condition` holds the shared types, `input` reads the stacks and their conditions
+//! (a CSV manifest, FITS header keywords or an EMVA 1288 descriptor), `checks` refuses an
+//! inconsistent campaign before any frame is read, `measure` streams each stack once into its
+//! [`ConditionStats`] (and fits the EM histogram of EMCCD darks), `outputs` writes
+//! conditions.csv and campaign.json, and `run` is the whole `campaign` command as one call.
 
+mod checks;
 mod condition;
+pub mod input;
+mod measure;
+mod outputs;
+mod run;
 
+pub use checks::{check_campaign, CampaignPlan, Design, MIN_CIC_GAINS, MIN_DARK_EXPOSURES};
 pub use condition::{Condition, ConditionStats, StackKind};
+pub use input::{CampaignInput, CampaignStack, KeywordOptions, Listing};
+pub use measure::{measure_campaign, measure_stack, MeasureOptions, StackMeasurement};
+pub use outputs::{
+    write_campaign_outputs, CampaignSummary, ConditionRow, StackSummary, CAMPAIGN_OUTPUTS,
+};
+pub use run::{run, CampaignRun, CampaignRunResult};

@@ -110,7 +110,7 @@ pub fn run(args: &DarksArgs) -> Result<()> {
 
 /// A number of bytes in decimal units with three significant digits: "280 B", "1.64 MB",
 /// "2.01 GB" (a small stack read in a millisecond is not "0.0 MB at 0 MB/s").
-fn decimal_size(bytes: f64) -> String {
+pub(crate) fn decimal_size(bytes: f64) -> String {
     let units = ["B", "kB", "MB", "GB", "TB"];
     let mut value = bytes;
     let mut unit = 0;

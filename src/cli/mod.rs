@@ -1,6 +1,7 @@
 //! The `detnoise` command line: a thin layer over the library.
 
 pub mod args;
+pub mod campaign;
 pub mod darks;
 pub mod effective;
 pub mod emgain;
@@ -62,6 +63,9 @@ pub enum Command {
     Subaps(subaps::SubapsArgs),
     /// Merge the part files of `subaps --shard K/N` runs into the per-sub-aperture map.
     SubapsMerge(subaps::SubapsMergeArgs),
+    /// A characterisation campaign: dark and flat stacks at several exposure times, EM gains
+    /// and temperatures, each streamed once into its noise figures.
+    Campaign(campaign::CampaignArgs),
 }
 
 /// The command line: the derived parser, with the exit codes at the end of every help page,
@@ -135,6 +139,7 @@ where
         Command::Synth(a) => synth::run(a),
         Command::Subaps(a) => subaps::run_cli(a),
         Command::SubapsMerge(a) => subaps::run_merge_cli(a),
+        Command::Campaign(a) => campaign::run(a),
     };
     // An interruption being handled ends the process with its own code: wait for it.
     crate::output::temps::settle();

@@ -70,25 +70,7 @@ impl RtsTable {
     /// Read `path` (an `rts.csv` written by `darks`); the rows skipped for their status are
     /// reported to `observer` as a warning.
     pub fn read(path: &Path, observer: &dyn Observer) -> Result<RtsTable> {
-        let bytes = std::fs::read(path).map_err(|source| Error::Io {
-            path: path.to_path_buf(),
-            source,
-        })?;
-        if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
-            return Err(Error::input(
-                path,
-                "UTF-16 text (its byte-order mark says so): save the table as UTF-8",
-            ));
-        }
-        let text = String::from_utf8(bytes).map_err(|e| {
-            Error::input(
-                path,
-                format!(
-                    "not UTF-8 text (byte {} is not): not an rts.csv table",
-                    e.utf8_error().valid_up_to()
-                ),
-            )
-        })?;
+        let text = read_csv_text(path, "an rts.csv table")?;
         let table = RtsTable::parse(&text, path)?;
         if table.skipped > 0 {
             let all = table.skipped + table.pixels.len();
@@ -156,6 +138,31 @@ impl RtsTable {
     }
 }
 
+/// The text of the CSV file at `path` (`what` it should be, for messages): UTF-16 and
+/// non-UTF-8 bytes refused (spreadsheets write either), a UTF-8 byte-order mark kept (the
+/// parser drops it).
+pub(crate) fn read_csv_text(path: &Path, what: &str) -> Result<String> {
+    let bytes = std::fs::read(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    if bytes.starts_with(&[0xff, 0xfe]) || bytes.starts_with(&[0xfe, 0xff]) {
+        return Err(Error::input(
+            path,
+            "UTF-16 text (its byte-order mark says so): save the table as UTF-8",
+        ));
+    }
+    String::from_utf8(bytes).map_err(|e| {
+        Error::input(
+            path,
+            format!(
+                "not UTF-8 text (byte {} is not): not {what}",
+                e.utf8_error().valid_up_to()
+            ),
+        )
+    })
+}
+
 /// Why a table without a usable telegraph pixel is refused (`skipped` rows not `ok`).
 fn no_pixels(skipped: usize) -> String {
     let what = if skipped == 0 {
@@ -171,7 +178,7 @@ fn no_pixels(skipped: usize) -> String {
 
 /// The cells of one CSV line, trimmed; a cell in double quotes is unquoted (`""` is a quote
 /// inside it). Err for a quote left open or text after a closing quote.
-fn cells(line: &str) -> std::result::Result<Vec<Cow<'_, str>>, String> {
+pub(crate) fn cells(line: &str) -> std::result::Result<Vec<Cow<'_, str>>, String> {
     let mut out = Vec::new();
     let mut rest = line;
     loop {

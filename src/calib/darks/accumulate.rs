@@ -18,6 +18,7 @@ use super::kurtosis::{excess_kurtosis, PowerSums};
 use super::lines::{LineAcc, TileLines};
 use super::options::Clip;
 use super::tile::{mean_var, Tile};
+use crate::calib::summary::{with_inputs_hashed, Checksum, InputFile};
 use crate::calib::{Map, Unit};
 use crate::error::{Error, Result};
 use crate::io::{read_batches, ByteTap, FrameData, FrameStack};
@@ -271,6 +272,19 @@ pub fn pixel_stats_of(
     select: Option<&[bool]>,
 ) -> Result<PixelStats> {
     stats_tapped(stack, clip, hook, select, None)
+}
+
+/// [`pixel_stats`] with the `algorithm` digest of every input file, computed on another
+/// thread from the frames the statistics read (one pass over the files, as `darks`).
+pub fn pixel_stats_hashed(
+    stack: &FrameStack,
+    clip: Clip,
+    hook: Option<FrameHook>,
+    algorithm: Checksum,
+) -> Result<(PixelStats, Vec<InputFile>)> {
+    with_inputs_hashed(stack, algorithm, |tap| {
+        stats_tapped(stack, clip, hook, None, Some(tap))
+    })
 }
 
 /// [`pixel_stats_of`], handing the frames read in the first pass to `tap` (checksums).

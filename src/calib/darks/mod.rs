@@ -27,7 +27,7 @@ mod run;
 mod telegraph;
 mod tile;
 
-pub use accumulate::{pixel_stats, pixel_stats_of, FrameHook, PixelStats};
+pub use accumulate::{pixel_stats, pixel_stats_hashed, pixel_stats_of, FrameHook, PixelStats};
 pub use decompose::{rms_of, TemporalNoise, TemporalNoiseSummary};
 pub use flags::{
     FlagCounts, FLAG_BITS, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS, FLAG_SATURATED,

@@ -1,0 +1,184 @@
+//! The outputs of `detnoise campaign`: `conditions.csv` (one row per stack, units in every
+//! column name) and `campaign.json` (the design, every stack's condition, noise split, EM fit
+//! and input checksums).
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::checks::Design;
+use super::condition::{Condition, StackKind};
+use super::measure::StackMeasurement;
+use crate::calib::darks::TemporalNoiseSummary;
+use crate::calib::summary::InputFile;
+use crate::error::Result;
+use crate::fit::emgain::EmGainFit;
+use crate::output::{render, write_atomic, write_json, TableFormat};
+
+/// The files `campaign` writes.
+pub const CAMPAIGN_OUTPUTS: [&str; 2] = ["conditions.csv", "campaign.json"];
+
+/// One row of conditions.csv: a stack, its condition and its noise (adu), with SEs.
+#[derive(Clone, Debug, Serialize)]
+pub struct ConditionRow {
+    /// The stack's first file.
+    pub file: String,
+    /// dark or flat.
+    pub kind: StackKind,
+    /// Exposure time (s).
+    pub exposure_s: f64,
+    /// Commanded EM gain (e-/e-), empty without one.
+    pub em_gain: Option<f64>,
+    /// Temperature (deg C), empty when not given.
+    pub temperature_c: Option<f64>,
+    /// Light level of a flat (the input's unit), empty for darks.
+    pub light_level: Option<f64>,
+    /// Frames read.
+    pub frames: usize,
+    /// Mean over pixels of the per-pixel mean (adu).
+    pub mean_adu: f64,
+    /// Total temporal noise: sqrt of the mean per-pixel variance (adu).
+    pub total_rms_adu: Option<f64>,
+    /// Its SE (adu).
+    pub total_rms_se_adu: Option<f64>,
+    /// Pixel component (adu).
+    pub pixel_rms_adu: Option<f64>,
+    /// Its SE (adu).
+    pub pixel_rms_se_adu: Option<f64>,
+    /// Row component (adu).
+    pub row_rms_adu: Option<f64>,
+    /// Its SE (adu).
+    pub row_rms_se_adu: Option<f64>,
+    /// Column component (adu).
+    pub column_rms_adu: Option<f64>,
+    /// Its SE (adu).
+    pub column_rms_se_adu: Option<f64>,
+    /// Frame component (adu).
+    pub frame_rms_adu: Option<f64>,
+    /// Its SE (adu).
+    pub frame_rms_se_adu: Option<f64>,
+    /// EM gain fitted to the histogram of an EMCCD dark (e-/e-).
+    pub em_fit_gain_e_per_e: Option<f64>,
+    /// Its SE (e-/e-).
+    pub em_fit_gain_se_e_per_e: Option<f64>,
+    /// Input electrons per pixel per frame in the fit (e-; CIC and dark current of a dark).
+    pub em_fit_cic_e_per_pixel: Option<f64>,
+    /// Its SE (e-).
+    pub em_fit_cic_se_e_per_pixel: Option<f64>,
+    /// The fit's read noise (adu).
+    pub em_fit_read_noise_adu: Option<f64>,
+    /// Why the EM fit failed, empty when it did not.
+    pub em_fit_error: Option<String>,
+}
+
+impl ConditionRow {
+    /// The row of `m`.
+    pub fn of(m: &StackMeasurement) -> ConditionRow {
+        let s = &m.stats;
+        let c = &s.condition;
+        let t = &s.temporal;
+        let fit = m.em_fit.as_ref().and_then(|f| f.as_ref().ok());
+        let n = s.mean_adu.iter().filter(|v| v.is_finite()).count().max(1);
+        ConditionRow {
+            file: s.file.display().to_string(),
+            kind: c.kind,
+            exposure_s: c.exposure_s,
+            em_gain: c.em_gain,
+            temperature_c: c.temperature_c,
+            light_level: c.light_level,
+            frames: s.frames,
+            mean_adu: s.mean_adu.iter().filter(|v| v.is_finite()).sum::<f64>() / n as f64,
+            total_rms_adu: t.total_rms_adu,
+            total_rms_se_adu: t.total_rms_se_adu,
+            pixel_rms_adu: t.pixel_rms_adu,
+            pixel_rms_se_adu: t.pixel_rms_se_adu,
+            row_rms_adu: t.row_rms_adu,
+            row_rms_se_adu: t.row_rms_se_adu,
+            column_rms_adu: t.column_rms_adu,
+            column_rms_se_adu: t.column_rms_se_adu,
+            frame_rms_adu: t.frame_rms_adu,
+            frame_rms_se_adu: t.frame_rms_se_adu,
+            em_fit_gain_e_per_e: fit.map(|f| f.em_gain),
+            em_fit_gain_se_e_per_e: fit.map(|f| f.em_gain_se),
+            em_fit_cic_e_per_pixel: fit.map(|f| f.lambda_e),
+            em_fit_cic_se_e_per_pixel: fit.map(|f| f.lambda_e_se),
+            em_fit_read_noise_adu: fit.map(|f| f.read_noise_adu),
+            em_fit_error: m.em_fit.as_ref().and_then(|f| f.as_ref().err().cloned()),
+        }
+    }
+}
+
+/// One stack in campaign.json.
+#[derive(Clone, Debug, Serialize)]
+pub struct StackSummary {
+    /// Its files, in frame order.
+    pub files: Vec<String>,
+    /// Its condition as the input gave it.
+    pub condition: Condition,
+    /// Frames read.
+    pub frames: usize,
+    /// Mean over pixels of the per-pixel mean (adu).
+    pub mean_adu: f64,
+    /// The temporal noise split (adu and e-, with SEs).
+    pub temporal_noise: TemporalNoiseSummary,
+    /// The EM-gain histogram fit of an EMCCD dark (null otherwise or when it failed).
+    pub em_fit: Option<EmGainFit>,
+    /// Why the EM fit failed (null when it did not).
+    pub em_fit_error: Option<String>,
+    /// Its files with their checksums.
+    pub inputs: Vec<InputFile>,
+}
+
+/// The content of campaign.json.
+#[derive(Clone, Debug, Serialize)]
+pub struct CampaignSummary {
+    /// The command that wrote it.
+    pub command: &'static str,
+    /// detnoise's version.
+    pub version: &'static str,
+    /// The input the stacks came from: `manifest`, `emva1288` or `keywords`.
+    pub input: &'static str,
+    /// The manifest or descriptor file (null for keyword input).
+    pub listing: Option<String>,
+    /// Conversion gain used (e- per adu).
+    pub gain_e_per_adu: f64,
+    /// Frame shape (rows, cols).
+    pub shape: [usize; 2],
+    /// What the darks' conditions separate.
+    pub design: Design,
+    /// Every stack, in input order.
+    pub stacks: Vec<StackSummary>,
+    /// The per-pixel decomposition of the dark signal (null until it is computed).
+    pub decomposition: Option<serde_json::Value>,
+}
+
+impl StackSummary {
+    /// The summary of `m`.
+    pub fn of(m: &StackMeasurement, files: &[std::path::PathBuf]) -> StackSummary {
+        let row = ConditionRow::of(m);
+        StackSummary {
+            files: files.iter().map(|f| f.display().to_string()).collect(),
+            condition: m.stats.condition,
+            frames: m.stats.frames,
+            mean_adu: row.mean_adu,
+            temporal_noise: m.stats.temporal.clone(),
+            em_fit: m.em_fit.as_ref().and_then(|f| f.as_ref().ok().cloned()),
+            em_fit_error: row.em_fit_error,
+            inputs: m.inputs.clone(),
+        }
+    }
+}
+
+/// Write conditions.csv and campaign.json into `dir`, each atomically.
+pub fn write_campaign_outputs(
+    dir: &Path,
+    measurements: &[StackMeasurement],
+    summary: &CampaignSummary,
+) -> Result<()> {
+    let rows: Vec<ConditionRow> = measurements.iter().map(ConditionRow::of).collect();
+    write_atomic(
+        &dir.join(CAMPAIGN_OUTPUTS[0]),
+        render(&rows, TableFormat::Csv)?.as_bytes(),
+    )?;
+    write_json(&dir.join(CAMPAIGN_OUTPUTS[1]), summary)
+}
