@@ -174,7 +174,7 @@ fn design_of(stacks: &[CampaignStack]) -> Result<Design> {
     let dark_em_gains = distinct(darks.iter().filter_map(|s| s.condition.em_gain));
     let dark_temperatures_c = distinct(darks.iter().filter_map(|s| s.condition.temperature_c));
     let mut notes = Vec::new();
-    let cic_separable = (!dark_em_gains.is_empty()).then(|| dark_em_gains.len() >= MIN_CIC_GAINS);
+    let cic_separable = (!dark_em_gains.is_empty()).then_some(dark_em_gains.len() >= MIN_CIC_GAINS);
     if cic_separable == Some(false) {
         notes.push(format!(
             "every EMCCD dark is at EM gain {}: clock-induced charge (g C) is not separable from the fixed offset F, which then holds it; darks at {MIN_CIC_GAINS} gains or more separate them",

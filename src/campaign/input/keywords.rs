@@ -68,7 +68,7 @@ fn stack_of(path: &Path, o: &KeywordOptions) -> Result<CampaignStack> {
     crate::io::fits::scan(path)?;
     let mut file = fitsio::FitsFile::open(path)
         .map_err(|e| bad(format!("cannot open to read its keywords: {e}")))?;
-    let mut text = |key: &str| keyword(&mut file, key).map_err(|e| bad(e));
+    let mut text = |key: &str| keyword(&mut file, key).map_err(&bad);
     let Some(exposure) = text(&o.exposure_key)? else {
         return Err(bad(format!(
             "no keyword {}: its exposure time (s) is missing (name the keyword with the exposure key option, or use a manifest)",
