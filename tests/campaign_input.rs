@@ -345,3 +345,76 @@ fn stack_figures_agree_with_darks_on_the_same_stack() {
     let offset = summary["offset_adu"]["mean"].as_f64().unwrap();
     assert!((mean - offset).abs() < 1e-9, "{mean} vs {offset}");
 }
+
+/// An EMCCD dark stack at `path`: `frames` frames of 32 x 32, 0.1 input electrons per pixel
+/// per frame through an exponential register of mean `gain` (e-/e-), 10 e- read noise, 2 e-
+/// per adu, bias 500 adu.
+fn emccd_stack(path: &Path, frames: usize, gain: f64, seed: u64) {
+    let mut n = Noise(seed);
+    let p0 = (-0.1f64).exp();
+    let mut next = || -> Vec<f64> {
+        (0..32 * 32)
+            .map(|_| {
+                // Poisson(0.1) by inversion; each electron an exponential of mean `gain`.
+                let (u, mut k, mut p, mut cdf) = (n.uniform(), 0, p0, p0);
+                while u > cdf && k < 10 {
+                    k += 1;
+                    p *= 0.1 / k as f64;
+                    cdf += p;
+                }
+                let mut out = 0.0;
+                for _ in 0..k {
+                    out -= gain * (1.0 - n.uniform()).ln();
+                }
+                500.0 + (out + 10.0 * n.gauss()) / 2.0
+            })
+            .collect()
+    };
+    write_cube(path, (32, 32), frames, true, &mut next, &[]).unwrap();
+}
+
+#[test]
+fn emccd_darks_get_the_em_histogram_fit() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut rows = String::new();
+    for (k, (t, g)) in [(0.1, 100.0), (1.0, 100.0), (0.1, 300.0)]
+        .into_iter()
+        .enumerate()
+    {
+        emccd_stack(
+            &dir.path().join(format!("e{k}.fits")),
+            100,
+            g,
+            11 + k as u64,
+        );
+        rows += &format!("e{k}.fits,dark,{t},{g},,\n");
+    }
+    let manifest = dir.path().join("m.csv");
+    std::fs::write(&manifest, format!("{HEADER}{rows}")).unwrap();
+    let out = dir.path().join("out");
+    let json = run_ok(&["--manifest", manifest.to_str().unwrap()], &out);
+    assert_eq!(json["design"]["cic_separable"], true);
+    for s in json["stacks"].as_array().unwrap() {
+        let want = s["condition"]["em_gain"].as_f64().unwrap();
+        let fit = &s["em_fit"];
+        let (g, se) = (
+            fit["em_gain"].as_f64().unwrap(),
+            fit["em_gain_se"].as_f64().unwrap(),
+        );
+        assert!(
+            (g / want - 1.0).abs() < 0.2 && se > 0.0,
+            "G {g} +/- {se} for {want}"
+        );
+        let lambda = fit["lambda_e"].as_f64().unwrap();
+        assert!((lambda - 0.1).abs() < 0.03, "lambda {lambda}");
+    }
+    let csv = std::fs::read_to_string(out.join("conditions.csv")).unwrap();
+    let head: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = head
+        .iter()
+        .position(|h| *h == "em_fit_gain_e_per_e")
+        .unwrap();
+    for line in csv.lines().skip(1) {
+        assert!(!line.split(',').nth(col).unwrap().is_empty(), "{line}");
+    }
+}
