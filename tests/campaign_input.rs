@@ -418,3 +418,19 @@ fn emccd_darks_get_the_em_histogram_fit() {
         assert!(!line.split(',').nth(col).unwrap().is_empty(), "{line}");
     }
 }
+
+#[test]
+fn an_out_with_foreign_files_is_refused_before_any_work_and_left_alone() {
+    let (dir, manifest) = campaign(None);
+    let out = dir.path().join("out");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("notes.txt"), "mine").unwrap();
+    let (code, err, _) = run_err(dir.path(), &["--manifest", manifest.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--out"), "{err}");
+    assert_eq!(std::fs::read_dir(&out).unwrap().count(), 1);
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "mine"
+    );
+}

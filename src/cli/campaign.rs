@@ -37,6 +37,7 @@ pub struct CampaignArgs {
     #[arg(long, value_name = "FILE")]
     pub emva_descriptor: Option<PathBuf>,
     /// FITS stacks, one file each, their conditions read from header keywords.
+    #[arg(value_name = "FILES")]
     pub files: Vec<PathBuf>,
     /// Header keyword of the exposure time (s), with FILES.
     #[arg(long, default_value = "EXPTIME", value_name = "KEY")]

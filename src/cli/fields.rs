@@ -40,6 +40,10 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("shape", "--shape"),
     ("frames", "--frames"),
     ("rms_pdf", "--rms-pdf"),
+    // campaign: stacks given as FITS files, their kind (crate::campaign::KeywordOptions).
+    ("files", "FILES"),
+    ("kind", "--kind"),
+    ("kind_key", "--kind-key"),
     // synth: non-Gaussian sCMOS noise (crate::synth::Defects); its `row_noise_e` and
     // `column_noise_e` are the registry's (scmos-correlated's amplitudes, same flags).
     ("rts_fraction", "--rts-fraction"),
