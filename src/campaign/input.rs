@@ -5,48 +5,16 @@
 mod emva;
 mod keywords;
 mod manifest;
+mod stack;
 
 use std::path::{Path, PathBuf};
 
-use super::condition::Condition;
 use crate::error::Result;
 
 pub use emva::{parse_emva, read_emva_descriptor, EmvaFormat};
 pub use keywords::{read_keywords, KeywordOptions};
 pub use manifest::{parse_manifest, read_manifest, MANIFEST_COLUMNS};
-
-/// One stack of a campaign as its input lists it: its files (one stack, in order) and the
-/// condition it was taken at.
-#[derive(Clone, Debug, PartialEq)]
-pub struct CampaignStack {
-    /// The stack's files, in frame order (one for a manifest or keyword entry; the images of
-    /// one measurement point for an EMVA 1288 descriptor).
-    pub files: Vec<PathBuf>,
-    /// Its operating condition.
-    pub condition: Condition,
-    /// Where the input listed it: the manifest or descriptor and its line (1-based), or the
-    /// stack file itself for keyword input, for messages.
-    pub listed_in: Listed,
-}
-
-/// Where a stack was listed, for messages.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Listed {
-    /// The manifest, descriptor or stack file.
-    pub source: PathBuf,
-    /// Line of `source` (1-based), None for keyword input.
-    pub line: Option<usize>,
-}
-
-impl Listed {
-    /// " (manifest.csv line 3)", or "" for a stack that lists itself.
-    pub fn describe(&self) -> String {
-        match self.line {
-            Some(l) => format!(" ({} line {l})", self.source.display()),
-            None => String::new(),
-        }
-    }
-}
+pub use stack::{CampaignStack, Listed};
 
 /// What an input lists.
 #[derive(Clone, Debug, PartialEq)]
@@ -96,24 +64,5 @@ impl CampaignInput {
             CampaignInput::Manifest(p) | CampaignInput::Emva(p) => Some(p),
             CampaignInput::Keywords { .. } => None,
         }
-    }
-}
-
-/// `path` as a list file names it: relative paths are relative to the list's folder.
-fn beside(list: &Path, path: &Path) -> PathBuf {
-    if path.is_absolute() {
-        return path.to_path_buf();
-    }
-    match list.parent() {
-        Some(dir) if !dir.as_os_str().is_empty() => dir.join(path),
-        _ => path.to_path_buf(),
-    }
-}
-
-/// A finite number from `text`, or why not (`what` names the value).
-fn number(text: &str, what: &str) -> std::result::Result<f64, String> {
-    match text.trim().parse::<f64>() {
-        Ok(x) if x.is_finite() => Ok(x),
-        _ => Err(format!("{what} {text:?} is not a finite number")),
     }
 }

@@ -16,7 +16,7 @@
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
-use super::{beside, CampaignStack, Listed};
+use super::stack::{beside, check_condition, number, CampaignStack, Listed};
 use crate::campaign::condition::{Condition, StackKind};
 use crate::detector::rts_table::read_csv_text;
 use crate::error::{Error, Result};
@@ -134,7 +134,7 @@ pub fn parse_emva(text: &str, source: &Path) -> Result<(Option<EmvaFormat>, Vec<
             kind,
             light_level: (kind == StackKind::Flat).then_some(photons),
         };
-        super::manifest::check_condition(&condition).map_err(|w| bad(line, w))?;
+        check_condition(&condition).map_err(|w| bad(line, w))?;
         stacks.push(CampaignStack {
             files,
             condition,
@@ -155,7 +155,7 @@ pub fn parse_emva(text: &str, source: &Path) -> Result<(Option<EmvaFormat>, Vec<
 
 /// A number as the reference reads it (a decimal comma allowed), or why not.
 fn value(text: &str, what: &str) -> std::result::Result<f64, String> {
-    super::number(&text.replace(',', "."), what)
+    number(&text.replace(',', "."), what)
 }
 
 /// The format of an `n bits width height` line, or why not.

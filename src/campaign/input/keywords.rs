@@ -5,8 +5,7 @@
 
 use std::path::{Path, PathBuf};
 
-use super::manifest::{check_condition, parse_kind};
-use super::{number, CampaignStack, Listed};
+use super::stack::{check_condition, number, parse_kind, CampaignStack, Listed};
 use crate::campaign::condition::{Condition, StackKind};
 use crate::error::{Error, Result};
 use crate::io::StackFormat;

@@ -7,8 +7,8 @@
 use std::borrow::Cow;
 use std::path::{Path, PathBuf};
 
-use super::{beside, number, CampaignStack, Listed};
-use crate::campaign::condition::{Condition, StackKind};
+use super::stack::{beside, check_condition, number, parse_kind, CampaignStack, Listed};
+use crate::campaign::condition::Condition;
 use crate::detector::rts_table::{cells, read_csv_text};
 use crate::error::{Error, Result};
 
@@ -143,42 +143,10 @@ fn row_stack<'a>(
     })
 }
 
-/// `dark` or `flat` (any case), or why not.
-pub(super) fn parse_kind(text: &str) -> std::result::Result<StackKind, String> {
-    match text.trim().to_ascii_lowercase().as_str() {
-        "dark" => Ok(StackKind::Dark),
-        "flat" => Ok(StackKind::Flat),
-        "" => Err("the 'kind' cell is empty: each stack is `dark` or `flat`".into()),
-        other => Err(format!("kind {other:?} is neither `dark` nor `flat`")),
-    }
-}
-
-/// Why `c` cannot be a condition (a negative exposure, an EM gain below 1, a dark with a light
-/// level), if it cannot.
-pub(crate) fn check_condition(c: &Condition) -> std::result::Result<(), String> {
-    if c.exposure_s < 0.0 {
-        return Err(format!("exposure_s {} is negative", c.exposure_s));
-    }
-    if let Some(g) = c.em_gain.filter(|g| *g < 1.0) {
-        return Err(format!(
-            "em_gain {g} is below 1 (the EM register multiplies)"
-        ));
-    }
-    if let Some(l) = c.light_level.filter(|l| *l < 0.0) {
-        return Err(format!("light_level {l} is negative"));
-    }
-    if c.kind == StackKind::Dark && c.light_level.is_some_and(|l| l != 0.0) {
-        return Err(format!(
-            "a dark with light_level {}: conflicting (a dark has no light; leave the cell empty)",
-            c.light_level.unwrap_or(0.0)
-        ));
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::campaign::condition::StackKind;
 
     const HEADER: &str = "file,kind,exposure_s,em_gain,temperature_c,light_level\n";
 
