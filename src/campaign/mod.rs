@@ -4,5 +4,6 @@
 //! clock-induced charge and dark current with their standard errors.
 
 mod condition;
+pub mod fit;
 
 pub use condition::{Condition, ConditionStats, StackKind};
