@@ -218,7 +218,7 @@ impl<'a> Design<'a> {
                 ));
             }
         }
-        let mut n = Normal::new(self.npar());
+        let mut n = Normal::<3>::new(self.npar());
         for i in 0..self.conds.len() {
             n.add(&self.row(i, 1.0, 1.0), 0.0, 1.0);
         }

@@ -61,7 +61,7 @@ pub(super) fn fit(fits: &[EmGainFit]) -> Option<EmGainCurve> {
             1.0
         }
     };
-    let mut n = Normal::new(2);
+    let mut n = Normal::<2>::new(2);
     for f in &fits {
         n.add(&[1.0, f.commanded.ln()], f.gain.ln(), w(f));
     }

@@ -8,7 +8,10 @@ use serde::Serialize;
 
 use super::design::Design;
 use super::pixels::{Maps, PixelGain, CHUNK};
-use super::wls::{Normal, MAX_P};
+use super::wls::Normal;
+
+/// Most parameters of one variance fit: one intercept per EM gain and the slope.
+const MAX_P: usize = 8;
 use crate::detector::register::excess_noise_factor_sq;
 use crate::stats::median;
 
@@ -111,7 +114,7 @@ pub(super) fn check(
     let np = gains.len() + 1;
     let slope = |p: usize| -> Option<f64> {
         let kp = k.at(p);
-        let mut n = Normal::new(np);
+        let mut n = Normal::<MAX_P>::new(np);
         let mut x = [0.0; MAX_P];
         for (i, c) in design.conds.iter().enumerate() {
             x.fill(0.0);

@@ -64,7 +64,7 @@ pub(super) struct PixelFit {
 /// saturated pixel: no weight can be given).
 #[inline]
 pub(super) fn fit_pixel(design: &Design, k: f64, factors: &[f64], p: usize) -> Option<PixelFit> {
-    let mut n = Normal::new(design.npar());
+    let mut n = Normal::<3>::new(design.npar());
     for (i, c) in design.conds.iter().enumerate() {
         let (y, v) = (c.stats.mean_adu[p], c.stats.var_adu2[p]);
         if !(y.is_finite() && v.is_finite() && v > 0.0) {
@@ -72,7 +72,7 @@ pub(super) fn fit_pixel(design: &Design, k: f64, factors: &[f64], p: usize) -> O
         }
         n.add(&design.row(i, k, factors[i]), y, c.stats.frames as f64 / v);
     }
-    let sol: Solution = n.solve()?;
+    let sol: Solution<3> = n.solve()?;
     let mut chi2 = 0.0;
     for (i, c) in design.conds.iter().enumerate() {
         let x = design.row(i, k, factors[i]);
@@ -142,14 +142,21 @@ pub(super) fn fit_all(design: &Design, k: &PixelGain, factors: &[f64]) -> Maps {
     }
 }
 
-/// The sum of chi2 over the fitted pixels and their count, at temperature factors `factors`
-/// (the profile cost of the doubling temperature).
-pub(super) fn total_chi2(design: &Design, k: &PixelGain, factors: &[f64]) -> (f64, usize) {
-    let parts: Vec<(f64, usize)> = (0..design.npix.div_ceil(CHUNK))
+/// The sum of chi2 over the fitted pixels among every `stride`-th one and their count, at
+/// temperature factors `factors` (the profile cost of the doubling temperature).
+pub(super) fn total_chi2(
+    design: &Design,
+    k: &PixelGain,
+    factors: &[f64],
+    stride: usize,
+) -> (f64, usize) {
+    let n = design.npix.div_ceil(stride);
+    let parts: Vec<(f64, usize)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
             let mut s = (0.0, 0);
-            for p in c * CHUNK..((c + 1) * CHUNK).min(design.npix) {
+            for j in c * CHUNK..((c + 1) * CHUNK).min(n) {
+                let p = j * stride;
                 if let Some(f) = fit_pixel(design, k.at(p), factors, p) {
                     s.0 += f.chi2;
                     s.1 += 1;
@@ -197,7 +204,7 @@ pub(super) fn gain_systematic(design: &Design, k: &PixelGain, factors: &[f64]) -
         .collect();
     let kt = k.typical();
     let solve = |gains: &[f64]| -> Option<[f64; 3]> {
-        let mut n = Normal::new(design.npar());
+        let mut n = Normal::<3>::new(design.npar());
         for (i, c) in design.conds.iter().enumerate() {
             n.add(&design.row_at(gains[i], c.t, kt, factors[i]), y[i], w[i]);
         }

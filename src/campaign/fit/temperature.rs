@@ -131,16 +131,24 @@ pub(super) fn resolve(
     })
 }
 
-/// T_d minimising the total chi2 of all pixels (a log-spaced scan, then a golden-section
-/// search in ln T_d), and its SE from the curvature of the total chi2 (Delta chi2 = 1),
-/// inflated by sqrt(total chi2 / dof) when that is above 1.
+/// Pixels the search for T_d looks at, at most (every n-th pixel): the search is then cheap,
+/// and its result is refined on all pixels.
+const SEARCH_PIXELS: usize = 1 << 16;
+
+/// T_d minimising the total chi2 of all pixels, and its SE from the curvature of the total
+/// chi2 (Delta chi2 = 1), inflated by sqrt(total chi2 / dof) when that is above 1. A
+/// log-spaced scan and a golden-section search in ln T_d on a subsample of the pixels find
+/// the minimum within a few SEs; two Newton steps on all pixels, from parabolas through
+/// T_d and T_d +- h, put it at the minimum of all of them.
 fn fit_doubling(
     design: &Design,
     k: &PixelGain,
     temps: &[f64],
     reference: f64,
 ) -> Result<(f64, f64)> {
-    let cost = |ln_td: f64| total_chi2(design, k, &factors(temps, reference, ln_td.exp())).0;
+    let stride = design.npix.div_ceil(SEARCH_PIXELS).max(1);
+    let cost =
+        |ln_td: f64| total_chi2(design, k, &factors(temps, reference, ln_td.exp()), stride).0;
     let (lo, hi) = (SEARCH_C.0.ln(), SEARCH_C.1.ln());
     const SCAN: usize = 16;
     let grid: Vec<f64> = (0..=SCAN)
@@ -176,18 +184,31 @@ fn fit_doubling(
             f2 = cost(x2);
         }
     }
-    let td = (0.5 * (a + b)).exp();
-    let at = |d: f64| total_chi2(design, k, &factors(temps, reference, d));
-    let h = 0.01 * td;
-    let (c0, n) = at(td);
-    let curvature = (at(td + h).0 - 2.0 * c0 + at(td - h).0) / (h * h);
-    if curvature.is_nan() || curvature <= 0.0 {
+    let at = |d: f64| total_chi2(design, k, &factors(temps, reference, d), 1);
+    let parabola = |td: f64, h: f64| {
+        let ((c0, n), cp, cm) = (at(td), at(td + h).0, at(td - h).0);
+        let curvature = (cp - 2.0 * c0 + cm) / (h * h);
+        (c0, n, curvature, -(cp - cm) / (2.0 * h * curvature))
+    };
+    // The first parabola (T_d +- 1 %) finds the scale of the SE; the second, over +- 3 of
+    // those SEs where the profile is a parabola, the minimum and the curvature reported.
+    let td0 = (0.5 * (a + b)).exp();
+    let (_, _, curvature, step) = parabola(td0, 0.01 * td0);
+    let td1 = td0 + step;
+    let h = (3.0 * (2.0 / curvature).sqrt()).clamp(1e-6 * td1, 0.01 * td1);
+    let (c0, n, curvature2, step) = parabola(td1, h);
+    let td = td1 + step;
+    if [curvature, curvature2]
+        .iter()
+        .any(|c| c.is_nan() || *c <= 0.0)
+        || !td.is_finite()
+    {
         return Err(Error::Numeric(format!(
-            "the total chi2 has no minimum at doubling temperature {td} deg C: T_d is not \
+            "the total chi2 has no minimum near doubling temperature {td} deg C: T_d is not \
              constrained by these darks"
         )));
     }
     let dof = (n * design.dof()).saturating_sub(1).max(1) as f64;
     let inflate = (c0 / dof).max(1.0).sqrt();
-    Ok((td, (2.0 / curvature).sqrt() * inflate))
+    Ok((td, (2.0 / curvature2).sqrt() * inflate))
 }
