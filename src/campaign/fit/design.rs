@@ -1,11 +1,14 @@
 //! The design of a decomposition: the dark conditions with the EM gain each is fitted at, the
 //! parameters, and every check of the input and the options, made before any fit.
 
+use rayon::prelude::*;
+
 use super::wls::Normal;
 use super::{ConversionGain, DecomposeOptions, EmGainFit};
 use crate::campaign::{ConditionStats, StackKind};
 use crate::detector::register::EmRegister;
 use crate::error::{Error, Result};
+use crate::stats::median;
 
 /// The field named by a refused design (the campaign's set of conditions).
 pub(super) const CAMPAIGN: &str = "campaign";
@@ -40,6 +43,8 @@ pub(super) struct Design<'a> {
     pub cic: bool,
     /// Notes for the summary.
     pub notes: Vec<String>,
+    /// Each condition's median over pixels of the mean (adu) and of the variance (adu^2).
+    pub typical: Vec<[f64; 2]>,
 }
 
 fn distinct(values: impl Iterator<Item = f64>) -> Vec<f64> {
@@ -129,7 +134,12 @@ impl<'a> Design<'a> {
         } else if !opts.fit_cic {
             notes.push("CIC not fitted (fit_cic off): it is part of the offset F".into());
         }
+        let typical = conds
+            .par_iter()
+            .map(|c| [median(&c.stats.mean_adu), median(&c.stats.var_adu2)])
+            .collect();
         let mut design = Design {
+            typical,
             conds,
             rows,
             cols,

@@ -13,7 +13,6 @@ use super::wls::Normal;
 /// Most parameters of one variance fit: one intercept per EM gain and the slope.
 const MAX_P: usize = 8;
 use crate::detector::register::excess_noise_factor_sq;
-use crate::stats::median;
 
 /// A ratio more than this many SEs from 1 is not `consistent`.
 const STATUS_SE: f64 = 3.0;
@@ -106,23 +105,36 @@ pub(super) fn check(
     let w: Vec<f64> = design
         .conds
         .iter()
-        .map(|c| {
-            let v = median(&c.stats.var_adu2);
-            (c.stats.frames as f64 - 1.0) / (2.0 * v * v)
-        })
+        .zip(&design.typical)
+        .map(|(c, t)| (c.stats.frames as f64 - 1.0) / (2.0 * t[1] * t[1]))
         .collect();
     let np = gains.len() + 1;
-    let slope = |p: usize| -> Option<f64> {
-        let kp = k.at(p);
-        let mut n = Normal::<MAX_P>::new(np);
-        let mut x = [0.0; MAX_P];
-        for (i, c) in design.conds.iter().enumerate() {
+    // The smallest solver that holds the parameters (a fit per pixel: its size is the cost).
+    fn solve<const P: usize>(
+        np: usize,
+        rows: impl Iterator<Item = (usize, f64, f64, f64)>,
+    ) -> Option<f64> {
+        let mut n = Normal::<P>::new(np);
+        let mut x = [0.0; P];
+        for (g, s, y, w) in rows {
             x.fill(0.0);
-            x[group[i]] = 1.0;
-            x[np - 1] = c.g * c.g * f2[group[i]] * kp * kp * c.t * factors[i];
-            n.add(&x, c.stats.var_adu2[p], w[i]);
+            x[g] = 1.0;
+            x[np - 1] = s;
+            n.add(&x, y, w);
         }
         Some(n.solve()?.x[np - 1])
+    }
+    let slope = |p: usize| -> Option<f64> {
+        let kp = k.at(p);
+        let rows = design.conds.iter().enumerate().map(|(i, c)| {
+            let s = c.g * c.g * f2[group[i]] * kp * kp * c.t * factors[i];
+            (group[i], s, c.stats.var_adu2[p], w[i])
+        });
+        if np <= 4 {
+            solve::<4>(np, rows)
+        } else {
+            solve::<MAX_P>(np, rows)
+        }
     };
     // Per chunk: n, sum Dv, sum D, sum Dv^2, sum D^2, sum Dv D.
     let parts: Vec<[f64; 6]> = (0..design.npix.div_ceil(CHUNK))

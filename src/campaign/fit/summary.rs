@@ -9,7 +9,9 @@ use super::{
     ConditionRow, ConversionGain, DecomposeOptions, DecompositionSummary, EmGainCurve, FitQuality,
     MedianSe, ShotNoiseCheck,
 };
-use crate::stats::{median, median_and_robust_sigma};
+use rayon::prelude::*;
+
+use crate::stats::median_and_robust_sigma;
 
 /// The SE of a median of `n` values of robust sigma `s`: sqrt(pi/2) s / sqrt(n).
 fn median_se(values: &[f64]) -> (f64, f64) {
@@ -83,6 +85,17 @@ pub(super) fn summarise(p: Parts) -> DecompositionSummary {
             .into(),
     );
     let fitted = p.maps.fitted();
+    let mut maps = vec![
+        (&p.maps.f, &p.maps.f_se, sys[0]),
+        (&p.maps.d, &p.maps.d_se, sys[di]),
+    ];
+    if let (Some(c), Some(se)) = (&p.maps.c, &p.maps.c_se) {
+        maps.push((c, se, sys[1]));
+    }
+    let medians: Vec<MedianSe> = maps
+        .par_iter()
+        .map(|(m, se, sys)| median_of(m, se, *sys))
+        .collect();
     DecompositionSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         model: format!("{model}{temperature_words}, weighted least squares per pixel"),
@@ -95,7 +108,8 @@ pub(super) fn summarise(p: Parts) -> DecompositionSummary {
         conditions: d
             .conds
             .iter()
-            .map(|c| {
+            .enumerate()
+            .map(|(i, c)| {
                 let cond = &c.stats.condition;
                 ConditionRow {
                     file: c.stats.file.display().to_string(),
@@ -105,19 +119,14 @@ pub(super) fn summarise(p: Parts) -> DecompositionSummary {
                     em_gain_used_se: d.register.then_some(c.g_se),
                     temperature_c: c.temp,
                     frames: c.stats.frames,
-                    median_mean_adu: median(&c.stats.mean_adu),
+                    median_mean_adu: d.typical[i][0],
                     read_noise: c.stats.temporal.clone(),
                 }
             })
             .collect(),
-        offset_adu: median_of(&p.maps.f, &p.maps.f_se, sys[0]),
-        dark_current_e_per_s: with_k(median_of(&p.maps.d, &p.maps.d_se, sys[di])),
-        cic_e_per_frame: p
-            .maps
-            .c
-            .as_ref()
-            .zip(p.maps.c_se.as_ref())
-            .map(|(c, se)| with_k(median_of(c, se, sys[1]))),
+        offset_adu: medians[0],
+        dark_current_e_per_s: with_k(medians[1]),
+        cic_e_per_frame: medians.get(2).copied().map(with_k),
         temperature: p.temp.summary.clone(),
         fit_quality: p.quality,
         hot_pixels: p.hot,
