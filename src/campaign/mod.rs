@@ -6,11 +6,13 @@
 //! Layout: `condition` holds the shared types, `input` reads the stacks and their conditions
 //! (a CSV manifest, FITS header keywords or an EMVA 1288 descriptor), `checks` refuses an
 //! inconsistent campaign before any frame is read, `measure` streams each stack once into its
-//! [`ConditionStats`] (and fits the EM histogram of EMCCD darks), `outputs` writes
-//! conditions.csv and campaign.json, and `run` is the whole `campaign` command as one call.
+//! [`ConditionStats`] (and fits the EM histogram of EMCCD darks), `fit` decomposes every
+//! pixel's mean dark into offset, CIC and dark current, `outputs` writes conditions.csv and
+//! campaign.json, and `run` is the whole `campaign` command as one call.
 
 mod checks;
 mod condition;
+pub mod fit;
 pub mod input;
 mod measure;
 mod outputs;
