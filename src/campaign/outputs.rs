@@ -18,6 +18,13 @@ use crate::output::{render, write_atomic, write_json, TableFormat};
 /// The files `campaign` writes.
 pub const CAMPAIGN_OUTPUTS: [&str; 2] = ["conditions.csv", "campaign.json"];
 
+/// Every file `campaign` may write: its own and the decomposition's.
+pub fn campaign_output_names() -> Vec<&'static str> {
+    let mut names = CAMPAIGN_OUTPUTS.to_vec();
+    names.extend(super::fit::OUTPUT_NAMES);
+    names
+}
+
 /// One row of conditions.csv: a stack, its condition and its noise (adu), with SEs.
 #[derive(Clone, Debug, Serialize)]
 pub struct ConditionRow {

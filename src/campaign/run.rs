@@ -5,9 +5,12 @@
 use std::path::PathBuf;
 
 use super::checks::{check_campaign, Design};
+use super::fit::{self, DecomposeOptions, Decomposition, EmGainFit};
 use super::input::CampaignInput;
 use super::measure::{measure_campaign, MeasureOptions, StackMeasurement};
-use super::outputs::{write_campaign_outputs, CampaignSummary, StackSummary, CAMPAIGN_OUTPUTS};
+use super::outputs::{
+    campaign_output_names, write_campaign_outputs, CampaignSummary, StackSummary,
+};
 use crate::error::{Error, Result};
 use crate::output::{DirPlan, OutputDir};
 use crate::progress::Observer;
@@ -64,7 +67,7 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
             command: "campaign",
             force: job.force,
             inputs: &inputs,
-            names: &CAMPAIGN_OUTPUTS,
+            names: &campaign_output_names(),
         },
     )?;
     let plan = check_campaign(listing)?;
@@ -72,12 +75,7 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         observer.warn(note);
     }
     let stacks = measure_campaign(&plan, &job.measure, observer)?;
-    // LEAD: the per-pixel decomposition goes here, after the merge:
-    //   let stats: Vec<ConditionStats> = stacks.iter().map(|m| m.stats.clone()).collect();
-    //   let decomposition = crate::campaign::fit::decompose(&stats, &DecomposeOptions { .. })?;
-    // and its maps are written into `dir` (add their names to CAMPAIGN_OUTPUTS) with its
-    // summary in `CampaignSummary::decomposition`.
-    let decomposition = None;
+    let decomposition = decompose(&plan.design, &stacks, gain, observer)?;
     let summary = CampaignSummary {
         command: "campaign",
         version: env!("CARGO_PKG_VERSION"),
@@ -95,9 +93,12 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
             .zip(&plan.stacks)
             .map(|(m, s)| StackSummary::of(m, &s.files))
             .collect(),
-        decomposition,
+        decomposition: Some(serde_json::to_value(&decomposition.summary).map_err(|e| {
+            Error::Numeric(format!("cannot encode the decomposition's summary: {e}"))
+        })?),
     };
     write_campaign_outputs(&dir.path(""), &stacks, &summary)?;
+    fit::write_outputs(&decomposition, &dir.path(""), &[])?;
     Ok(CampaignRunResult {
         stored_bytes: stacks.iter().map(|m| m.stored_bytes).sum(),
         read_seconds: stacks.iter().map(|m| m.read_seconds).sum(),
@@ -105,4 +106,56 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         design: plan.design,
         out: dir.commit()?,
     })
+}
+
+/// The per-pixel decomposition of the darks' mean signal, with the EM gains the histogram fits
+/// measured (the commanded gains, with a warning, when any gain has no fit).
+fn decompose(
+    design: &Design,
+    stacks: &[StackMeasurement],
+    gain_e_per_adu: f64,
+    observer: &dyn Observer,
+) -> Result<Decomposition> {
+    let stats: Vec<_> = stacks.iter().map(|m| m.stats.clone()).collect();
+    let mut opts = DecomposeOptions::new(gain_e_per_adu);
+    opts.fit_cic = design.cic_separable == Some(true);
+    opts.em_gains = fitted_em_gains(design, stacks);
+    if opts.em_gains.is_empty() && !design.dark_em_gains.is_empty() {
+        observer.warn(
+            "the decomposition uses the commanded EM gains as exact: the histogram fit did not \
+             measure every gain",
+        );
+    }
+    fit::decompose(&stats, &opts)
+}
+
+/// One fitted gain (e-/e-) per commanded gain of the darks: the inverse-variance mean of its
+/// stacks' histogram fits; empty when any commanded gain has no usable fit.
+fn fitted_em_gains(design: &Design, stacks: &[StackMeasurement]) -> Vec<EmGainFit> {
+    let mut out = Vec::with_capacity(design.dark_em_gains.len());
+    for &commanded in &design.dark_em_gains {
+        let (mut sw, mut swg) = (0.0, 0.0);
+        for m in stacks {
+            let c = &m.stats.condition;
+            if c.em_gain != Some(commanded) || c.kind != super::StackKind::Dark {
+                continue;
+            }
+            if let Some(Ok(f)) = &m.em_fit {
+                if f.gain_e_per_adu.is_some() && f.em_gain_se > 0.0 && f.em_gain_se.is_finite() {
+                    let w = f.em_gain_se.powi(-2);
+                    sw += w;
+                    swg += w * f.em_gain;
+                }
+            }
+        }
+        if sw == 0.0 {
+            return Vec::new();
+        }
+        out.push(EmGainFit {
+            commanded,
+            gain: swg / sw,
+            se: sw.powf(-0.5),
+        });
+    }
+    out
 }
