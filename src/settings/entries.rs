@@ -215,6 +215,46 @@ pub const GAIN_E_PER_ADU: Setting = Setting::new(
 )
 .unit("e- per adu");
 
+/// The measured camera model of the `camera` readout.
+pub const CAMERA: Setting = Setting::new(
+    "camera",
+    "--camera",
+    Kind::Path,
+    "Measured camera model (a folder with camera.json and its maps, docs/camera.md) for the \
+     `camera` model, read at the operating point of --exposure-s, --em-gain, --temperature-c",
+)
+.needed_as("a camera model folder (FILE)");
+
+/// Exposure time of the camera model's operating point, s.
+pub const EXPOSURE_S: Setting = Setting::new(
+    "exposure_s",
+    "--exposure-s",
+    Real(Excluded(0.0), Included(crate::camera::MAX_EXPOSURE_S)),
+    "Exposure time of each frame of --camera, s, > 0 and at most 86400; default: \
+     1 / --frame-rate-hz (the dark current's signal and shot noise scale with it)",
+)
+.unit("s");
+
+/// Sensor temperature of the camera model's operating point, degrees C.
+pub const TEMPERATURE_C: Setting = Setting::new(
+    "temperature_c",
+    "--temperature-c",
+    Real(Included(-273.15), Included(200.0)),
+    "Sensor temperature of --camera, degrees C, -273.15 to 200 (its dark current scaled by the \
+     model's doubling temperature); default: the temperature its dark current was measured at",
+)
+.unit("degrees C");
+
+/// Frame rate of the camera model's operating point, Hz.
+pub const FRAME_RATE_HZ: Setting = Setting::new(
+    "frame_rate_hz",
+    "--frame-rate-hz",
+    Real(Excluded(0.0), Included(1e6)),
+    "Frame rate the camera of --camera runs at, Hz, > 0 and at most 1e6: the exposure is \
+     1 / rate unless --exposure-s is given, and the report states the effective read noise at it",
+)
+.unit("Hz");
+
 /// The readout-model settings (`ModelParams`; Python's `**params`), in the order of `--help`.
 pub const READOUT: &[&Setting] = &[
     &EM_GAIN,
@@ -235,6 +275,10 @@ pub const READOUT: &[&Setting] = &[
     &DARK_FRAMES,
     &DARK_FRAMES_MAX_MIB,
     &GAIN_E_PER_ADU,
+    &CAMERA,
+    &EXPOSURE_S,
+    &TEMPERATURE_C,
+    &FRAME_RATE_HZ,
 ];
 
 /// Sub-aperture sizes, px per side.
