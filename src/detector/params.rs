@@ -45,6 +45,8 @@ pub struct ModelParams {
     pub row_noise_e: Option<f64>,
     /// Column-noise amplitude of `scmos-correlated` (e- rms, shared by a column of the window).
     pub column_noise_e: Option<f64>,
+    /// Frame-common noise amplitude of `scmos-correlated` (e- rms, shared by the whole frame).
+    pub frame_noise_e: Option<f64>,
     /// The bias-subtracted dark frames (e-) of `scmos-frames`.
     pub dark_frames: Option<Arc<DarkFrames>>,
     /// The camera model of `camera` at the run's operating point.
@@ -126,6 +128,7 @@ impl ModelParams {
                 .transpose()?,
             row_noise_e: real(&s::ROW_NOISE_E),
             column_noise_e: real(&s::COLUMN_NOISE_E),
+            frame_noise_e: real(&s::FRAME_NOISE_E),
             dark_frames: dark_frames(values, observer)?,
             camera: camera(values)?,
         })

@@ -184,6 +184,16 @@ pub const COLUMN_NOISE_E: Setting = Setting::new(
 .unit("e-")
 .needed_as("the column-noise amplitude (e- rms; 0 for none)");
 
+/// Frame-common noise amplitude of `scmos-correlated`, e- rms.
+pub const FRAME_NOISE_E: Setting = Setting::new(
+    "frame_noise_e",
+    "--frame-noise-e",
+    NOISE_E,
+    "Frame-common noise amplitude of `scmos-correlated`, e- rms: one draw per frame shared by \
+     every pixel (darks: temporal_noise.frame_rms_e in summary.json), at most 1e4; default 0",
+)
+.unit("e-");
+
 /// Dark frames of `scmos-frames`.
 pub const DARK_FRAMES: Setting = Setting::new(
     "dark_frames",
@@ -272,6 +282,7 @@ pub const READOUT: &[&Setting] = &[
     &RTS_TABLE,
     &ROW_NOISE_E,
     &COLUMN_NOISE_E,
+    &FRAME_NOISE_E,
     &DARK_FRAMES,
     &DARK_FRAMES_MAX_MIB,
     &GAIN_E_PER_ADU,
