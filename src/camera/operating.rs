@@ -50,6 +50,8 @@ pub struct CameraAt {
     pub column_noise_e: f64,
     /// Frame-common noise, e- rms, input-referred.
     pub frame_noise_e: f64,
+    /// Largest value the camera outputs, adu.
+    pub saturation_adu: f64,
 }
 
 impl CameraModel {
@@ -117,6 +119,7 @@ impl CameraModel {
             row_noise_e: self.row_noise_e / em_gain,
             column_noise_e: self.column_noise_e / em_gain,
             frame_noise_e: self.frame_noise_e / em_gain,
+            saturation_adu: self.saturation_adu,
         })
     }
 
