@@ -150,9 +150,14 @@ How a report uses the simulation options:
       comparison with each side's best); cog is always run as the reference, and every other
       table and chart of the report uses cog. The first centroider also reads --subap-grid's
       per-sub-aperture map. EMCCD report: not used.
-  --rts-table, --row-noise-e, --column-noise-e, --dark-frames, --dark-frames-max-mib
+  --rts-table, --row-noise-e, --column-noise-e, --frame-noise-e, --dark-frames,
+  --dark-frames-max-mib
       The scmos-rts, scmos-correlated and scmos-frames models (see `detnoise simulate
-      --help`); a file given is read and checked.
+      --help`); a file given is read and checked. Without them an sCMOS report takes what
+      --darks measured (the row, column and frame-common noise, once each).
+  --camera, --exposure-s, --temperature-c, --frame-rate-hz
+      The camera model of the `camera` readout at its operating point (exposure 1 / frame
+      rate unless --exposure-s): read and checked; not yet a section of the report.
   --gain-e-per-adu
       The conversion gain of --darks (needed when no --flats are given) and of --dark-frames.
   --sigma, --gaussian-switch, --pattern-seed, --pp-rule, --pp-lambda

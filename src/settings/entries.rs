@@ -230,7 +230,7 @@ pub const CAMERA: Setting = Setting::new(
     "camera",
     "--camera",
     Kind::Path,
-    "Measured camera model (a folder with camera.json and its maps, docs/camera.md) for the \
+    "Path of a measured camera model (a folder with camera.json and its maps, docs/camera.md) for the \
      `camera` model, read at the operating point of --exposure-s, --em-gain, --temperature-c",
 )
 .needed_as("a camera model folder (FILE)");
@@ -621,8 +621,9 @@ pub const COMMAND_DEFAULTS: &[CommandDefault] = &[
     CommandDefault {
         command: "synth",
         setting: &EM_GAIN,
-        default: Some("300"),
-        why: "the EM gain of the bundled synthetic EMCCD stacks",
+        default: None,
+        why: "300 (the bundled synthetic EMCCD stacks') for --detector emccd, none (no \
+              multiplication) with --camera: the run chooses, its help says so",
     },
     CommandDefault {
         command: "synth",
