@@ -190,7 +190,8 @@ pub const FRAME_NOISE_E: Setting = Setting::new(
     "--frame-noise-e",
     NOISE_E,
     "Frame-common noise amplitude of `scmos-correlated`, e- rms: one draw per frame shared by \
-     every pixel (darks: temporal_noise.frame_rms_e in summary.json), at most 1e4; default 0",
+     every pixel (darks: temporal_noise.frame_rms_e in summary.json), at most 1e4; none: no \
+     frame noise",
 )
 .unit("e-");
 
@@ -261,7 +262,7 @@ pub const FRAME_RATE_HZ: Setting = Setting::new(
     "--frame-rate-hz",
     Real(Excluded(0.0), Included(1e6)),
     "Frame rate the camera of --camera runs at, Hz, > 0 and at most 1e6: the exposure is \
-     1 / rate unless --exposure-s is given, and the report states the effective read noise at it",
+     1 / rate unless --exposure-s is given",
 )
 .unit("Hz");
 
