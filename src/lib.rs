@@ -7,6 +7,7 @@
 #![warn(missing_docs)]
 
 pub mod calib;
+pub mod camera;
 pub mod campaign;
 pub mod centroid;
 pub mod charts;

@@ -95,6 +95,10 @@ class ModelParams(TypedDict, total=False):
     #: frame (darks: temporal_noise.column_rms_e in summary.json), at most 1e4 (no camera's); in [0,
     #: 10000] e-; default: none.
     column_noise_e: Optional[float]
+    #: Frame-common noise amplitude of `scmos-correlated`, e- rms: one draw per frame shared by
+    #: every pixel (darks: temporal_noise.frame_rms_e in summary.json), at most 1e4; none: no frame
+    #: noise; in [0, 10000] e-; default: none.
+    frame_noise_e: Optional[float]
     #: Dark frames for `scmos-frames` (files, a directory or a glob; FITS, TIFF, OpenEXR): each
     #: pixel's mean over the stack is subtracted and the values converted with `gain_e_per_adu`;
     #: default: none.
@@ -106,6 +110,20 @@ class ModelParams(TypedDict, total=False):
     #: Conversion gain of `dark_frames`, e- per adu, at most 1e4 (a 16-bit converter would then span
     #: 100 full wells; cameras run at 0.1 to a few tens); in (0, 10000] e- per adu; default: none.
     gain_e_per_adu: Optional[float]
+    #: Path of a measured camera model (a folder with camera.json and its maps, docs/camera.md) for
+    #: the `camera` model, read at the operating point of `exposure_s`, `em_gain`, `temperature_c`;
+    #: default: none.
+    camera: Optional[_Path]
+    #: Exposure time of each frame of `camera`, s, > 0 and at most 86400; default: 1 /
+    #: `frame_rate_hz` (the dark current's signal and shot noise scale with it); in (0, 86400] s.
+    exposure_s: Optional[float]
+    #: Sensor temperature of `camera`, degrees C, -273.15 to 200 (its dark current scaled by the
+    #: model's doubling temperature); default: the temperature its dark current was measured at; in
+    #: [-273.15, 200] degrees C.
+    temperature_c: Optional[float]
+    #: Frame rate the camera of `camera` runs at, Hz, > 0 and at most 1e6: the exposure is 1 / rate
+    #: unless `exposure_s` is given; in (0, 1e6] Hz; default: none.
+    frame_rate_hz: Optional[float]
     # END settings
 
 class Readout:
@@ -118,6 +136,19 @@ class Readout:
     """
 
     def __init__(self, model: str, *, seed: int = 0, **params: Unpack[ModelParams]) -> None: ...
+    @staticmethod
+    def from_camera(
+        path: _Path,
+        *,
+        exposure_s: float,
+        em_gain: Optional[float] = None,
+        temperature_c: Optional[float] = None,
+        seed: int = 0,
+    ) -> "Readout":
+        """The ``camera`` readout of a camera model folder (docs/camera.md) at an operating
+        point: exposure (s), commanded EM gain (None: no multiplication), sensor temperature
+        (degrees C; None: the dark current's reference)."""
+        ...
     def read(
         self,
         image_e: _Array,

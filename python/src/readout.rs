@@ -148,6 +148,31 @@ impl PyReadout {
         Ok(this)
     }
 
+    /// The `camera` readout of the camera model folder `path` (docs/camera.md) at an
+    /// operating point: `exposure_s` (s), `em_gain` (commanded, e-/e-; None: no
+    /// multiplication), `temperature_c` (degrees C; None: the dark current's reference).
+    #[staticmethod]
+    #[pyo3(signature = (path, *, exposure_s, em_gain = None, temperature_c = None, seed = 0))]
+    fn from_camera(
+        py: Python<'_>,
+        path: std::path::PathBuf,
+        exposure_s: f64,
+        em_gain: Option<f64>,
+        temperature_c: Option<f64>,
+        seed: u64,
+    ) -> PyResult<Self> {
+        let params = PyDict::new(py);
+        params.set_item("camera", path)?;
+        params.set_item("exposure_s", exposure_s)?;
+        if let Some(g) = em_gain {
+            params.set_item("em_gain", g)?;
+        }
+        if let Some(t) = temperature_c {
+            params.set_item("temperature_c", t)?;
+        }
+        Self::new(py, "camera", seed, Some(&params))
+    }
+
     /// Read `image_e` through the camera: a frame (n, n) or a stack of sub-apertures
     /// (k, n, n). With `photon_noise` the values are expected photo-electrons per pixel and
     /// shot noise is drawn; without, they are photo-electron counts (whole numbers >= 0).

@@ -150,9 +150,14 @@ How a report uses the simulation options:
       comparison with each side's best); cog is always run as the reference, and every other
       table and chart of the report uses cog. The first centroider also reads --subap-grid's
       per-sub-aperture map. EMCCD report: not used.
-  --rts-table, --row-noise-e, --column-noise-e, --dark-frames, --dark-frames-max-mib
+  --rts-table, --row-noise-e, --column-noise-e, --frame-noise-e, --dark-frames,
+  --dark-frames-max-mib
       The scmos-rts, scmos-correlated and scmos-frames models (see `detnoise simulate
-      --help`); a file given is read and checked.
+      --help`); a file given is read and checked. Without them an sCMOS report takes what
+      --darks measured (the row, column and frame-common noise, once each).
+  --camera, --exposure-s, --temperature-c, --frame-rate-hz
+      The camera model of the `camera` readout at its operating point (exposure 1 / frame
+      rate unless --exposure-s): read and checked; not yet a section of the report.
   --gain-e-per-adu
       The conversion gain of --darks (needed when no --flats are given) and of --dark-frames.
   --sigma, --gaussian-switch, --pattern-seed, --pp-rule, --pp-lambda
@@ -230,7 +235,11 @@ impl ReportArgs {
 /// Entry point of `detnoise report`.
 pub fn run_cli(args: &ReportArgs) -> Result<()> {
     let options = args.options()?;
+    let camera = options.model_params.camera.as_deref().map(camera_line);
     let result = crate::report::run(&options, &Terminal::default())?;
+    if let Some(line) = camera {
+        eprintln!("{line}");
+    }
     if let Some(s) = result.scmos() {
         eprintln!(
             "report: {} dark frames of {}x{} px",
@@ -244,10 +253,61 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
     Ok(())
 }
 
+/// The effective read noise of the camera model at the run's operating point, in one line:
+/// the frame rate is 1 / exposure (the exposure --frame-rate-hz gives unless --exposure-s).
+fn camera_line(at: &crate::camera::CameraAt) -> String {
+    let op = at.point;
+    let temperature = op
+        .temperature_c
+        .map_or(String::new(), |t| format!(", {t} C"));
+    format!(
+        "camera model at {:.6} Hz ({:.6} s exposure, EM gain {}{temperature}): effective read \
+         noise {:.4} e- rms (median over the pixels of read, dark shot, CIC, row, column and \
+         frame noise, input-referred)",
+        1.0 / op.exposure_s,
+        op.exposure_s,
+        at.em_gain,
+        at.effective_read_noise_e()
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::report::{DEFAULT_AIRY_DIAMETERS_PX, DEFAULT_SIGNALS_PHOTONS, DEFAULT_SUBAPS_PX};
+
+    #[test]
+    fn the_camera_line_states_the_noise_at_the_frame_rate() {
+        use crate::calib::{Map, Unit};
+        let cam = crate::camera::CameraModel::new(
+            Map::filled(1, 1, 100.0, Unit::Adu),
+            1.0,
+            Map::filled(1, 1, 3.0, Unit::Electrons),
+            16,
+        )
+        .unwrap()
+        .with_dark_current(crate::camera::DarkCurrent {
+            map_e_per_s: Map::filled(1, 1, 800.0, Unit::Flags),
+            reference_temperature_c: None,
+            doubling_temperature_c: None,
+        })
+        .unwrap();
+        // 100 Hz: 8 e- of dark signal, noise sqrt(9 + 8) e-.
+        let op = crate::camera::OperatingPoint {
+            exposure_s: 0.01,
+            em_gain: None,
+            temperature_c: None,
+        };
+        let line = camera_line(&cam.at(op).unwrap());
+        assert!(
+            line.starts_with("camera model at 100.000000 Hz (0.010000 s exposure"),
+            "{line}"
+        );
+        assert!(
+            line.contains(&format!("noise {:.4} e- rms", 17f64.sqrt())),
+            "{line}"
+        );
+    }
 
     #[test]
     fn the_stated_default_operating_point_is_the_librarys() {

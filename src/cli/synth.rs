@@ -15,6 +15,8 @@ use crate::synth::{
 
 /// sCMOS conversion gain without `--gain-e-per-adu`, e- per adu (stated in its help).
 const SCMOS_GAIN_E_PER_ADU: f64 = 0.25;
+/// EMCCD mean EM gain without `--em-gain`, e-/e- (stated in its help).
+const DEFAULT_EM_GAIN: f64 = 300.0;
 /// EMCCD output conversion factor without `--gain-e-per-adu`, e- per adu (stated in its help).
 const EMCCD_GAIN_E_PER_ADU: f64 = 10.0;
 
@@ -30,12 +32,31 @@ pub enum DetectorKind {
 /// Options of `detnoise synth`.
 #[derive(clap::Args, Debug)]
 pub struct SynthArgs {
-    /// Detector to simulate.
-    #[arg(long, value_enum)]
-    pub detector: DetectorKind,
-    /// Frame shape ROWSxCOLS (pixels), e.g. 64x48; at most 16,777,216 pixels (4096x4096).
-    #[arg(long, value_parser = parse_shape)]
-    pub shape: (usize, usize),
+    /// Detector to simulate (not with --camera, which states it).
+    #[arg(
+        long,
+        value_enum,
+        required_unless_present = "camera",
+        conflicts_with = "camera"
+    )]
+    pub detector: Option<DetectorKind>,
+    /// Frame shape ROWSxCOLS (pixels), e.g. 64x48; at most 16,777,216 pixels (4096x4096)
+    /// (not with --camera: its maps' shape).
+    #[arg(long, value_parser = parse_shape, required_unless_present = "camera", conflicts_with = "camera")]
+    pub shape: Option<(usize, usize)>,
+    /// Dark frames of this measured camera model (a folder with camera.json and its maps,
+    /// docs/camera.md) at the operating point of --exposure-s, --em-gain, --temperature-c,
+    /// with the master dark (`<stem>.master_dark_adu.fits`, adu) and its standard error per
+    /// pixel (`<stem>.master_dark_se_e.fits`, e-) beside the stack.
+    #[arg(long, value_name = "FILE", requires = "exposure_s")]
+    pub camera: Option<PathBuf>,
+    /// Exposure time of each frame of --camera, s, > 0 and at most 86400.
+    #[arg(long, value_parser = real(Excluded(0.0), Included(crate::camera::MAX_EXPOSURE_S), "s"), requires = "camera")]
+    pub exposure_s: Option<f64>,
+    /// Sensor temperature of --camera, degrees C (its dark current scaled by the model's
+    /// doubling temperature); default: the temperature its dark current was measured at.
+    #[arg(long, value_parser = real(Included(-273.15), Included(200.0), "degrees C"), requires = "camera")]
+    pub temperature_c: Option<f64>,
     /// Number of frames, 1 to 1,000,000.
     #[arg(long, value_parser = whole::<usize>(1, MAX_FRAMES, "frames"))]
     pub frames: usize,
@@ -76,9 +97,11 @@ pub struct SynthArgs {
     /// sCMOS relative pixel-to-pixel gain spread (standard deviation / mean, unitless), [0, 1].
     #[arg(long, default_value_t = 0.02, value_parser = real(Included(0.0), Included(1.0), ""))]
     pub gain_spread: f64,
-    /// EMCCD mean EM gain (output e- per input e-), 1 to 10,000.
-    #[arg(long, default_value_t = 300.0, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
-    pub em_gain: f64,
+    /// EMCCD mean EM gain (output e- per input e-), 1 to 10,000; default 300. With --camera,
+    /// the commanded gain of its register (its gain curve gives the actual one); default none
+    /// (no multiplication).
+    #[arg(long, value_parser = real(Included(1.0), Included(MAX_EM_GAIN), "e-/e-"))]
+    pub em_gain: Option<f64>,
     /// EMCCD number of register stages, 1 to 2000 and at least log2(--em-gain).
     #[arg(long, default_value_t = 520, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
     pub stages: u32,
@@ -130,8 +153,8 @@ impl SynthArgs {
     /// Check the options together before anything is written (single values are
     /// range-checked while parsing; `--rms-pdf` when the pdf is built).
     pub fn validate(&self) -> Result<()> {
-        if self.detector == DetectorKind::Emccd {
-            EmRegister::check(self.em_gain, self.stages, "--em-gain")?;
+        if self.detector == Some(DetectorKind::Emccd) {
+            EmRegister::check(self.em_gain(), self.stages, "--em-gain")?;
         } else {
             defects(self).check()?;
         }
@@ -139,9 +162,22 @@ impl SynthArgs {
     }
 }
 
+impl SynthArgs {
+    /// The EM gain of a synthetic EMCCD (e-/e-): --em-gain, else the bundled stacks' 300.
+    fn em_gain(&self) -> f64 {
+        self.em_gain.unwrap_or(DEFAULT_EM_GAIN)
+    }
+}
+
 /// Build the simulation spec from the options.
 pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
-    let camera = match args.detector {
+    let (Some(detector), Some(shape)) = (args.detector, args.shape) else {
+        return Err(crate::Error::invalid(
+            "--detector",
+            "give --detector and --shape (or --camera)",
+        ));
+    };
+    let camera = match detector {
         DetectorKind::Scmos => Camera::Scmos(ScmosParams {
             offset_adu: args.offset_adu,
             offset_spread_adu: args.offset_spread_adu,
@@ -150,7 +186,7 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
             defects: defects(args),
         }),
         DetectorKind::Emccd => Camera::Emccd(EmccdParams {
-            em_gain: args.em_gain,
+            em_gain: args.em_gain(),
             stages: args.stages,
             bias_adu: args.bias_adu,
             read_noise_e: args.read_noise_e,
@@ -160,7 +196,7 @@ pub fn spec(args: &SynthArgs) -> Result<SynthSpec> {
     };
     Ok(SynthSpec {
         camera,
-        shape: args.shape,
+        shape,
         frames: args.frames,
         light_e: args.light_e,
         seed: args.seed,
@@ -191,6 +227,9 @@ fn defects(args: &SynthArgs) -> Defects {
 
 /// Run `detnoise synth`.
 pub fn run(args: &SynthArgs) -> Result<()> {
+    if let Some(dir) = &args.camera {
+        return run_camera(args, dir);
+    }
     args.validate()?;
     let spec = spec(args)?;
     let staged = prepare_outputs(args, &spec)?;
@@ -209,6 +248,71 @@ pub fn run(args: &SynthArgs) -> Result<()> {
         spec.shape.0,
         spec.shape.1,
         m.rms_e_median
+    );
+    Ok(())
+}
+
+/// `synth --camera`: dark frames of the camera model at the operating point, with the master
+/// dark and its error map.
+fn run_camera(args: &SynthArgs, dir: &std::path::Path) -> Result<()> {
+    if args.format != SynthFormat::Fits {
+        return Err(crate::Error::invalid(
+            "--format",
+            "--camera writes a FITS stack (with its master dark): give --format fits",
+        ));
+    }
+    if args.light_e > 0.0 {
+        return Err(crate::Error::invalid(
+            "--light-e",
+            "--camera writes dark frames: give no light",
+        ));
+    }
+    let op = crate::camera::OperatingPoint {
+        exposure_s: args.exposure_s.expect("clap requires it with --camera"),
+        em_gain: args.em_gain,
+        temperature_c: args.temperature_c,
+    };
+    let at = crate::camera::CameraModel::read(dir)
+        .and_then(|m| m.at(op))
+        .map_err(|e| match e {
+            crate::Error::Usage { field, message } => {
+                crate::Error::invalid(format!("--{}", field.replace('_', "-")), message)
+            }
+            other => other,
+        })?;
+    let files = crate::synth::camera_dark_files(&args.out);
+    let outs: Vec<FileOut> = files
+        .iter()
+        .enumerate()
+        .map(|(i, path)| FileOut {
+            path,
+            option: "--out",
+            exts: if i == 0 { &["fits", "fit"] } else { &[] },
+            what: "a FITS stack",
+        })
+        .collect();
+    let inputs = [dir.to_path_buf()];
+    let staged = StagedFiles::prepare(&outs, args.force, &inputs)?;
+    let s = crate::synth::write_camera_darks(
+        &at,
+        args.frames,
+        args.seed,
+        args.float,
+        &args.out,
+        staged.dir(),
+    )?;
+    staged.commit()?;
+    eprintln!(
+        "wrote {} ({} dark frames of {}x{} at {} s, EM gain {}), dark signal median {:.4} e- per \
+         frame, noise median {:.3} e- rms; master dark and its standard error beside it",
+        args.out.display(),
+        args.frames,
+        at.shape.0,
+        at.shape.1,
+        op.exposure_s,
+        at.em_gain,
+        s.dark_e_median,
+        s.noise_e_median
     );
     Ok(())
 }

@@ -122,7 +122,10 @@ fn no_option_states_a_default_beside_the_one_clap_shows() {
 }
 
 /// Units a value-taking option's help may state (whole words, after trimming punctuation).
-const UNIT_WORDS: [&str; 13] = [
+const UNIT_WORDS: [&str; 16] = [
+    "s",
+    "Hz",
+    "C",
     "px",
     "pixels",
     "e-",

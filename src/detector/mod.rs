@@ -28,12 +28,13 @@ mod registry;
 pub mod rts_table;
 mod spec;
 
+pub use camera_model::CameraReadout;
 pub use dark_frames::DarkFrames;
 pub use emccd_distribution::EmccdDistribution;
 pub use emccd_pp::EmccdPp;
 pub use emccd_simple::EmccdSimple;
 pub use emccd_stochastic::EmccdStochastic;
-pub use params::ModelParams;
+pub use params::{operating_point, ModelParams};
 pub use readout::{draw_normals, FrameInput, Readout};
 pub use register::EmRegister;
 pub use rts_table::{RtsPixel, RtsTable};
@@ -70,6 +71,8 @@ readout_models! {
     scmos_rts: [ENTRY],
     scmos_correlated: [ENTRY],
     scmos_frames: [ENTRY],
+    // Issue 31: a measured camera model at an operating point.
+    camera_model: [ENTRY],
 }
 
 /// [`MODEL_NAMES`] as bytes, joined at compile time.

@@ -6,6 +6,7 @@ use super::pp::PpRule;
 use super::rts_table::RtsTable;
 use super::{EmRegister, ModelSpec};
 use crate::calib::{Map, Unit};
+use crate::camera::{CameraAt, CameraModel, OperatingPoint};
 use crate::pdf::RmsPdf;
 use crate::progress::Observer;
 use crate::settings::{self as s, Value, Values};
@@ -44,8 +45,12 @@ pub struct ModelParams {
     pub row_noise_e: Option<f64>,
     /// Column-noise amplitude of `scmos-correlated` (e- rms, shared by a column of the window).
     pub column_noise_e: Option<f64>,
+    /// Frame-common noise amplitude of `scmos-correlated` (e- rms, shared by the whole frame).
+    pub frame_noise_e: Option<f64>,
     /// The bias-subtracted dark frames (e-) of `scmos-frames`.
     pub dark_frames: Option<Arc<DarkFrames>>,
+    /// The camera model of `camera` at the run's operating point.
+    pub camera: Option<Arc<CameraAt>>,
 }
 
 impl Default for ModelParams {
@@ -94,7 +99,7 @@ impl ModelParams {
                  `gain_e_per_adu`",
             ));
         }
-        Ok(())
+        check_operating_point(values)
     }
 
     /// The parameters `values` give, the files among them read (a pdf fit, the noise map, the
@@ -123,7 +128,9 @@ impl ModelParams {
                 .transpose()?,
             row_noise_e: real(&s::ROW_NOISE_E),
             column_noise_e: real(&s::COLUMN_NOISE_E),
+            frame_noise_e: real(&s::FRAME_NOISE_E),
             dark_frames: dark_frames(values, observer)?,
+            camera: camera(values)?,
         })
     }
 
@@ -137,8 +144,71 @@ impl ModelParams {
         };
         let files = values.path(&s::MAP).into_iter().chain(pdf);
         let files = files.chain(values.path(&s::RTS_TABLE));
-        files.chain(values.paths(&s::DARK_FRAMES)).collect()
+        let files = files.chain(values.paths(&s::DARK_FRAMES));
+        files.chain(camera_files(values)).collect()
     }
+}
+
+/// The operating-point settings go with `camera`, which needs an exposure (or a frame rate).
+fn check_operating_point(values: &Values) -> Result<()> {
+    if !values.is_given(&s::CAMERA) {
+        for setting in [&s::EXPOSURE_S, &s::TEMPERATURE_C, &s::FRAME_RATE_HZ] {
+            if values.is_given(setting) {
+                return Err(Error::invalid(
+                    setting.field,
+                    "is an operating point of a camera model: applies only with `camera` FILE",
+                ));
+            }
+        }
+        return Ok(());
+    }
+    if !values.is_given(&s::EXPOSURE_S) && !values.is_given(&s::FRAME_RATE_HZ) {
+        return Err(Error::invalid(
+            "exposure_s",
+            "the camera model is read at an operating point: give `exposure_s` (s) or \
+             `frame_rate_hz` (the exposure is then 1 / rate)",
+        ));
+    }
+    Ok(())
+}
+
+/// The operating point the settings give: `exposure_s` (else 1 / `frame_rate_hz`), `em_gain`
+/// when given (else none: no multiplication), `temperature_c` when given.
+pub fn operating_point(values: &Values) -> Option<OperatingPoint> {
+    let exposure_s = values
+        .real(&s::EXPOSURE_S)
+        .or_else(|| values.real(&s::FRAME_RATE_HZ).map(|f| 1.0 / f))?;
+    Some(OperatingPoint {
+        exposure_s,
+        em_gain: values
+            .is_given(&s::EM_GAIN)
+            .then(|| values.real(&s::EM_GAIN))
+            .flatten(),
+        temperature_c: values.real(&s::TEMPERATURE_C),
+    })
+}
+
+/// The camera model of `camera` at the operating point of the settings.
+fn camera(values: &Values) -> Result<Option<Arc<CameraAt>>> {
+    let Some(path) = values.path(&s::CAMERA) else {
+        return Ok(None);
+    };
+    let op = operating_point(values).expect("checked: an exposure or a frame rate is given");
+    Ok(Some(Arc::new(CameraModel::read(&path)?.at(op)?)))
+}
+
+/// The files of the camera model folder of `camera` (for the output checks).
+fn camera_files(values: &Values) -> Vec<PathBuf> {
+    let Some(dir) = values.path(&s::CAMERA) else {
+        return Vec::new();
+    };
+    let names = crate::camera::MAP_FILES.iter().map(|m| m.0);
+    let mut files: Vec<PathBuf> = names
+        .chain([crate::camera::CAMERA_JSON, "rts.csv"])
+        .map(|n| dir.join(n))
+        .collect();
+    files.push(dir);
+    files
 }
 
 /// The per-pixel rms distribution `pdf` names: the paper's, a fitted one, or a pdf_fit.json.

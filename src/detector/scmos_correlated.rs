@@ -16,7 +16,7 @@ pub const ENTRY: ModelEntry = ModelEntry {
     help: "scmos-map plus row and column noise: every frame one normal draw per row and one per \
            column of the window, scaled by the measured amplitudes",
     sensor: Sensor::Scmos,
-    params: &["map", "row_noise_e", "column_noise_e"],
+    params: &["map", "row_noise_e", "column_noise_e", "frame_noise_e"],
     parse: ModelSpec::registered,
     build: |_, p, subap_px| {
         let map = p.map.clone().ok_or_else(|| {
@@ -37,7 +37,8 @@ pub const ENTRY: ModelEntry = ModelEntry {
         };
         let row = need(p.row_noise_e, "row_noise_e")?;
         let column = need(p.column_noise_e, "column_noise_e")?;
-        Ok(Box::new(ScmosCorrelated::new(map, row, column, subap_px)?))
+        let model = ScmosCorrelated::new(map, row, column, subap_px)?;
+        Ok(Box::new(model.with_frame_noise(p.frame_noise_e.unwrap_or(0.0))?))
     },
 };
 
@@ -55,6 +56,7 @@ pub struct ScmosCorrelated {
     n: usize,
     row_noise_e: f64,
     column_noise_e: f64,
+    frame_noise_e: f64,
 }
 
 impl ScmosCorrelated {
@@ -73,7 +75,28 @@ impl ScmosCorrelated {
             n,
             row_noise_e,
             column_noise_e,
+            frame_noise_e: 0.0,
         })
+    }
+
+    /// The same model with noise common to the whole frame: one N(0, frame_e^2) draw per
+    /// frame (e- rms), shared by every pixel, counted once (not in the row or column terms).
+    pub fn with_frame_noise(self, frame_e: f64) -> Result<Self> {
+        if !(frame_e.is_finite() && frame_e >= 0.0) {
+            return Err(Error::invalid(
+                "frame_noise_e",
+                format!("{frame_e} e-: must be a finite number >= 0 e- rms"),
+            ));
+        }
+        Ok(ScmosCorrelated {
+            frame_noise_e: frame_e,
+            ..self
+        })
+    }
+
+    /// Variance shared with other pixels (row, column, frame), e-^2.
+    fn shared_variance(&self) -> f64 {
+        self.row_noise_e.powi(2) + self.column_noise_e.powi(2) + self.frame_noise_e.powi(2)
     }
 }
 
@@ -90,18 +113,18 @@ impl Readout for ScmosCorrelated {
         // Each pixel's total: its own sigma with the row and column noise added in quadrature.
         let at = self.read_at(input, aux, out);
         self.map.window_sigma(at, sigma_e);
-        let shared = self.row_noise_e.powi(2) + self.column_noise_e.powi(2);
+        let shared = self.shared_variance();
         sigma_e.iter_mut().for_each(|s| *s = (*s * *s + shared).sqrt());
     }
 
     fn median_sigma_e(&self) -> f64 {
         let m = self.map.median_sigma_e();
-        (m * m + self.row_noise_e.powi(2) + self.column_noise_e.powi(2)).sqrt()
+        (m * m + self.shared_variance()).sqrt()
     }
 
     fn noise_scale_e(&self) -> f64 {
         let s = self.map.noise_scale_e();
-        (s * s + self.row_noise_e.powi(2) + self.column_noise_e.powi(2)).sqrt()
+        (s * s + self.shared_variance()).sqrt()
     }
 }
 
@@ -122,8 +145,17 @@ impl ScmosCorrelated {
         };
         draw_normals(aux, deviates);
         let (rows, cols) = deviates.split_at(n);
+        // The frame deviate after them, drawn only when there is frame noise, so that frames
+        // without it read bit for bit as before it was modelled.
+        let frame = if self.frame_noise_e > 0.0 {
+            let mut z = [0.0];
+            draw_normals(aux, &mut z);
+            self.frame_noise_e * z[0]
+        } else {
+            0.0
+        };
         for (orow, &r) in out.chunks_exact_mut(n).zip(rows) {
-            let shared = self.row_noise_e * r;
+            let shared = frame + self.row_noise_e * r;
             for (o, &c) in orow.iter_mut().zip(cols) {
                 *o += shared + self.column_noise_e * c;
             }
@@ -176,6 +208,34 @@ mod tests {
             assert!(mean.abs() < 4.0 * (var / n as f64).sqrt(), "mean {mean}");
             assert!((v - var).abs() < 4.0 * var * (2.0 / n as f64).sqrt(), "var {v}");
         }
+    }
+
+    #[test]
+    fn frame_noise_is_shared_by_every_pixel_once() {
+        // Frame noise 0.7 e- on a 3x3 window without row or column noise: every pair of pixels
+        // covaries by 0.49, each pixel's variance is 1 + 0.49.
+        let frame = 0.7;
+        let map = Map::new(3, 3, vec![1.0; 9], Unit::Electrons).with_source("t");
+        let m = ScmosCorrelated::new(Arc::new(map), 0.0, 0.0, 3)
+            .unwrap()
+            .with_frame_noise(frame)
+            .unwrap();
+        let n = 100_000;
+        let px = dark_samples(&m, 3, n, 23);
+        let var = 1.0 + frame * frame;
+        assert!((m.noise_scale_e() - var.sqrt()).abs() < 1e-12);
+        let f2 = frame * frame;
+        let se = ((var * var + f2 * f2) / n as f64).sqrt();
+        for (a, b) in [(0, 8), (2, 6), (1, 5)] {
+            let cov = covariance(&px[a], &px[b]);
+            assert!((cov - f2).abs() < 4.0 * se, "{a},{b}: {cov} vs {f2}");
+        }
+        let (_, v) = mean_var(&px[4]);
+        assert!((v - var).abs() < 4.0 * var * (2.0 / n as f64).sqrt(), "var {v}");
+        assert!(ScmosCorrelated::new(Arc::new(Map::filled(2, 2, 1.0, Unit::Electrons)), 0.0, 0.0, 2)
+            .unwrap()
+            .with_frame_noise(-1.0)
+            .is_err());
     }
 
     #[test]

@@ -30,6 +30,19 @@ fn two_dark_frames() -> DarkFrames {
     DarkFrames::read(&[path], 1.0, 1.0).unwrap()
 }
 
+/// An 8x8 camera model at an exposure of 1 s.
+fn eight_px_camera() -> crate::camera::CameraAt {
+    let offset = Map::filled(8, 8, 100.0, Unit::Adu);
+    let camera =
+        crate::camera::CameraModel::new(offset, 1.0, Map::filled(8, 8, 1.5, Unit::Electrons), 16);
+    let op = crate::camera::OperatingPoint {
+        exposure_s: 1.0,
+        em_gain: None,
+        temperature_c: None,
+    };
+    camera.unwrap().at(op).unwrap()
+}
+
 #[test]
 fn every_entry_parses_builds_and_names_itself() {
     let map = Map::new(8, 8, vec![1.5; 64], Unit::Electrons).with_source("map.fits");
@@ -43,6 +56,7 @@ fn every_entry_parses_builds_and_names_itself() {
         row_noise_e: Some(0.2),
         column_noise_e: Some(0.1),
         dark_frames: Some(std::sync::Arc::new(two_dark_frames())),
+        camera: Some(std::sync::Arc::new(eight_px_camera())),
         ..ModelParams::default()
     };
     let fields = format!("{params:?}");
@@ -94,7 +108,7 @@ fn names_and_help_list_every_entry() {
         MODEL_NAMES,
         "emccd-simple[:QE_FACTOR], emccd-stochastic, emccd-distribution, emccd-pp, emccd-pp-uncorrected, \
 scmos-constant[:SIGMA_E], scmos-median, scmos-mean, scmos-fixed[:PATTERN], scmos-random, scmos-map, \
-scmos-rts, scmos-correlated, scmos-frames"
+scmos-rts, scmos-correlated, scmos-frames, camera"
     );
 }
 

@@ -52,10 +52,19 @@ pub(crate) fn measured_inputs(
         params.rts_table = Some(Arc::new(RtsTable::read(rts_csv, observer)?));
     }
     // A component that the split could not resolve (no estimate) adds nothing.
-    let measured = temporal.row_rms_e.is_some() || temporal.column_rms_e.is_some();
-    if params.row_noise_e.is_none() && params.column_noise_e.is_none() && measured {
+    let lines = [
+        temporal.row_rms_e,
+        temporal.column_rms_e,
+        temporal.frame_rms_e,
+    ];
+    let given = params.row_noise_e.is_some()
+        || params.column_noise_e.is_some()
+        || params.frame_noise_e.is_some();
+    if !given && lines.iter().any(Option::is_some) {
         params.row_noise_e = Some(temporal.row_rms_e.unwrap_or(0.0));
         params.column_noise_e = Some(temporal.column_rms_e.unwrap_or(0.0));
+        // The frame term, counted once: `darks` solves it apart from the line terms.
+        params.frame_noise_e = Some(temporal.frame_rms_e.unwrap_or(0.0));
     }
     let frames = match params.dark_frames.take() {
         Some(given) => given,
@@ -100,7 +109,7 @@ const MODELS: [(&str, &str); 3] = [
     ("scmos-rts", "scmos-rts (map + telegraph pixels)"),
     (
         "scmos-correlated",
-        "scmos-correlated (map + row and column noise)",
+        "scmos-correlated (map + row, column and frame noise)",
     ),
     (
         "scmos-frames",
@@ -270,6 +279,62 @@ mod tests {
             r_const_px: vec![],
             status,
         }
+    }
+
+    #[test]
+    fn the_measured_frame_noise_goes_to_the_correlated_model_once() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("darks.fits");
+        let mut next = || vec![100.0; 16];
+        crate::io::fits::write_cube(&path, (4, 4), 2, false, &mut next, &[]).unwrap();
+        let temporal = TemporalNoiseSummary {
+            row_rms_e: Some(0.2),
+            column_rms_e: Some(0.1),
+            frame_rms_e: Some(0.75),
+            ..Default::default()
+        };
+        let mut params = ModelParams::default();
+        let silent = &crate::progress::Silent;
+        let none = dir.path().join("rts.csv");
+        measured_inputs(
+            &mut params,
+            std::slice::from_ref(&path),
+            1.0,
+            &temporal,
+            (&none, 0),
+            silent,
+        )
+        .unwrap();
+        let lines = (
+            params.row_noise_e,
+            params.column_noise_e,
+            params.frame_noise_e,
+        );
+        assert_eq!(lines, (Some(0.2), Some(0.1), Some(0.75)));
+        // The model built from them reads the frame term: sqrt(1.5^2 + 0.2^2 + 0.1^2 + 0.75^2).
+        params.map = Some(Arc::new(crate::calib::Map::filled(
+            4,
+            4,
+            1.5,
+            crate::calib::Unit::Electrons,
+        )));
+        let model = ModelSpec::parse("scmos-correlated")
+            .unwrap()
+            .build(&params, 2)
+            .unwrap();
+        let expect = (1.5f64.powi(2) + 0.04 + 0.01 + 0.5625).sqrt();
+        assert!(
+            (model.noise_scale_e() - expect).abs() < 1e-12,
+            "{}",
+            model.noise_scale_e()
+        );
+        // Amplitudes the caller gave are kept: none taken from the darks.
+        let mut given = ModelParams {
+            frame_noise_e: Some(0.0),
+            ..ModelParams::default()
+        };
+        measured_inputs(&mut given, &[path], 1.0, &temporal, (&none, 0), silent).unwrap();
+        assert_eq!((given.row_noise_e, given.frame_noise_e), (None, Some(0.0)));
     }
 
     #[test]

@@ -184,6 +184,17 @@ pub const COLUMN_NOISE_E: Setting = Setting::new(
 .unit("e-")
 .needed_as("the column-noise amplitude (e- rms; 0 for none)");
 
+/// Frame-common noise amplitude of `scmos-correlated`, e- rms.
+pub const FRAME_NOISE_E: Setting = Setting::new(
+    "frame_noise_e",
+    "--frame-noise-e",
+    NOISE_E,
+    "Frame-common noise amplitude of `scmos-correlated`, e- rms: one draw per frame shared by \
+     every pixel (darks: temporal_noise.frame_rms_e in summary.json), at most 1e4; none: no \
+     frame noise",
+)
+.unit("e-");
+
 /// Dark frames of `scmos-frames`.
 pub const DARK_FRAMES: Setting = Setting::new(
     "dark_frames",
@@ -215,6 +226,46 @@ pub const GAIN_E_PER_ADU: Setting = Setting::new(
 )
 .unit("e- per adu");
 
+/// The measured camera model of the `camera` readout.
+pub const CAMERA: Setting = Setting::new(
+    "camera",
+    "--camera",
+    Kind::Path,
+    "Path of a measured camera model (a folder with camera.json and its maps, docs/camera.md) for the \
+     `camera` model, read at the operating point of --exposure-s, --em-gain, --temperature-c",
+)
+.needed_as("a camera model folder (FILE)");
+
+/// Exposure time of the camera model's operating point, s.
+pub const EXPOSURE_S: Setting = Setting::new(
+    "exposure_s",
+    "--exposure-s",
+    Real(Excluded(0.0), Included(crate::camera::MAX_EXPOSURE_S)),
+    "Exposure time of each frame of --camera, s, > 0 and at most 86400; default: \
+     1 / --frame-rate-hz (the dark current's signal and shot noise scale with it)",
+)
+.unit("s");
+
+/// Sensor temperature of the camera model's operating point, degrees C.
+pub const TEMPERATURE_C: Setting = Setting::new(
+    "temperature_c",
+    "--temperature-c",
+    Real(Included(-273.15), Included(200.0)),
+    "Sensor temperature of --camera, degrees C, -273.15 to 200 (its dark current scaled by the \
+     model's doubling temperature); default: the temperature its dark current was measured at",
+)
+.unit("degrees C");
+
+/// Frame rate of the camera model's operating point, Hz.
+pub const FRAME_RATE_HZ: Setting = Setting::new(
+    "frame_rate_hz",
+    "--frame-rate-hz",
+    Real(Excluded(0.0), Included(1e6)),
+    "Frame rate the camera of --camera runs at, Hz, > 0 and at most 1e6: the exposure is \
+     1 / rate unless --exposure-s is given",
+)
+.unit("Hz");
+
 /// The readout-model settings (`ModelParams`; Python's `**params`), in the order of `--help`.
 pub const READOUT: &[&Setting] = &[
     &EM_GAIN,
@@ -232,9 +283,14 @@ pub const READOUT: &[&Setting] = &[
     &RTS_TABLE,
     &ROW_NOISE_E,
     &COLUMN_NOISE_E,
+    &FRAME_NOISE_E,
     &DARK_FRAMES,
     &DARK_FRAMES_MAX_MIB,
     &GAIN_E_PER_ADU,
+    &CAMERA,
+    &EXPOSURE_S,
+    &TEMPERATURE_C,
+    &FRAME_RATE_HZ,
 ];
 
 /// Sub-aperture sizes, px per side.
@@ -566,8 +622,9 @@ pub const COMMAND_DEFAULTS: &[CommandDefault] = &[
     CommandDefault {
         command: "synth",
         setting: &EM_GAIN,
-        default: Some("300"),
-        why: "the EM gain of the bundled synthetic EMCCD stacks",
+        default: None,
+        why: "300 (the bundled synthetic EMCCD stacks') for --detector emccd, none (no \
+              multiplication) with --camera: the run chooses, its help says so",
     },
     CommandDefault {
         command: "synth",

@@ -11,6 +11,7 @@
 //! RTS pixels (`rts`: their Markov chain), row and column noise and hot pixels, `write`
 //! writes the stack (in a `format`), its truth maps and table, and its manifest.
 
+mod camera;
 mod defects;
 mod format;
 mod rts;
@@ -18,6 +19,7 @@ mod spec;
 mod truth;
 mod write;
 
+pub use camera::{camera_dark_files, write_camera_darks, CameraDarks, CameraDarksSummary};
 pub use defects::{add_defects, ChainStates, DefectTruth, Defects, RtsParams, RtsPixelTruth};
 pub use format::SynthFormat;
 pub use rts::RtsChain;

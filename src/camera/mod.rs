@@ -1,0 +1,15 @@
+//! The measured camera: every map and amplitude a campaign of darks gives ([`CameraModel`]),
+//! stored as one folder ([`CameraModel::write`], [`CameraModel::read`]), and what it is at an
+//! operating point ([`OperatingPoint`], [`CameraModel::at`]): the expected dark signal, the
+//! offset and the noise of each pixel, for the readout model `camera`, `synth` and the report.
+//!
+//! Layout: `model` (the type, its parts and their checks), `file` (the folder format),
+//! `operating` (an operating point and the camera at it).
+
+mod file;
+mod model;
+mod operating;
+
+pub use file::{CAMERA_JSON, MAP_FILES};
+pub use model::{CameraModel, DarkCurrent, EmRegisterModel};
+pub use operating::{CameraAt, OperatingPoint, MAX_EXPOSURE_S};

@@ -1,0 +1,360 @@
+//! An operating point (exposure, EM gain, temperature) and the camera at it: per pixel the
+//! expected dark signal, the offset and the noise of every term, input-referred.
+
+use super::model::CameraModel;
+use crate::calib::Map;
+use crate::detector::register::excess_noise_factor_sq;
+use crate::{Error, Result};
+
+/// Longest exposure of an operating point, s (a day: no dark frame is longer).
+pub const MAX_EXPOSURE_S: f64 = 86_400.0;
+
+/// How the camera is run: the exposure of each frame, the EM gain commanded (None: no EM
+/// gain, or a camera without a register) and the sensor temperature (None: the temperature
+/// the dark current was measured at).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct OperatingPoint {
+    /// Exposure (integration) time of each frame, s (> 0).
+    pub exposure_s: f64,
+    /// Commanded EM gain, e-/e-; None: no multiplication (gain 1).
+    pub em_gain: Option<f64>,
+    /// Sensor temperature, degrees C; None: the dark current's reference temperature.
+    pub temperature_c: Option<f64>,
+}
+
+/// The camera at an operating point. Electrons are input-referred (an EM register's mean gain
+/// divided out), as the readout models output them; per-pixel vectors are row-major.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraAt {
+    /// The operating point.
+    pub point: OperatingPoint,
+    /// Frame shape (rows, cols).
+    pub shape: (usize, usize),
+    /// Actual mean EM gain, e-/e- (1 without multiplication).
+    pub em_gain: f64,
+    /// Register stages when the camera multiplies (EM gain > 1), for its exact sampler.
+    pub stages: Option<u32>,
+    /// Excess noise factor squared of the register at this gain (1 without multiplication).
+    pub excess_noise_f2: f64,
+    /// Offset of each pixel, adu (a pixel without a value: the map's median).
+    pub offset_adu: Vec<f64>,
+    /// Conversion gain of each pixel, e- (output) per adu.
+    pub gain_e_per_adu: Vec<f64>,
+    /// Expected dark signal of each pixel per frame, e-: dark current x exposure + CIC.
+    pub dark_e: Vec<f64>,
+    /// Read noise of each pixel, e- rms, input-referred (a pixel without a value: the map's rms).
+    pub read_noise_e: Vec<f64>,
+    /// Row noise, e- rms, input-referred.
+    pub row_noise_e: f64,
+    /// Column noise, e- rms, input-referred.
+    pub column_noise_e: f64,
+    /// Frame-common noise, e- rms, input-referred.
+    pub frame_noise_e: f64,
+    /// Largest value the camera outputs, adu.
+    pub saturation_adu: f64,
+}
+
+impl CameraModel {
+    /// The camera at `op`; refused (naming the setting) for an exposure <= 0, an EM gain on a
+    /// camera without a register or outside its gain curve, a temperature without a dark
+    /// current temperature law.
+    pub fn at(&self, op: OperatingPoint) -> Result<CameraAt> {
+        if !(op.exposure_s > 0.0 && op.exposure_s <= MAX_EXPOSURE_S) {
+            return Err(Error::invalid(
+                "exposure_s",
+                format!(
+                    "{} s: must be > 0 and at most {MAX_EXPOSURE_S} s",
+                    op.exposure_s
+                ),
+            ));
+        }
+        let (em_gain, stages) = match op.em_gain {
+            Some(g) => (
+                self.actual_em_gain(g)?,
+                self.register.as_ref().map(|r| r.stages),
+            ),
+            None => (1.0, None),
+        };
+        let stages = stages.filter(|_| em_gain > 1.0);
+        let f2 = stages.map_or(1.0, |s| excess_noise_factor_sq(em_gain, s));
+        let dark_scale = self.dark_scale(op.temperature_c)?;
+        let n = self.offset_adu.data.len();
+        let dark_e_per_s = self.dark.as_ref().map(|d| filled(&d.map_e_per_s, median));
+        let cic = self.cic_e.as_ref().map(|c| filled(c, median));
+        let dark_e = (0..n)
+            .map(|i| {
+                let d = dark_e_per_s
+                    .as_ref()
+                    .map_or(0.0, |d| d[i] * dark_scale * op.exposure_s);
+                d + cic.as_ref().map_or(0.0, |c| c[i])
+            })
+            .collect();
+        let gain_e_per_adu = match &self.gain_map {
+            Some(g) => g
+                .data
+                .iter()
+                .map(|v| {
+                    if v.is_finite() {
+                        *v
+                    } else {
+                        self.gain_e_per_adu
+                    }
+                })
+                .collect(),
+            None => vec![self.gain_e_per_adu; n],
+        };
+        Ok(CameraAt {
+            point: op,
+            shape: self.shape(),
+            em_gain,
+            stages,
+            excess_noise_f2: f2,
+            offset_adu: filled(&self.offset_adu, median),
+            gain_e_per_adu,
+            dark_e,
+            read_noise_e: filled(&self.read_noise_e, rms)
+                .iter()
+                .map(|s| s / em_gain)
+                .collect(),
+            row_noise_e: self.row_noise_e / em_gain,
+            column_noise_e: self.column_noise_e / em_gain,
+            frame_noise_e: self.frame_noise_e / em_gain,
+            saturation_adu: self.saturation_adu,
+        })
+    }
+
+    /// The dark current at `temperature_c` relative to its reference (1 at the reference).
+    fn dark_scale(&self, temperature_c: Option<f64>) -> Result<f64> {
+        let Some(t) = temperature_c else {
+            return Ok(1.0);
+        };
+        let law = self
+            .dark
+            .as_ref()
+            .and_then(|d| Some((d.reference_temperature_c?, d.doubling_temperature_c?)));
+        let Some((t_ref, t_d)) = law else {
+            return Err(Error::invalid(
+                "temperature_c",
+                format!(
+                    "{t} degrees C: the camera model has no dark current temperature law (its \
+                     dark current needs a reference and a doubling temperature): give no \
+                     temperature"
+                ),
+            ));
+        };
+        if !(t.is_finite() && (-273.15..=200.0).contains(&t)) {
+            return Err(Error::invalid(
+                "temperature_c",
+                format!("{t} degrees C: must be from -273.15 to 200"),
+            ));
+        }
+        Ok(2f64.powf((t - t_ref) / t_d))
+    }
+}
+
+impl CameraAt {
+    /// Number of pixels.
+    pub fn pixels(&self) -> usize {
+        self.offset_adu.len()
+    }
+
+    /// Variance of pixel `i`'s own noise, e-^2: read noise plus the dark signal's shot noise
+    /// (times the register's excess noise factor squared).
+    pub fn pixel_variance_e2(&self, i: usize) -> f64 {
+        self.read_noise_e[i].powi(2) + self.excess_noise_f2 * self.dark_e[i]
+    }
+
+    /// Variance of noise common to a row, a column and the frame, e-^2 (each counted once).
+    pub fn common_variance_e2(&self) -> f64 {
+        self.row_noise_e.powi(2) + self.column_noise_e.powi(2) + self.frame_noise_e.powi(2)
+    }
+
+    /// Total temporal variance of pixel `i`, e-^2: its own noise and the common terms.
+    pub fn total_variance_e2(&self, i: usize) -> f64 {
+        self.pixel_variance_e2(i) + self.common_variance_e2()
+    }
+
+    /// Total temporal noise of every pixel, e- rms.
+    pub fn total_noise_e(&self) -> Vec<f64> {
+        (0..self.pixels())
+            .map(|i| self.total_variance_e2(i).sqrt())
+            .collect()
+    }
+
+    /// Output adu per input e- of pixel `i` (the EM gain over the conversion gain).
+    pub fn adu_per_e(&self, i: usize) -> f64 {
+        self.em_gain / self.gain_e_per_adu[i]
+    }
+
+    /// Expected value of pixel `i` in a dark frame, adu: offset plus the dark signal.
+    pub fn mean_adu(&self, i: usize) -> f64 {
+        self.offset_adu[i] + self.dark_e[i] * self.adu_per_e(i)
+    }
+
+    /// Total temporal noise of pixel `i`, adu rms.
+    pub fn noise_adu(&self, i: usize) -> f64 {
+        self.total_variance_e2(i).sqrt() * self.adu_per_e(i)
+    }
+
+    /// The effective read noise of the camera at this point, e- rms input-referred: the median
+    /// over the pixels of the total temporal noise (read, dark shot, CIC, row, column, frame).
+    pub fn effective_read_noise_e(&self) -> f64 {
+        crate::stats::median(&self.total_noise_e())
+    }
+
+    /// `values` (one per pixel) as a map of this camera's shape in `unit`.
+    pub fn map(&self, values: Vec<f64>, unit: crate::calib::Unit) -> Map {
+        Map::new(self.shape.0, self.shape.1, values, unit)
+    }
+}
+
+/// The map's values with non-finite pixels replaced by `fill` of the finite ones.
+fn filled(map: &Map, fill: fn(&[f64]) -> f64) -> Vec<f64> {
+    let finite: Vec<f64> = map.data.iter().copied().filter(|v| v.is_finite()).collect();
+    let value = fill(&finite);
+    map.data
+        .iter()
+        .map(|v| if v.is_finite() { *v } else { value })
+        .collect()
+}
+
+fn median(values: &[f64]) -> f64 {
+    crate::stats::median(values)
+}
+
+fn rms(values: &[f64]) -> f64 {
+    (values.iter().map(|v| v * v).sum::<f64>() / values.len() as f64).sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::calib::Unit;
+    use crate::camera::{DarkCurrent, EmRegisterModel};
+
+    fn camera(register: bool, law: bool) -> CameraModel {
+        let cam = CameraModel::new(
+            Map::filled(1, 2, 100.0, Unit::Adu),
+            2.0,
+            Map::new(1, 2, vec![3.0, f64::NAN], Unit::Electrons),
+            16,
+        )
+        .unwrap()
+        .with_common_noise(0.3, 0.4, 1.2)
+        .unwrap()
+        .with_dark_current(DarkCurrent {
+            map_e_per_s: Map::new(1, 2, vec![0.5, 1.5], Unit::Flags),
+            reference_temperature_c: law.then_some(-10.0),
+            doubling_temperature_c: law.then_some(5.0),
+        })
+        .unwrap()
+        .with_cic(Map::filled(1, 2, 0.1, Unit::Electrons))
+        .unwrap();
+        if register {
+            cam.with_register(EmRegisterModel {
+                stages: 604,
+                gain_curve: vec![],
+            })
+            .unwrap()
+        } else {
+            cam
+        }
+    }
+
+    #[test]
+    fn dark_signal_noise_and_offset_at_an_operating_point() {
+        let op = OperatingPoint {
+            exposure_s: 2.0,
+            em_gain: None,
+            temperature_c: Some(-5.0),
+        };
+        let at = camera(false, true).at(op).unwrap();
+        // Dark current doubles from -10 to -5 C: 2 x 0.5 e-/s x 2 s + 0.1 e- CIC.
+        assert_eq!(at.dark_e, vec![2.1, 6.1]);
+        assert_eq!(at.read_noise_e, vec![3.0, 3.0]);
+        let common = 0.09 + 0.16 + 1.44;
+        assert!((at.total_variance_e2(0) - (9.0 + 2.1 + common)).abs() < 1e-12);
+        assert_eq!(at.mean_adu(1), 100.0 + 6.1 / 2.0);
+        // Behind a register of gain 100: read and common noise divided by it, shot noise
+        // times F^2 (1.976 for 604 stages at this gain, not 2).
+        let op = OperatingPoint {
+            exposure_s: 2.0,
+            em_gain: Some(100.0),
+            temperature_c: None,
+        };
+        let at = camera(true, false).at(op).unwrap();
+        assert!((at.excess_noise_f2 - excess_noise_factor_sq(100.0, 604)).abs() < 1e-12);
+        assert!(
+            (at.excess_noise_f2 - 1.98).abs() < 0.01,
+            "{}",
+            at.excess_noise_f2
+        );
+        let v = 0.03f64.powi(2) + at.excess_noise_f2 * 1.1 + common / 1e4;
+        assert!((at.total_variance_e2(0) - v).abs() < 1e-12);
+        assert_eq!(at.mean_adu(0), 100.0 + 1.1 * 50.0);
+    }
+
+    #[test]
+    fn operating_points_the_camera_cannot_run_at_are_refused() {
+        let op = OperatingPoint {
+            exposure_s: 1.0,
+            em_gain: None,
+            temperature_c: None,
+        };
+        for (cam, op, field, says) in [
+            (
+                camera(false, true),
+                OperatingPoint {
+                    exposure_s: 0.0,
+                    ..op
+                },
+                "exposure_s",
+                "must be > 0",
+            ),
+            (
+                camera(false, true),
+                OperatingPoint {
+                    exposure_s: f64::NAN,
+                    ..op
+                },
+                "exposure_s",
+                "must be > 0",
+            ),
+            (
+                camera(false, true),
+                OperatingPoint {
+                    em_gain: Some(10.0),
+                    ..op
+                },
+                "em_gain",
+                "no EM register",
+            ),
+            (
+                camera(true, false),
+                OperatingPoint {
+                    temperature_c: Some(0.0),
+                    ..op
+                },
+                "temperature_c",
+                "no dark current temperature law",
+            ),
+            (
+                camera(true, false),
+                OperatingPoint {
+                    em_gain: Some(0.5),
+                    ..op
+                },
+                "em_gain",
+                "",
+            ),
+        ] {
+            match cam.at(op) {
+                Err(Error::Usage { field: f, message }) => {
+                    assert_eq!(f, field);
+                    assert!(message.contains(says), "{message}");
+                }
+                other => panic!("{op:?}: {other:?}"),
+            }
+        }
+    }
+}
