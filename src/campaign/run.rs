@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use super::checks::{check_campaign, Design};
 use super::fit::{self, DecomposeOptions, Decomposition, EmGainFit};
 use super::input::CampaignInput;
-use super::measure::{measure_campaign, MeasureOptions, StackMeasurement};
+use super::measure::{fit_em_gains, measure_campaign, MeasureOptions, StackMeasurement};
 use super::outputs::{
     campaign_output_names, write_campaign_outputs, CampaignSummary, StackSummary,
 };
@@ -74,8 +74,20 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
     for note in &plan.design.notes {
         observer.warn(note);
     }
-    let stacks = measure_campaign(&plan, &job.measure, observer)?;
-    let decomposition = decompose(&plan.design, &stacks, gain, observer)?;
+    let mut stacks = measure_campaign(&plan, &job.measure, observer)?;
+    let mut decomposition = decompose(&plan.design, &stacks, gain)?;
+    if job.measure.em_fit && !plan.design.dark_em_gains.is_empty() {
+        // The offsets do not depend on the gains' scale: fit the histograms with them, then
+        // decompose again with the gains measured.
+        fit_em_gains(&plan, &mut stacks, &decomposition.offset_adu, &job.measure, observer)?;
+        decomposition = decompose(&plan.design, &stacks, gain)?;
+        if decomposition.summary.em_gain_curve.is_none() {
+            observer.warn(
+                "the decomposition takes the commanded EM gains as exact: the histogram fit did \
+                 not measure every gain",
+            );
+        }
+    }
     let summary = CampaignSummary {
         command: "campaign",
         version: env!("CARGO_PKG_VERSION"),
@@ -114,18 +126,11 @@ fn decompose(
     design: &Design,
     stacks: &[StackMeasurement],
     gain_e_per_adu: f64,
-    observer: &dyn Observer,
 ) -> Result<Decomposition> {
     let stats: Vec<_> = stacks.iter().map(|m| m.stats.clone()).collect();
     let mut opts = DecomposeOptions::new(gain_e_per_adu);
     opts.fit_cic = design.cic_separable == Some(true);
     opts.em_gains = fitted_em_gains(design, stacks);
-    if opts.em_gains.is_empty() && !design.dark_em_gains.is_empty() {
-        observer.warn(
-            "the decomposition uses the commanded EM gains as exact: the histogram fit did not \
-             measure every gain",
-        );
-    }
     fit::decompose(&stats, &opts)
 }
 
