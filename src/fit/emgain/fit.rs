@@ -3,7 +3,7 @@
 //! budget, and standard errors from the Hessian.
 
 use super::histogram::{ValueHistogram, MAX_HIST_BINS};
-use super::model::excess_noise_factor_sq;
+use super::model::{excess_noise_factor_sq, law_gain};
 use super::options::{EmGainOptions, EmShape, SerialCic};
 use super::problem::{fitted_moments, Layout, Problem};
 use super::result::{EmCrossChecks, EmGainFit, EmStart, SerialCicTest};
@@ -49,13 +49,11 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
         (SerialCic::Auto, EmShape::Gamma) => SerialCic::Off,
         (m, _) => m,
     };
-    let st = start(h, opts, shape, conv)?;
+    let st = start(h, opts, shape)?;
     let (grid, problem) = set_up(h, opts, shape, conv, &st, &spread)?;
     let without = solve(&problem, shape);
     if mode == SerialCic::Off {
-        return Ok(result(
-            h, opts, shape, conv, st, &grid, &problem, without?, None,
-        ));
+        return Ok(result(h, opts, shape, st, &grid, &problem, without?, None));
     }
     let with = with_serial_cic(h, opts, shape, conv, &grid, &problem, &without, &spread);
     let (problem, solution, test) = choose(mode, problem, without, with, h.total())?;
@@ -63,7 +61,6 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
         h,
         opts,
         shape,
-        conv,
         st,
         &grid,
         &problem,
@@ -80,7 +77,7 @@ fn with_serial_cic(
     h: &ValueHistogram,
     opts: &EmGainOptions,
     shape: EmShape,
-    conv: f64,
+    conv: Option<f64>,
     grid: &Layout,
     without_problem: &Problem,
     without: &Result<Solution>,
@@ -152,9 +149,9 @@ fn choose(
     }
 }
 
-/// The conversion gain the model uses (e- per adu; 1 when not given, the gain then in adu
-/// per e-), refused when not positive or when the exact register lacks it.
-fn conversion_gain(opts: &EmGainOptions) -> Result<f64> {
+/// The conversion gain (e- per adu) if given (the gain is then in e-/e-, else in adu per
+/// e-), refused when not positive or when the exact register lacks it.
+fn conversion_gain(opts: &EmGainOptions) -> Result<Option<f64>> {
     let shape = opts
         .shape
         .unwrap_or_else(|| EmShape::default_for(opts.gain_e_per_adu));
@@ -171,7 +168,7 @@ fn conversion_gain(opts: &EmGainOptions) -> Result<f64> {
             "gain_e_per_adu",
             "the exact register law needs the conversion gain (`gain_e_per_adu`) to place the electron lattice",
         )),
-        (_, c) => Ok(c.unwrap_or(1.0)),
+        (_, c) => Ok(c),
     }
 }
 
@@ -218,13 +215,13 @@ impl Spread {
 
 /// Start values: from the histogram's peak, or from its moments when bias and read noise
 /// are fixed (both or neither).
-fn start(h: &ValueHistogram, opts: &EmGainOptions, shape: EmShape, conv: f64) -> Result<EmStart> {
+fn start(h: &ValueHistogram, opts: &EmGainOptions, shape: EmShape) -> Result<EmStart> {
     match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
         (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => Err(Error::invalid(
             "fixed_read_noise_adu",
             format!("the maps give a bias of {b} adu and a read noise of {s} adu: both must be finite, the read noise > 0"),
         )),
-        (Some(b), Some(s)) => start_from_moments(h, b, s, shape, conv),
+        (Some(b), Some(s)) => start_from_moments(h, b, s, shape, opts.gain_e_per_adu),
         (None, None) => start_values(h),
         _ => Err(Error::invalid(
             "fixed_bias_adu",
@@ -239,7 +236,7 @@ fn set_up(
     h: &ValueHistogram,
     opts: &EmGainOptions,
     shape: EmShape,
-    conv: f64,
+    conv: Option<f64>,
     st: &EmStart,
     q: &Spread,
 ) -> Result<(Layout, Problem)> {
@@ -247,7 +244,7 @@ fn set_up(
     // Far outliers (beyond the EM tail, or 10 read noises below the lowest quantile) are
     // left out of the moments and of the fitted range.
     let far = far_limit(h, st.bias_adu, st.read_noise_adu);
-    let cands = candidates(h, opts, shape, conv, st, q, far);
+    let cands = candidates(h, opts, shape, st, q, far);
     let s_min = cands
         .iter()
         .map(|c| c[1])
@@ -295,7 +292,6 @@ fn candidates(
     h: &ValueHistogram,
     opts: &EmGainOptions,
     shape: EmShape,
-    conv: f64,
     st: &EmStart,
     q: &Spread,
     far: f64,
@@ -303,7 +299,7 @@ fn candidates(
     let fixed = opts.fixed_bias_adu.is_some();
     let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
     let (_, mean, var) = h.moments_within(q.q4 - 10.0 * q.sq, far);
-    let f2 = excess_noise_factor_sq(shape, g0 * conv);
+    let f2 = excess_noise_factor_sq(shape, law_gain(g0, opts.gain_e_per_adu));
     let mut cands = vec![[st.bias_adu, st.read_noise_adu, g0, l0, 0.0]];
     for s in [st.read_noise_adu, 0.6 * q.sq, q.sq] {
         for k in 0..=24 {
@@ -403,7 +399,6 @@ fn result(
     h: &ValueHistogram,
     opts: &EmGainOptions,
     shape: EmShape,
-    conv: f64,
     st: EmStart,
     grid: &Layout,
     problem: &Problem,
@@ -411,7 +406,7 @@ fn result(
     serial_cic_test: Option<SerialCicTest>,
 ) -> EmGainFit {
     let (p, se, n) = (s.p, s.se, problem.n);
-    let f2 = excess_noise_factor_sq(shape, p[2] * conv);
+    let f2 = excess_noise_factor_sq(shape, law_gain(p[2], opts.gain_e_per_adu));
     let serial = problem.free.contains(&4);
     let (mean, var) = fitted_moments(problem, grid.lo, grid.w);
     let signal = mean - p[0];

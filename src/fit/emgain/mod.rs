@@ -37,7 +37,9 @@ mod tests;
 pub use chart::chart;
 pub use fit::{fit_emgain, fit_emgain_of_stack};
 pub use histogram::ValueHistogram;
-pub use model::{excess_noise_factor_sq, model_curve, CurveBin};
+pub use model::{
+    excess_noise_factor_sq, law_gain, model_curve, CurveBin, UNKNOWN_CONVERSION_MIN_GAIN,
+};
 pub use options::{EmGainOptions, EmLaw, EmShape, SerialCic, DEFAULT_STAGES};
 pub use result::{gain_from_mean_ratio, EmCrossChecks, EmGainFit, EmStart, SerialCicTest};
 pub use run::{fit_report, run, EmgainReport, EmgainRun, EmgainRunResult, RatioCheck};

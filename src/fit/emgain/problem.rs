@@ -148,12 +148,13 @@ impl Layout {
         }
     }
 
-    /// The fit problem with a model period reaching `pad` adu beyond the cut.
+    /// The fit problem with a model period reaching `pad` adu beyond the cut; `conv` the
+    /// conversion gain (e-/adu) if known.
     pub(super) fn problem(
         &self,
         h: &ValueHistogram,
         shape: EmShape,
-        conv: f64,
+        conv: Option<f64>,
         pad: f64,
     ) -> Result<Problem> {
         // Sizes are checked before anything is allocated from them.
@@ -181,7 +182,8 @@ impl Layout {
         Ok(Problem {
             model: Model {
                 shape,
-                conv,
+                conv: conv.unwrap_or(1.0),
+                conv_known: conv.is_some(),
                 x0: self.lo,
                 h: self.hfine,
                 fft: FftPlanner::new().plan_fft_forward(m),

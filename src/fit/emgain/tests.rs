@@ -148,6 +148,26 @@ fn gamma_model_without_conversion_reports_adu_per_electron() {
 }
 
 #[test]
+fn gamma_law_without_conversion_takes_f2_at_a_real_registers_gain() {
+    // 10 e- per adu, g = 300: G = 30 adu/e-. Read as 30 e-/e-, F^2 would be 1.956, 1 % below
+    // the register's 1.975, and G would read ~1 % high (+2.7 SE on the bundled stack); at
+    // the floor of 100 e-/e- F^2 is the register's within 0.1 %.
+    assert_eq!(law_gain(30.0, None), UNKNOWN_CONVERSION_MIN_GAIN);
+    assert_eq!(law_gain(30.0, Some(10.0)), 300.0);
+    assert_eq!(law_gain(500.0, None), 500.0);
+    let v = synth(800_000, 300.0, 0.2, 50.0, 10.0, 12);
+    let h = ValueHistogram::from_values(&v, 1.0).unwrap();
+    let f = fit_emgain(&h, &EmGainOptions::default()).unwrap();
+    assert_eq!(f.shape, EmShape::RegisterGamma { stages: 604 });
+    let pull = (f.em_gain - 30.0) / f.em_gain_se;
+    eprintln!(
+        "G {} +- {} adu/e- (pull {pull:+.2})",
+        f.em_gain, f.em_gain_se
+    );
+    assert!(pull.abs() < 3.0, "G {} +- {}", f.em_gain, f.em_gain_se);
+}
+
+#[test]
 fn bad_input_gets_a_reason() {
     // Read noise only: no sample-rate of signal above 5 sigma beyond chance.
     let noise = Normal::new(500.0f64, 3.0).unwrap();
@@ -262,6 +282,7 @@ fn cell_moments(shape: EmShape, b: f64, s: f64, g: f64, lambda: f64) -> (f64, f6
     let model = super::model::Model {
         shape,
         conv: 1.0,
+        conv_known: true,
         x0: b - 20.0 * s,
         h,
         fft: rustfft::FftPlanner::new().plan_fft_forward(m),
