@@ -16,6 +16,12 @@ use crate::fit::optim::{correlations, hessian, minimise, spd_inverse, INVALID_CO
 /// 220 to 300).
 const WORK_CELLS: u64 = 1 << 26;
 
+/// Widest model grid (cells) on which serial CIC is tried on auto: twice the widest grid of
+/// real EMCCD histograms (32768); wider grids come from frames that are not EMCCD frames,
+/// where the serial-CIC law (up to 33 characteristic functions per frequency with the
+/// Gamma law) would cost a minute.
+const MAX_AUTO_SERIAL_CELLS: usize = 1 << 16;
+
 /// [`fit_emgain`] of the histogram of `stack`'s values: a failure names its first file.
 pub fn fit_emgain_of_stack(
     stack: &crate::io::FrameStack,
@@ -55,7 +61,15 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
     if mode == SerialCic::Off {
         return Ok(result(h, opts, shape, st, &grid, &problem, without?, None));
     }
-    let with = with_serial_cic(h, opts, shape, conv, &grid, &problem, &without, &spread);
+    // On auto a failed fit without serial CIC is the answer: frames that are not EMCCD
+    // frames fail it within its budget, and a second fit would double that time.
+    let without = match (mode, without) {
+        (SerialCic::Auto, Err(e)) => return Err(e),
+        (_, w) => w,
+    };
+    let with = with_serial_cic(
+        h, opts, shape, conv, &grid, &problem, &without, &spread, mode,
+    );
     let (problem, solution, test) = choose(mode, problem, without, with, h.total())?;
     Ok(result(
         h,
@@ -71,7 +85,7 @@ pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit>
 
 /// The fit with serial CIC free, on the same bins as the fit without, started at that fit's
 /// optimum (or at its start if it failed), on a model period that holds the EM tail of up to
-/// 3 times that gain.
+/// 3 times that gain; on auto not tried on grids wider than [`MAX_AUTO_SERIAL_CELLS`].
 #[allow(clippy::too_many_arguments)]
 fn with_serial_cic(
     h: &ValueHistogram,
@@ -82,6 +96,7 @@ fn with_serial_cic(
     without_problem: &Problem,
     without: &Result<Solution>,
     q: &Spread,
+    mode: SerialCic,
 ) -> Result<(Problem, Solution)> {
     let from = match without {
         Ok(s) => s.p,
@@ -94,6 +109,12 @@ fn with_serial_cic(
         ),
     };
     let mut problem = grid.problem(h, shape, conv, (10.0 * q.sq).max(75.0 * from[2]))?;
+    if mode == SerialCic::Auto && problem.model.m > MAX_AUTO_SERIAL_CELLS {
+        return Err(Error::Numeric(format!(
+            "not tried on auto: the model grid of {} cells is wider than real EMCCD histograms need (at most {MAX_AUTO_SERIAL_CELLS}); `serial_cic` on fits it anyway",
+            problem.model.m
+        )));
+    }
     problem.start_at(&from, opts.fixed_bias_adu.is_some(), true);
     let solution = solve(&problem, shape)?;
     Ok((problem, solution))
@@ -101,8 +122,8 @@ fn with_serial_cic(
 
 /// The model kept (its problem and solution) and the comparison of the fits without and with
 /// serial CIC: with `On` the one with, with `Auto` the one with the lower BIC (the one
-/// with serial CIC only if its rate is positive); a fit that failed loses, both failing is the
-/// error of the one asked for (of the one without, on auto).
+/// with serial CIC only if its rate is positive); a fit that failed loses (on auto the one
+/// without has succeeded), both failing is the error of the one asked for.
 fn choose(
     mode: SerialCic,
     without_problem: Problem,
@@ -120,8 +141,8 @@ fn choose(
         Err(_) => (None, None),
     };
     let note = match (&without, &with) {
-        (Err(e), _) => Some(format!("the fit without serial CIC failed: {e}")),
-        (_, Err(e)) => Some(format!("the fit with serial CIC failed: {e}")),
+        (Err(e), _) => Some(format!("no fit without serial CIC: {e}")),
+        (_, Err(e)) => Some(format!("no fit with serial CIC: {e}")),
         _ => None,
     };
     let present = match (mode, &without, &with) {
