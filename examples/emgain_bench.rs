@@ -29,11 +29,16 @@ fn main() -> detnoise::Result<()> {
         }
         let t_hist = t.elapsed().as_secs_f64();
         for (name, shape) in [
-            ("gamma", EmShape::Gamma),
+            ("exponential", EmShape::Gamma),
+            (
+                "gamma, register F^2",
+                EmShape::RegisterGamma { stages: 520 },
+            ),
             ("register", EmShape::Register { stages: 520 }),
         ] {
+            // Serial CIC on auto (the default): both models fitted where the law has it.
             let opts = EmGainOptions {
-                shape,
+                shape: Some(shape),
                 gain_e_per_adu: Some(10.0),
                 ..Default::default()
             };

@@ -331,8 +331,8 @@ fn calibration_commands_check_their_options_before_reading() {
             &["--stages", "from 1 to 2000"],
         ),
         (
-            &["emgain", "BIG", "--out", "OUT", "--stages", "520"],
-            &["--stages", "conversion gain"],
+            &["emgain", "BIG", "--out", "OUT", "--law", "register"],
+            &["--gain-e-per-adu", "conversion gain"],
         ),
         (
             &["emgain", "BIG", "--out", "OUT", "--bin-width-adu", "0"],

@@ -172,6 +172,83 @@ fn emgain_recovers_synthetic_stack_gain() {
 }
 
 #[test]
+fn emgain_states_its_law_and_serial_cic_verdict_and_the_flags_force_them() {
+    // Issue 31: the default law is the exact 604-stage register with the conversion gain,
+    // serial CIC on auto with its comparison in the JSON and the summary; `--serial-cic`
+    // (bare: on) and `--serial-cic off` force it; contradictions are usage errors.
+    let dir = tempfile::tempdir().unwrap();
+    let stack = synth_emccd(dir.path(), 0.1, 0.005);
+    let run = |name: &str, args: &[&str]| {
+        let out = dir.path().join(name);
+        let a = detnoise()
+            .arg("emgain")
+            .arg(&stack)
+            .args(args)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .success();
+        let text = String::from_utf8_lossy(&a.get_output().stdout).to_string();
+        (json(&out.join("emgain.json")), text)
+    };
+    let (j, text) = run("auto", &["--gain-e-per-adu", "10"]);
+    assert_eq!(j["shape"]["kind"], "register");
+    assert_eq!(j["shape"]["stages"], 604);
+    assert_eq!(j["serial_cic_test"]["mode"], "auto");
+    // synth has no serial CIC: the comparison keeps the model without it.
+    assert_eq!(
+        j["serial_cic_test"]["present"], false,
+        "{}",
+        j["serial_cic_test"]
+    );
+    assert!(j["serial_cic_test"]["delta_bic"].as_f64().unwrap() < 0.0);
+    assert!(j["serial_cic_e"].is_null());
+    assert!(text.contains("law: exact register of 604 stages"), "{text}");
+    assert!(
+        text.contains("serial CIC absent: likelihood ratio"),
+        "{text}"
+    );
+    let (j, text) = run("on", &["--gain-e-per-adu", "10", "--serial-cic"]);
+    assert!(j["serial_cic_e"].as_f64().is_some(), "{j}");
+    assert!(
+        text.contains("serial CIC modelled (--serial-cic on)"),
+        "{text}"
+    );
+    let (j, _) = run("off", &["--serial-cic", "off"]);
+    assert!(j["serial_cic_test"].is_null() && j["serial_cic_e"].is_null());
+    assert_eq!(
+        j["shape"]["kind"], "register_gamma",
+        "no conversion gain: Gamma law"
+    );
+    let (j, _) = run("exp", &["--law", "exponential"]);
+    assert_eq!(j["shape"]["kind"], "gamma");
+    assert!(
+        j["serial_cic_test"].is_null(),
+        "no serial CIC in the exponential law"
+    );
+    for (args, flag) in [
+        (&["--law", "register"][..], "--gain-e-per-adu"),
+        (
+            &["--law", "exponential", "--serial-cic", "on"][..],
+            "--serial-cic",
+        ),
+    ] {
+        let out = dir.path().join("refused");
+        let a = detnoise()
+            .arg("emgain")
+            .arg(&stack)
+            .args(args)
+            .arg("--out")
+            .arg(&out)
+            .assert()
+            .code(2);
+        let err = String::from_utf8_lossy(&a.get_output().stderr).to_string();
+        assert!(err.contains(flag), "{args:?}: {err}");
+        assert!(!out.exists());
+    }
+}
+
+#[test]
 fn emgain_refuses_frames_without_signal() {
     let dir = tempfile::tempdir().unwrap();
     let stack = synth_emccd(dir.path(), 0.0, 0.0);

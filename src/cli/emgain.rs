@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use super::args::{real, whole};
 use crate::detector::register::MAX_STAGES;
 use crate::error::Result;
-use crate::fit::emgain::{run as run_emgain, EmgainRun};
+use crate::fit::emgain::{run as run_emgain, EmLaw, EmgainRun, SerialCic};
 
 /// Options of `detnoise emgain`.
 #[derive(clap::Args, Debug)]
@@ -36,14 +36,19 @@ pub struct EmgainArgs {
     /// Default: both fitted.
     #[arg(long, requires = "offset")]
     pub read_noise: Option<PathBuf>,
-    /// Model the exact EM register with this many stages, 1 to 2000 (needs the conversion
-    /// gain). Default: the Gamma/Erlang model of the paper (Eq. 2).
+    /// Stages of the EM register, 1 to 2000. Default: 604.
     #[arg(long, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
     pub stages: Option<u32>,
-    /// Also fit serial clock-induced charge (electrons born inside the register; needs --stages).
-    /// Default: off (parallel CIC is always part of lambda).
-    #[arg(long, requires = "stages")]
-    pub serial_cic: bool,
+    /// Law of the register output for one input electron: `register` (exact, needs the
+    /// conversion gain), `gamma` (a Gamma law with the register's F^2) or `exponential` (the
+    /// paper's Eq. 2, F^2 = 2). Default: register when the conversion gain is given, else gamma.
+    #[arg(long, value_enum)]
+    pub law: Option<EmLaw>,
+    /// Serial clock-induced charge (electrons born inside the register, with partial gain):
+    /// `auto` fits with and without it and keeps the model with the lower BIC; `on` (also
+    /// the bare flag) or `off` force it. Default: auto (parallel CIC is always part of lambda).
+    #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "on", default_value = "auto")]
+    pub serial_cic: SerialCic,
     /// Exclude values above this (adu; cosmics, hot pixels). Default: bias + 40 G (1 + lambda + 5 sqrt(lambda)) from the start values.
     #[arg(long, value_parser = real(Unbounded, Unbounded, "adu"))]
     pub max_value_adu: Option<f64>,
@@ -70,7 +75,9 @@ impl EmgainArgs {
             offset: self.offset.clone(),
             read_noise: self.read_noise.clone(),
             stages: self.stages,
-            serial_cic: self.serial_cic,
+            law: self.law,
+            serial_cic: self.serial_cic == SerialCic::On,
+            no_serial_cic: self.serial_cic == SerialCic::Off,
             max_value_adu: self.max_value_adu,
             bin_width_adu: self.bin_width_adu,
             reference_stack: self.reference_stack.clone(),

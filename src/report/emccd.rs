@@ -57,9 +57,9 @@ pub(crate) fn run(
     require_em_signature(stack)?;
     let (hist, _) = emgain_histogram(stack, None, None)?;
     let opts = EmGainOptions {
-        shape: EmShape::Register {
+        shape: Some(EmShape::Register {
             stages: o.model_params.stages,
-        },
+        }),
         gain_e_per_adu: Some(conv),
         ..EmGainOptions::default()
     };

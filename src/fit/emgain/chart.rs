@@ -77,7 +77,7 @@ mod tests {
         let stack = FrameStack::open(&[path]).unwrap();
         let (h, _) = accumulate(&stack, None, None).unwrap();
         let opts = EmGainOptions {
-            shape: EmShape::Register { stages: 520 },
+            shape: Some(EmShape::Register { stages: 520 }),
             gain_e_per_adu: Some(10.0),
             ..EmGainOptions::default()
         };

@@ -3,10 +3,10 @@
 //! budget, and standard errors from the Hessian.
 
 use super::histogram::{ValueHistogram, MAX_HIST_BINS};
-use super::model::excess_noise_factor_sq;
-use super::options::{EmGainOptions, EmShape};
+use super::model::{excess_noise_factor_sq, law_gain};
+use super::options::{EmGainOptions, EmShape, SerialCic};
 use super::problem::{fitted_moments, Layout, Problem};
-use super::result::{EmCrossChecks, EmGainFit, EmStart};
+use super::result::{EmCrossChecks, EmGainFit, EmStart, SerialCicTest};
 use super::start::{far_limit, start_from_moments, start_values, MIN_SAMPLES};
 use crate::error::{Error, Result};
 use crate::fit::optim::{correlations, hessian, minimise, spd_inverse, INVALID_COST};
@@ -15,6 +15,12 @@ use crate::fit::optim::{correlations, hessian, minimise, spd_inverse, INVALID_CO
 /// limit on cost evaluations is derived from it, between 300 and 1200 (real fits need
 /// 220 to 300).
 const WORK_CELLS: u64 = 1 << 26;
+
+/// Widest model grid (cells) on which serial CIC is tried on auto: twice the widest grid of
+/// real EMCCD histograms (32768); wider grids come from frames that are not EMCCD frames,
+/// where the serial-CIC law (up to 33 characteristic functions per frequency with the
+/// Gamma law) would cost a minute.
+const MAX_AUTO_SERIAL_CELLS: usize = 1 << 16;
 
 /// [`fit_emgain`] of the histogram of `stack`'s values: a failure names its first file.
 pub fn fit_emgain_of_stack(
@@ -25,26 +31,151 @@ pub fn fit_emgain_of_stack(
     fit_emgain(h, opts).map_err(|e| crate::io::name_file(&stack.sources[0].path, e))
 }
 
-/// Fit bias, read noise, gain and lambda to a histogram of EMCCD pixel values (adu).
+/// Fit bias, read noise, gain and lambda (and serial CIC, see [`SerialCic`]) to a histogram
+/// of EMCCD pixel values (adu).
+///
+/// The library entry for one EMCCD dark or low-light stack: fill a [`ValueHistogram`] while
+/// streaming the frames (or use [`super::accumulate`]) and call this. With serial CIC on
+/// auto (the default) both models are fitted on the same bins and the one with the lower
+/// BIC is returned; `serial_cic_test` of the result holds the comparison.
 pub fn fit_emgain(h: &ValueHistogram, opts: &EmGainOptions) -> Result<EmGainFit> {
     let conv = conversion_gain(opts)?;
+    let shape = opts
+        .shape
+        .unwrap_or_else(|| EmShape::default_for(opts.gain_e_per_adu));
     check_histogram(h)?;
     let spread = Spread::of(h);
-    if opts.serial_cic && opts.shape == EmShape::Gamma {
-        return Err(Error::invalid(
-            "serial_cic",
-            "serial CIC has partial gain, modelled only with the exact register (`stages`)",
-        ));
+    let mode = match (opts.serial_cic, shape) {
+        (SerialCic::On, EmShape::Gamma) => {
+            return Err(Error::invalid(
+                "serial_cic",
+                "serial CIC has partial gain, modelled only with a register law (`stages`), not the exponential law",
+            ))
+        }
+        (SerialCic::Auto, EmShape::Gamma) => SerialCic::Off,
+        (m, _) => m,
+    };
+    let st = start(h, opts, shape)?;
+    let (grid, problem) = set_up(h, opts, shape, conv, &st, &spread)?;
+    let without = solve(&problem, shape);
+    if mode == SerialCic::Off {
+        return Ok(result(h, opts, shape, st, &grid, &problem, without?, None));
     }
-    let st = start(h, opts, conv)?;
-    let (grid, problem) = set_up(h, opts, conv, &st, &spread)?;
-    let solution = solve(&problem, opts.shape)?;
-    Ok(result(h, opts, conv, st, &grid, &problem, solution))
+    // On auto a failed fit without serial CIC is the answer: frames that are not EMCCD
+    // frames fail it within its budget, and a second fit would double that time.
+    let without = match (mode, without) {
+        (SerialCic::Auto, Err(e)) => return Err(e),
+        (_, w) => w,
+    };
+    let with = with_serial_cic(
+        h, opts, shape, conv, &grid, &problem, &without, &spread, mode,
+    );
+    let (problem, solution, test) = choose(mode, problem, without, with, h.total())?;
+    Ok(result(
+        h,
+        opts,
+        shape,
+        st,
+        &grid,
+        &problem,
+        solution,
+        Some(test),
+    ))
 }
 
-/// The conversion gain the model uses (e- per adu; 1 when not given, the gain then in adu
-/// per e-), refused when not positive or when the exact register lacks it.
-fn conversion_gain(opts: &EmGainOptions) -> Result<f64> {
+/// The fit with serial CIC free, on the same bins as the fit without, started at that fit's
+/// optimum (or at its start if it failed), on a model period that holds the EM tail of up to
+/// 3 times that gain; on auto not tried on grids wider than [`MAX_AUTO_SERIAL_CELLS`].
+#[allow(clippy::too_many_arguments)]
+fn with_serial_cic(
+    h: &ValueHistogram,
+    opts: &EmGainOptions,
+    shape: EmShape,
+    conv: Option<f64>,
+    grid: &Layout,
+    without_problem: &Problem,
+    without: &Result<Solution>,
+    q: &Spread,
+    mode: SerialCic,
+) -> Result<(Problem, Solution)> {
+    let from = match without {
+        Ok(s) => s.p,
+        Err(_) => without_problem.params(
+            &without_problem
+                .free
+                .iter()
+                .map(|i| without_problem.base[*i])
+                .collect::<Vec<_>>(),
+        ),
+    };
+    let mut problem = grid.problem(h, shape, conv, (10.0 * q.sq).max(75.0 * from[2]))?;
+    if mode == SerialCic::Auto && problem.model.m > MAX_AUTO_SERIAL_CELLS {
+        return Err(Error::Numeric(format!(
+            "not tried on auto: the model grid of {} cells is wider than real EMCCD histograms need (at most {MAX_AUTO_SERIAL_CELLS}); `serial_cic` on fits it anyway",
+            problem.model.m
+        )));
+    }
+    problem.start_at(&from, opts.fixed_bias_adu.is_some(), true);
+    let solution = solve(&problem, shape)?;
+    Ok((problem, solution))
+}
+
+/// The model kept (its problem and solution) and the comparison of the fits without and with
+/// serial CIC: with `On` the one with, with `Auto` the one with the lower BIC (the one
+/// with serial CIC only if its rate is positive); a fit that failed loses (on auto the one
+/// without has succeeded), both failing is the error of the one asked for.
+fn choose(
+    mode: SerialCic,
+    without_problem: Problem,
+    without: Result<Solution>,
+    with: Result<(Problem, Solution)>,
+    n: f64,
+) -> Result<(Problem, Solution, SerialCicTest)> {
+    let ll = |s: &Solution, p: &Problem| -s.cost * p.n;
+    let ll0 = without.as_ref().ok().map(|s| ll(s, &without_problem));
+    let ll1 = with.as_ref().ok().map(|(p, s)| ll(s, p));
+    let lr = ll0.zip(ll1).map(|(a, b)| 2.0 * (b - a));
+    let delta_bic = lr.map(|lr| lr - n.ln());
+    let (rate, rate_se) = match &with {
+        Ok((_, s)) => (Some(s.p[4]), Some(s.se[4])),
+        Err(_) => (None, None),
+    };
+    let note = match (&without, &with) {
+        (Err(e), _) => Some(format!("no fit without serial CIC: {e}")),
+        (_, Err(e)) => Some(format!("no fit with serial CIC: {e}")),
+        _ => None,
+    };
+    let present = match (mode, &without, &with) {
+        (_, _, Err(_)) => false,
+        (SerialCic::On, _, _) | (_, Err(_), _) => true,
+        _ => delta_bic.is_some_and(|d| d > 0.0) && rate.is_some_and(|r| r > 0.0),
+    };
+    let test = SerialCicTest {
+        mode,
+        present,
+        log_likelihood_without: ll0,
+        log_likelihood_with: ll1,
+        likelihood_ratio: lr,
+        p_value: lr.map(|lr| 0.5 * statrs::function::erf::erfc((lr.max(0.0) / 2.0).sqrt())),
+        delta_bic,
+        serial_cic_e: rate,
+        serial_cic_e_se: rate_se,
+        note,
+    };
+    match (mode, present, without, with) {
+        (SerialCic::On, _, _, Err(e)) => Err(e),
+        (_, true, _, Ok((p, s))) => Ok((p, s, test)),
+        (_, false, Ok(s), _) => Ok((without_problem, s, test)),
+        (_, _, Err(e), _) | (_, _, _, Err(e)) => Err(e),
+    }
+}
+
+/// The conversion gain (e- per adu) if given (the gain is then in e-/e-, else in adu per
+/// e-), refused when not positive or when the exact register lacks it.
+fn conversion_gain(opts: &EmGainOptions) -> Result<Option<f64>> {
+    let shape = opts
+        .shape
+        .unwrap_or_else(|| EmShape::default_for(opts.gain_e_per_adu));
     if let Some(c) = opts.gain_e_per_adu {
         if !(c > 0.0 && c.is_finite()) {
             return Err(Error::invalid(
@@ -53,12 +184,12 @@ fn conversion_gain(opts: &EmGainOptions) -> Result<f64> {
             ));
         }
     }
-    match (opts.shape, opts.gain_e_per_adu) {
+    match (shape, opts.gain_e_per_adu) {
         (EmShape::Register { .. }, None) => Err(Error::invalid(
-            "stages",
-            "the exact register model needs the conversion gain (`gain_e_per_adu`)",
+            "gain_e_per_adu",
+            "the exact register law needs the conversion gain (`gain_e_per_adu`) to place the electron lattice",
         )),
-        (_, c) => Ok(c.unwrap_or(1.0)),
+        (_, c) => Ok(c),
     }
 }
 
@@ -105,13 +236,13 @@ impl Spread {
 
 /// Start values: from the histogram's peak, or from its moments when bias and read noise
 /// are fixed (both or neither).
-fn start(h: &ValueHistogram, opts: &EmGainOptions, conv: f64) -> Result<EmStart> {
+fn start(h: &ValueHistogram, opts: &EmGainOptions, shape: EmShape) -> Result<EmStart> {
     match (opts.fixed_bias_adu, opts.fixed_read_noise_adu) {
         (Some(b), Some(s)) if !(b.is_finite() && s.is_finite() && s > 0.0) => Err(Error::invalid(
             "fixed_read_noise_adu",
             format!("the maps give a bias of {b} adu and a read noise of {s} adu: both must be finite, the read noise > 0"),
         )),
-        (Some(b), Some(s)) => start_from_moments(h, b, s, opts.shape, conv),
+        (Some(b), Some(s)) => start_from_moments(h, b, s, shape, opts.gain_e_per_adu),
         (None, None) => start_values(h),
         _ => Err(Error::invalid(
             "fixed_bias_adu",
@@ -125,7 +256,8 @@ fn start(h: &ValueHistogram, opts: &EmGainOptions, conv: f64) -> Result<EmStart>
 fn set_up(
     h: &ValueHistogram,
     opts: &EmGainOptions,
-    conv: f64,
+    shape: EmShape,
+    conv: Option<f64>,
     st: &EmStart,
     q: &Spread,
 ) -> Result<(Layout, Problem)> {
@@ -133,7 +265,7 @@ fn set_up(
     // Far outliers (beyond the EM tail, or 10 read noises below the lowest quantile) are
     // left out of the moments and of the fitted range.
     let far = far_limit(h, st.bias_adu, st.read_noise_adu);
-    let cands = candidates(h, opts, conv, st, q, far);
+    let cands = candidates(h, opts, shape, st, q, far);
     let s_min = cands
         .iter()
         .map(|c| c[1])
@@ -142,7 +274,7 @@ fn set_up(
     let g0 = st.gain_adu_per_e;
     let g_max = cands.iter().map(|c| c[2]).fold(0.0, f64::max).min(4.0 * g0);
     let grid = Layout::new(h, s_min, q.sq, q.q4, fit_top(h, opts, st, far));
-    let trial = grid.problem(h, opts.shape, conv, (10.0 * q.sq).max(25.0 * g_max))?;
+    let trial = grid.problem(h, shape, conv, (10.0 * q.sq).max(25.0 * g_max))?;
     let best = cands
         .iter()
         .map(|p| (trial.nll(&trial.internal(p)), *p))
@@ -155,8 +287,8 @@ fn set_up(
     }
     // The period must hold the EM tail of any gain the optimiser may try (25 scale
     // lengths: wrapped mass < 1e-10): up to 3x the best start.
-    let mut problem = grid.problem(h, opts.shape, conv, (10.0 * q.sq).max(75.0 * best.1[2]))?;
-    problem.start_at(&best.1, fixed, opts.serial_cic);
+    let mut problem = grid.problem(h, shape, conv, (10.0 * q.sq).max(75.0 * best.1[2]))?;
+    problem.start_at(&best.1, fixed, false);
     Ok((grid, problem))
 }
 
@@ -180,7 +312,7 @@ fn fit_top(h: &ValueHistogram, opts: &EmGainOptions, st: &EmStart, far: f64) -> 
 fn candidates(
     h: &ValueHistogram,
     opts: &EmGainOptions,
-    conv: f64,
+    shape: EmShape,
     st: &EmStart,
     q: &Spread,
     far: f64,
@@ -188,7 +320,7 @@ fn candidates(
     let fixed = opts.fixed_bias_adu.is_some();
     let (l0, g0) = (st.lambda_e, st.gain_adu_per_e);
     let (_, mean, var) = h.moments_within(q.q4 - 10.0 * q.sq, far);
-    let f2 = excess_noise_factor_sq(opts.shape, g0 * conv);
+    let f2 = excess_noise_factor_sq(shape, law_gain(g0, opts.gain_e_per_adu));
     let mut cands = vec![[st.bias_adu, st.read_noise_adu, g0, l0, 0.0]];
     for s in [st.read_noise_adu, 0.6 * q.sq, q.sq] {
         for k in 0..=24 {
@@ -222,7 +354,7 @@ struct Solution {
 fn solve(problem: &Problem, shape: EmShape) -> Result<Solution> {
     let n = problem.n;
     let u0: Vec<f64> = problem.free.iter().map(|i| problem.base[*i]).collect();
-    let steps = [0.3, 0.1, 0.2, 0.2, 1.0];
+    let steps = [0.3, 0.1, 0.2, 0.2, 0.5];
     let step: Vec<f64> = problem.free.iter().map(|i| steps[*i]).collect();
     // Stop when the simplex spans 1e-4 in total log-likelihood.
     let tol = 1e-4 / n;
@@ -232,7 +364,8 @@ fn solve(problem: &Problem, shape: EmShape) -> Result<Solution> {
     let m = problem.model.m;
     let weight = match shape {
         EmShape::Gamma => 1,
-        EmShape::Register { stages } => 1 + u64::from(stages) / 64,
+        EmShape::Register { stages } => 1 + u64::from(stages) / 256,
+        EmShape::RegisterGamma { .. } => 2,
     };
     let max_evals = (WORK_CELLS / (m as u64 * weight)).clamp(300, 1200);
     let evals = std::cell::Cell::new(0u64);
@@ -264,7 +397,11 @@ fn solve(problem: &Problem, shape: EmShape) -> Result<Solution> {
     // Fixed parameters have no standard error here (0): theirs is the no-signal frames'.
     let mut se = [0.0; 5];
     for (k, i) in problem.free.iter().enumerate() {
-        let scale = if *i == 0 { problem.s0 } else { p[*i] };
+        let scale = match *i {
+            0 => problem.s0,
+            4 => problem.cic_scale,
+            _ => p[*i],
+        };
         se[*i] = cov[k][k].sqrt() * scale;
     }
     Ok(Solution {
@@ -278,17 +415,20 @@ fn solve(problem: &Problem, shape: EmShape) -> Result<Solution> {
 
 /// The fit's record: the solution in the options' units, the fitted range and the
 /// cross-checks from the fitted values' moments.
+#[allow(clippy::too_many_arguments)]
 fn result(
     h: &ValueHistogram,
     opts: &EmGainOptions,
-    conv: f64,
+    shape: EmShape,
     st: EmStart,
     grid: &Layout,
     problem: &Problem,
     s: Solution,
+    serial_cic_test: Option<SerialCicTest>,
 ) -> EmGainFit {
     let (p, se, n) = (s.p, s.se, problem.n);
-    let f2 = excess_noise_factor_sq(opts.shape, p[2] * conv);
+    let f2 = excess_noise_factor_sq(shape, law_gain(p[2], opts.gain_e_per_adu));
+    let serial = problem.free.contains(&4);
     let (mean, var) = fitted_moments(problem, grid.lo, grid.w);
     let signal = mean - p[0];
     let (em_gain, em_gain_se, units) = match opts.gain_e_per_adu {
@@ -308,10 +448,12 @@ fn result(
         read_noise_input_e: p[1] / p[2],
         lambda_e: p[3],
         lambda_e_se: se[3],
-        serial_cic_e: opts.serial_cic.then_some(p[4]),
-        serial_cic_e_se: opts.serial_cic.then_some(se[4]),
+        serial_cic_e: serial.then_some(p[4]),
+        serial_cic_e_se: serial.then_some(se[4]),
+        serial_cic_test,
         gain_e_per_adu: opts.gain_e_per_adu,
-        shape: opts.shape,
+        shape,
+        law: shape.describe(),
         converged: true,
         iterations: s.iterations,
         log_likelihood: -s.cost * n,

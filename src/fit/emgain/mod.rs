@@ -37,9 +37,11 @@ mod tests;
 pub use chart::chart;
 pub use fit::{fit_emgain, fit_emgain_of_stack};
 pub use histogram::ValueHistogram;
-pub use model::{excess_noise_factor_sq, model_curve, CurveBin};
-pub use options::{EmGainOptions, EmShape};
-pub use result::{gain_from_mean_ratio, EmCrossChecks, EmGainFit, EmStart};
+pub use model::{
+    excess_noise_factor_sq, law_gain, model_curve, CurveBin, UNKNOWN_CONVERSION_MIN_GAIN,
+};
+pub use options::{EmGainOptions, EmLaw, EmShape, SerialCic, DEFAULT_STAGES};
+pub use result::{gain_from_mean_ratio, EmCrossChecks, EmGainFit, EmStart, SerialCicTest};
 pub use run::{fit_report, run, EmgainReport, EmgainRun, EmgainRunResult, RatioCheck};
 pub use signature::{require_em_signature, EmSignature, Verdict};
 pub use stack::accumulate;

@@ -23,6 +23,9 @@ pub(super) struct Problem {
     bias0: f64,
     pub(super) s0: f64,
     guard_gain: f64,
+    /// The serial-CIC coordinate is the rate over this scale (e- per pixel-sample): linear,
+    /// so that a rate of 0 is an ordinary point (no drift towards -inf when there is none).
+    pub(super) cic_scale: f64,
     /// Internal coordinates of the parameters that are not free.
     pub(super) base: [f64; 5],
     /// Indices (into bias, ln s, ln G, ln lambda) of the free parameters.
@@ -41,19 +44,18 @@ impl Problem {
             v[1].exp(),
             v[2].exp(),
             v[3].exp(),
-            v[4].exp(),
+            v[4] * self.cic_scale,
         ]
     }
 
-    /// Internal coordinates of all natural parameters `p` (a zero CIC rate maps to -inf,
-    /// which `params` maps back to 0 while the rate is not free).
+    /// Internal coordinates of all natural parameters `p`.
     pub(super) fn internal(&self, p: &[f64; 5]) -> [f64; 5] {
         [
             (p[0] - self.bias0) / self.s0,
             p[1].ln(),
             p[2].ln(),
             p[3].ln(),
-            p[4].ln(),
+            p[4] / self.cic_scale,
         ]
     }
 
@@ -95,13 +97,21 @@ impl Problem {
     pub(super) fn start_at(&mut self, best: &[f64; 5], fixed: bool, serial_cic: bool) {
         self.bias0 = best[0];
         self.s0 = best[1];
-        self.base = self.internal(best);
+        let mut best = *best;
+        if serial_cic {
+            // Serial-CIC events are counted as light by a model without them: the scale is
+            // a third of the start's light, the start half of that (the Nelder-Mead steps
+            // of one scale find the rate, 0 included).
+            self.cic_scale = (best[3] / 3.0).max(1e-4);
+            if best[4] == 0.0 {
+                best[4] = 0.5 * self.cic_scale;
+            }
+        }
+        self.base = self.internal(&best);
         if fixed {
             self.free = vec![2, 3];
         }
         if serial_cic {
-            // Start the rate at a tenth of the light: the Nelder-Mead steps find the scale.
-            self.base[4] = (0.1 * best[3]).max(1e-4).ln();
             self.free.push(4);
         }
     }
@@ -138,12 +148,13 @@ impl Layout {
         }
     }
 
-    /// The fit problem with a model period reaching `pad` adu beyond the cut.
+    /// The fit problem with a model period reaching `pad` adu beyond the cut; `conv` the
+    /// conversion gain (e-/adu) if known.
     pub(super) fn problem(
         &self,
         h: &ValueHistogram,
         shape: EmShape,
-        conv: f64,
+        conv: Option<f64>,
         pad: f64,
     ) -> Result<Problem> {
         // Sizes are checked before anything is allocated from them.
@@ -171,7 +182,8 @@ impl Layout {
         Ok(Problem {
             model: Model {
                 shape,
-                conv,
+                conv: conv.unwrap_or(1.0),
+                conv_known: conv.is_some(),
                 x0: self.lo,
                 h: self.hfine,
                 fft: FftPlanner::new().plan_fft_forward(m),
@@ -183,7 +195,8 @@ impl Layout {
             excluded,
             bias0: 0.0,
             s0: 1.0,
-            base: [0.0, 0.0, 0.0, 0.0, f64::NEG_INFINITY],
+            base: [0.0; 5],
+            cic_scale: 1.0,
             free: vec![0, 1, 2, 3],
             guard_gain: (m as f64 * self.hfine - (self.cut - self.lo)) / 25.0,
         })

@@ -9,8 +9,8 @@ use serde::Serialize;
 use super::chart::chart;
 use super::fit::fit_emgain_of_stack;
 use super::histogram::ValueHistogram;
-use super::options::{EmGainOptions, EmShape};
-use super::result::{gain_from_mean_ratio, EmGainFit};
+use super::options::{EmGainOptions, EmLaw, EmShape, SerialCic, DEFAULT_STAGES};
+use super::result::{gain_from_mean_ratio, EmGainFit, SerialCicTest};
 use super::signature::require_em_signature;
 use super::stack::accumulate;
 use crate::calib::{Map, Unit};
@@ -37,11 +37,16 @@ pub struct EmgainRun {
     /// Read-noise map (adu rms) of no-signal frames at the same gain (needs `offset`): bias
     /// and read noise are then held fixed, as bright frames need.
     pub read_noise: Option<PathBuf>,
-    /// Model the exact register of this many stages (needs the conversion gain); default the
-    /// Gamma model of the paper (Eq. 2).
+    /// Stages of the register (default [`DEFAULT_STAGES`]).
     pub stages: Option<u32>,
-    /// Also fit serial clock-induced charge (needs `stages`).
+    /// Law of the register output; default the exact register when the conversion gain is
+    /// known, else the Gamma law with the register's F^2.
+    pub law: Option<EmLaw>,
+    /// Always model serial clock-induced charge (default: fit with and without, keep the
+    /// better by BIC).
     pub serial_cic: bool,
+    /// Never model serial clock-induced charge.
+    pub no_serial_cic: bool,
     /// Exclude values above this (adu); default from the start values.
     pub max_value_adu: Option<f64>,
     /// Histogram bin width (adu); default 1 for integer data without `offset`, else 0.25.
@@ -109,16 +114,25 @@ impl EmgainRun {
                 "give the conversion gain once: `gain_e_per_adu` or `gain_map`, not both",
             ));
         }
-        if self.stages.is_some() && self.gain_e_per_adu.is_none() && self.gain_map.is_none() {
+        if self.law == Some(EmLaw::Register)
+            && self.gain_e_per_adu.is_none()
+            && self.gain_map.is_none()
+        {
             return Err(Error::invalid(
-                "stages",
-                "the exact register model needs the conversion gain (`gain_e_per_adu` or `gain_map`)",
+                "gain_e_per_adu",
+                "the exact register law needs the conversion gain (`gain_e_per_adu` or `gain_map`)",
             ));
         }
-        if self.serial_cic && self.stages.is_none() {
+        if self.serial_cic && self.no_serial_cic {
             return Err(Error::invalid(
                 "serial_cic",
-                "serial CIC has partial gain, modelled only with the exact register (`stages`)",
+                "serial CIC is either always or never modelled, not both",
+            ));
+        }
+        if self.serial_cic && self.law == Some(EmLaw::Exponential) {
+            return Err(Error::invalid(
+                "serial_cic",
+                "serial CIC has partial gain, modelled only with a register law, not the exponential law",
             ));
         }
         if self.read_noise.is_some() && self.offset.is_none() {
@@ -201,9 +215,10 @@ pub fn fit_report(job: &EmgainRun) -> Result<(EmgainReport, ValueHistogram)> {
         (Some(p), _) => Some(median_gain(p)?),
         (None, g) => g,
     };
-    let shape = match job.stages {
-        Some(stages) => EmShape::Register { stages },
-        None => EmShape::Gamma,
+    let stages = job.stages.unwrap_or(DEFAULT_STAGES);
+    let shape = match job.law {
+        Some(law) => law.shape(stages),
+        None => EmShape::default_for(conv).with_stages(stages),
     };
     let stack = FrameStack::open(&job.stack)?;
     if job.read_noise.is_none() {
@@ -225,12 +240,16 @@ pub fn fit_report(job: &EmgainRun) -> Result<(EmgainReport, ValueHistogram)> {
         _ => (None, None),
     };
     let opts = EmGainOptions {
-        shape,
+        shape: Some(shape),
         gain_e_per_adu: conv,
         max_value_adu: job.max_value_adu,
         fixed_bias_adu,
         fixed_read_noise_adu,
-        serial_cic: job.serial_cic,
+        serial_cic: match (job.serial_cic, job.no_serial_cic) {
+            (true, _) => SerialCic::On,
+            (_, true) => SerialCic::Off,
+            _ => SerialCic::Auto,
+        },
     };
     let fit = fit_emgain_of_stack(&stack, &hist, &opts)?;
     let ratio_check = if job.reference_stack.is_empty() {
@@ -297,6 +316,10 @@ impl EmgainReport {
         if let (Some(c), Some(se)) = (f.serial_cic_e, f.serial_cic_e_se) {
             s += &format!("serial CIC     {c:.5} +- {se:.5} e-/pixel\n");
         }
+        s += &format!("law: {}\n", f.law);
+        if let Some(t) = &f.serial_cic_test {
+            s += &serial_cic_line(t);
+        }
         let cc = &f.cross_checks;
         s += &format!(
             "cross-check: mean-variance / F^2 ({:.3}) = {:.4} adu/e- (without F^2: {:.4})\n",
@@ -312,4 +335,21 @@ impl EmgainReport {
         }
         s
     }
+}
+
+/// The serial-CIC comparison in one line: the verdict, the figures it rests on.
+fn serial_cic_line(t: &SerialCicTest) -> String {
+    let verdict = match (t.mode, t.present) {
+        (SerialCic::On, _) => "modelled (--serial-cic on)",
+        (_, true) => "present",
+        (_, false) => "absent",
+    };
+    let figures = match (t.likelihood_ratio, t.delta_bic, t.serial_cic_e, t.serial_cic_e_se) {
+        (Some(lr), Some(db), Some(c), Some(se)) => format!(
+            ": likelihood ratio {lr:.1}, BIC without - with {db:+.1} (> 0 favours serial CIC), rate if fitted {c:.5} +- {se:.5} e-/pixel"
+        ),
+        _ => String::new(),
+    };
+    let note = t.note.as_ref().map_or(String::new(), |n| format!(" ({n})"));
+    format!("serial CIC {verdict}{figures}{note}\n")
 }

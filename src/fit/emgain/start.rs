@@ -3,7 +3,7 @@
 //! from the moments when bias and read noise are known.
 
 use super::histogram::ValueHistogram;
-use super::model::excess_noise_factor_sq;
+use super::model::{excess_noise_factor_sq, law_gain};
 use super::options::EmShape;
 use super::result::EmStart;
 use crate::error::{Error, Result};
@@ -176,7 +176,7 @@ pub(super) fn start_from_moments(
     b: f64,
     s: f64,
     shape: EmShape,
-    conv: f64,
+    conv: Option<f64>,
 ) -> Result<EmStart> {
     let n = h.total();
     if (n as usize) < MIN_SAMPLES {
@@ -196,7 +196,7 @@ pub(super) fn start_from_moments(
     let mut g = (var - s * s) / ((mean - b) * 2.0);
     // The register's F^2 depends on the gain itself: two fixed-point steps suffice.
     for _ in 0..2 {
-        g = (var - s * s) / ((mean - b) * excess_noise_factor_sq(shape, g * conv));
+        g = (var - s * s) / ((mean - b) * excess_noise_factor_sq(shape, law_gain(g, conv)));
     }
     Ok(EmStart {
         bias_adu: b,
