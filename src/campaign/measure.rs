@@ -15,10 +15,10 @@ use super::checks::CampaignPlan;
 use super::condition::{ConditionStats, StackKind};
 use super::input::CampaignStack;
 use crate::calib::darks::{pixel_stats, pixel_stats_hashed, Clip};
-use crate::calib::Map;
 use crate::calib::summary::{unhashed, Checksum, InputFile};
+use crate::calib::Map;
 use crate::error::{Error, Result};
-use crate::fit::emgain::{accumulate, fit_emgain, EmGainFit, EmGainOptions};
+use crate::fit::emgain::{accumulate_kept, fit_emgain, EmGainFit, EmGainOptions};
 use crate::io::FrameStack;
 use crate::progress::Observer;
 
@@ -78,11 +78,13 @@ fn wants_em_fit(entry: &CampaignStack, options: &MeasureOptions) -> bool {
 
 /// Fit the EM-gain histogram model to every EMCCD dark stack of `plan` (a second pass over
 /// each), with `offset_adu` (each pixel's fixed offset, NaN where unknown: the stack's own
-/// mean is used there) subtracted; failures are warnings kept in `em_fit`.
+/// mean is used there) subtracted, over the pixels `keep` marks (warm and hot pixels hold a
+/// dark charge far from the one lambda of the model); failures are warnings kept in `em_fit`.
 pub fn fit_em_gains(
     plan: &CampaignPlan,
     stacks: &mut [StackMeasurement],
     offset_adu: &[f64],
+    keep: &[bool],
     options: &MeasureOptions,
     observer: &dyn Observer,
 ) -> Result<()> {
@@ -98,7 +100,7 @@ pub fn fit_em_gains(
         }
         let (stack, m) = (&plan.opened[i], &mut stacks[i]);
         let bias = bias_map(offset_adu, &m.stats);
-        let fit = accumulate(stack, Some(&bias), None).and_then(|(h, _)| {
+        let fit = accumulate_kept(stack, Some(&bias), None, Some(keep)).and_then(|(h, _)| {
             fit_emgain(
                 &h,
                 &EmGainOptions {

@@ -79,7 +79,13 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
     if job.measure.em_fit && !plan.design.dark_em_gains.is_empty() {
         // The offsets do not depend on the gains' scale: fit the histograms with them, then
         // decompose again with the gains measured.
-        fit_em_gains(&plan, &mut stacks, &decomposition.offset_adu, &job.measure, observer)?;
+        let keep: Vec<bool> = decomposition
+            .hot_class
+            .iter()
+            .map(|c| *c == fit::HotClass::Normal)
+            .collect();
+        let offsets = &decomposition.offset_adu;
+        fit_em_gains(&plan, &mut stacks, offsets, &keep, &job.measure, observer)?;
         decomposition = decompose(&plan.design, &stacks, gain)?;
         if decomposition.summary.em_gain_curve.is_none() {
             observer.warn(

@@ -6,7 +6,7 @@ use rayon::prelude::*;
 use super::wls::Normal;
 use super::{ConversionGain, DecomposeOptions, EmGainFit};
 use crate::campaign::{ConditionStats, StackKind};
-use crate::detector::register::EmRegister;
+use crate::detector::register::{excess_noise_factor_sq, EmRegister};
 use crate::error::{Error, Result};
 use crate::stats::median;
 
@@ -25,6 +25,9 @@ pub(super) struct Cond<'a> {
     pub g_se: f64,
     /// Temperature (deg C).
     pub temp: Option<f64>,
+    /// Excess noise factor squared of the register at `g` (1 without a register): the
+    /// variance of the output per unit of mean signal, in units of the gain.
+    pub enf2: f64,
 }
 
 /// The dark conditions and the parameters of every pixel's fit.
@@ -45,6 +48,9 @@ pub(super) struct Design<'a> {
     pub notes: Vec<String>,
     /// Each condition's median over pixels of the mean (adu) and of the variance (adu^2).
     pub typical: Vec<[f64; 2]>,
+    /// Each condition's least signal above the offset (adu) the weights assume: the median
+    /// over pixels of the first fit's signal (0 until `pixels::set_signal_floor` runs).
+    pub signal_floor_adu: Vec<f64>,
 }
 
 fn distinct(values: impl Iterator<Item = f64>) -> Vec<f64> {
@@ -114,6 +120,11 @@ impl<'a> Design<'a> {
                     g,
                     g_se,
                     temp: s.condition.temperature_c,
+                    enf2: if register {
+                        excess_noise_factor_sq(g, opts.register_stages)
+                    } else {
+                        1.0
+                    },
                 })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -139,6 +150,7 @@ impl<'a> Design<'a> {
             .map(|c| [median(&c.stats.mean_adu), median(&c.stats.var_adu2)])
             .collect();
         let mut design = Design {
+            signal_floor_adu: vec![0.0; conds.len()],
             typical,
             conds,
             rows,

@@ -94,7 +94,7 @@ pub struct DecomposeOptions {
     /// Temperature term of the dark current.
     pub temperature: TemperatureTerm,
     /// Stages of the EM register, for its excess noise factor F^2 in the variance check
-    /// (default 520, the project's `--stages` default).
+    /// (default 604, the project's `--stages` default).
     pub register_stages: u32,
     /// Thresholds of the warm and hot pixel classes.
     pub hot: HotRule,
@@ -104,7 +104,7 @@ pub struct DecomposeOptions {
 
 impl DecomposeOptions {
     /// Defaults with conversion gain `k_e_per_adu` (e-/adu, SE unknown): commanded EM gains,
-    /// CIC fitted where there is a register, no temperature term, 520 stages, warm/hot at 5/25
+    /// CIC fitted where there is a register, no temperature term, 604 stages, warm/hot at 5/25
     /// robust sigmas above the median dark current, bad fit at p < 1e-3.
     pub fn new(k_e_per_adu: f64) -> Self {
         DecomposeOptions {
@@ -115,7 +115,7 @@ impl DecomposeOptions {
             em_gains: Vec::new(),
             fit_cic: true,
             temperature: TemperatureTerm::Off,
-            register_stages: 520,
+            register_stages: 604,
             hot: HotRule::default(),
             bad_fit_p_value: 1e-3,
         }
@@ -270,8 +270,10 @@ impl Decomposition {
 /// design and the options is made before the fit, and a design that cannot separate the
 /// requested terms is refused naming what is missing.
 pub fn decompose(stats: &[ConditionStats], opts: &DecomposeOptions) -> Result<Decomposition> {
-    let design = design::Design::new(stats, opts)?;
+    let mut design = design::Design::new(stats, opts)?;
     let k = pixels::PixelGain::new(&opts.conversion_gain);
+    let ones = vec![1.0; design.conds.len()];
+    pixels::set_signal_floor(&mut design, &k, &ones, 1);
     let temp = temperature::resolve(&design, &k, &opts.temperature)?;
     let fit = pixels::fit_all(&design, &k, &temp.factors);
     let quality = pixels::quality(&fit, design.dof(), opts.bad_fit_p_value);

@@ -59,32 +59,131 @@ pub(super) struct PixelFit {
     pub chi2: f64,
 }
 
+/// Rounds of reweighting by the model's variance after the first fit.
+const REWEIGHT_ROUNDS: usize = 2;
+
 /// Fit pixel `p` at 1/K `k` with temperature factors `factors` (one per condition); `None`
 /// where a condition's mean or variance is not finite or the variance is not > 0 (a dead or
 /// saturated pixel: no weight can be given).
+///
+/// Why the weights are the model's variance, not each condition's sample variance: behind an
+/// EM register most frames of a pixel hold no charge, so a pixel that drew few events has both
+/// a low mean and a low variance, and weighting by its own variance pulls the fit down. On the
+/// 3 gains x 3 exposures fixture (tests/fixtures/campaign/emccd) sample-variance weights gave
+/// CIC pulls of mean -0.88 and SD 1.49; the model's variance, read noise plus the signal's
+/// shot noise times the register's F^2, gives mean and SD near 0 and 1. The signal in that
+/// shot noise is the pixel's fitted one but at least the condition's median
+/// ([`set_signal_floor`]): a pixel's own fit is noisy, and a low fit with the low variance it
+/// implies would again weight its own low draws up.
 #[inline]
 pub(super) fn fit_pixel(design: &Design, k: f64, factors: &[f64], p: usize) -> Option<PixelFit> {
-    let mut n = Normal::<3>::new(design.npar());
-    for (i, c) in design.conds.iter().enumerate() {
+    let conds = &design.conds;
+    if conds.iter().any(|c| {
         let (y, v) = (c.stats.mean_adu[p], c.stats.var_adu2[p]);
-        if !(y.is_finite() && v.is_finite() && v > 0.0) {
-            return None;
-        }
-        n.add(&design.row(i, k, factors[i]), y, c.stats.frames as f64 / v);
+        !(y.is_finite() && v.is_finite() && v > 0.0)
+    }) {
+        return None;
     }
-    let sol: Solution<3> = n.solve()?;
+    let mut var: Vec<f64> = conds.iter().map(|c| c.stats.var_adu2[p]).collect();
+    let mut sol = solve_weighted(design, k, factors, p, &var)?;
+    for _ in 0..REWEIGHT_ROUNDS {
+        model_variance(design, k, factors, p, &sol.x, &mut var);
+        sol = solve_weighted(design, k, factors, p, &var)?;
+    }
     let mut chi2 = 0.0;
-    for (i, c) in design.conds.iter().enumerate() {
-        let x = design.row(i, k, factors[i]);
-        let model: f64 = (0..design.npar()).map(|j| x[j] * sol.x[j]).sum();
-        let r = c.stats.mean_adu[p] - model;
-        chi2 += r * r * c.stats.frames as f64 / c.stats.var_adu2[p];
+    for (i, c) in conds.iter().enumerate() {
+        let r = c.stats.mean_adu[p] - predicted(design, i, k, factors[i], &sol.x);
+        chi2 += r * r * c.stats.frames as f64 / var[i];
     }
     Some(PixelFit {
         x: [sol.x[0], sol.x[1], sol.x[2]],
         se: [sol.se[0], sol.se[1], sol.se[2]],
         chi2,
     })
+}
+
+/// The model's mean dark (adu) of condition `i` at parameters `x`.
+#[inline]
+fn predicted(design: &Design, i: usize, k: f64, factor: f64, x: &[f64]) -> f64 {
+    let row = design.row(i, k, factor);
+    (0..design.npar()).map(|j| row[j] * x[j]).sum()
+}
+
+/// The weighted least-squares solution with per-condition variances `var` (adu^2).
+#[inline]
+fn solve_weighted(
+    design: &Design,
+    k: f64,
+    factors: &[f64],
+    p: usize,
+    var: &[f64],
+) -> Option<Solution<3>> {
+    let mut n = Normal::<3>::new(design.npar());
+    for (i, c) in design.conds.iter().enumerate() {
+        let w = c.stats.frames as f64 / var[i];
+        n.add(&design.row(i, k, factors[i]), c.stats.mean_adu[p], w);
+    }
+    n.solve()
+}
+
+/// Each condition's variance (adu^2) as the model gives it at parameters `x`: a variance
+/// common to all conditions (read, frame-common and quantisation noise) plus the signal's
+/// shot noise, F^2 g k s for a signal s (adu) above the offset. The common part is the
+/// inverse-variance mean of the sample variances less their shot noise (the variance of a
+/// sample variance being 2 v^2 / (n - 1)), so the low-signal conditions set it.
+fn model_variance(design: &Design, k: f64, factors: &[f64], p: usize, x: &[f64], var: &mut [f64]) {
+    let conds = &design.conds;
+    let shot = |i: usize| {
+        let c = &conds[i];
+        let s = (predicted(design, i, k, factors[i], x) - x[0]).max(design.signal_floor_adu[i]);
+        c.enf2 * c.g * k * s
+    };
+    let (mut sw, mut swr) = (0.0, 0.0);
+    for (i, c) in conds.iter().enumerate() {
+        let w = (c.stats.frames as f64 - 1.0).max(1.0) / (var[i] * var[i]);
+        sw += w;
+        swr += w * (c.stats.var_adu2[p] - shot(i));
+    }
+    // The floor keeps a weight finite when shot noise explains every sample variance.
+    let floor = 1e-3
+        * conds
+            .iter()
+            .map(|c| c.stats.var_adu2[p])
+            .fold(f64::INFINITY, f64::min);
+    let common = (swr / sw).max(floor);
+    for (i, v) in var.iter_mut().enumerate() {
+        *v = common + shot(i);
+    }
+}
+
+/// Set each condition's signal floor of the weights to the median over pixels (every
+/// `stride`-th) of the signal above the offset of a fit without floor.
+pub(super) fn set_signal_floor(design: &mut Design, k: &PixelGain, factors: &[f64], stride: usize) {
+    design.signal_floor_adu.iter_mut().for_each(|f| *f = 0.0);
+    let n = design.npix.div_ceil(stride);
+    let fits: Vec<Option<PixelFit>> = (0..n)
+        .into_par_iter()
+        .with_min_len(CHUNK)
+        .map(|j| fit_pixel(design, k.at(j * stride), factors, j * stride))
+        .collect();
+    let floors: Vec<f64> = (0..design.conds.len())
+        .map(|i| {
+            let s: Vec<f64> = fits
+                .iter()
+                .enumerate()
+                .filter_map(|(j, f)| {
+                    let f = f.as_ref()?;
+                    Some(predicted(design, i, k.at(j * stride), factors[i], &f.x) - f.x[0])
+                })
+                .collect();
+            if s.is_empty() {
+                0.0
+            } else {
+                median(&s).max(0.0)
+            }
+        })
+        .collect();
+    design.signal_floor_adu = floors;
 }
 
 /// The maps of all pixels (NaN where not fitted).

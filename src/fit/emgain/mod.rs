@@ -44,5 +44,5 @@ pub use options::{EmGainOptions, EmLaw, EmShape, SerialCic, DEFAULT_STAGES};
 pub use result::{gain_from_mean_ratio, EmCrossChecks, EmGainFit, EmStart, SerialCicTest};
 pub use run::{fit_report, run, EmgainReport, EmgainRun, EmgainRunResult, RatioCheck};
 pub use signature::{require_em_signature, EmSignature, Verdict};
-pub use stack::accumulate;
+pub use stack::{accumulate, accumulate_kept};
 pub use start::{start_values, MIN_SAMPLES, MIN_SIGNAL_SAMPLES};

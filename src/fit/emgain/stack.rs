@@ -15,6 +15,26 @@ pub fn accumulate(
     offset: Option<&Map>,
     width: Option<f64>,
 ) -> Result<(ValueHistogram, f64)> {
+    accumulate_kept(stack, offset, width, None)
+}
+
+/// [`accumulate`] over the pixels whose `keep` entry is true only (row-major, one per pixel;
+/// None keeps all): hot pixels' dark charge is not the one lambda the histogram model has.
+pub fn accumulate_kept(
+    stack: &FrameStack,
+    offset: Option<&Map>,
+    width: Option<f64>,
+    keep: Option<&[bool]>,
+) -> Result<(ValueHistogram, f64)> {
+    if keep.is_some_and(|k| k.len() != stack.pixels()) {
+        return Err(Error::invalid(
+            "keep",
+            format!(
+                "the pixel mask has not the stack's {} pixels",
+                stack.pixels()
+            ),
+        ));
+    }
     let off = match offset {
         Some(m) => {
             if m.shape() != stack.shape {
@@ -51,12 +71,21 @@ pub fn accumulate(
     };
     let mut hist = ValueHistogram::new(width);
     let mut frame = vec![0.0; stack.pixels()];
+    let mut kept = Vec::new();
     let mut reader = stack.reader();
     while let Some(i) = reader.next_frame(&mut frame)? {
         if let Some(off) = &off {
             frame.iter_mut().zip(off).for_each(|(v, o)| *v -= o);
         }
-        hist.add_all(&frame)
+        let values = match keep {
+            Some(keep) => {
+                kept.clear();
+                kept.extend(frame.iter().zip(keep).filter(|(_, &k)| k).map(|(v, _)| *v));
+                &kept
+            }
+            None => &frame,
+        };
+        hist.add_all(values)
             .map_err(|e| Error::input(stack.source_of(i), format!("stack frame {i}: {e}")))?;
     }
     let (mean, _) = hist.mean_var();
