@@ -65,6 +65,7 @@ fn main() {
             checksum: Some(Checksum::Blake3),
             em_fit: false,
         },
+        temperature: detnoise::campaign::fit::TemperatureTerm::Off,
     };
     // Warm the page cache (and the thread pool).
     run(&job("warm"), &Silent).expect("campaign runs");

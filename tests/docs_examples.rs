@@ -363,8 +363,11 @@ fn run_page(page: &Path) -> Vec<String> {
     let page_name = name(page);
     let text = std::fs::read_to_string(page).unwrap();
     let scratch = tempfile::tempdir().unwrap();
-    let data = Path::new(env!("CARGO_MANIFEST_DIR")).join("data-synthetic");
-    std::os::unix::fs::symlink(data, scratch.path().join("data-synthetic")).unwrap();
+    // The bundled data and the committed test fixtures (the campaign example reads these).
+    for linked in ["data-synthetic", "tests"] {
+        let data = Path::new(env!("CARGO_MANIFEST_DIR")).join(linked);
+        std::os::unix::fs::symlink(data, scratch.path().join(linked)).unwrap();
+    }
     let mut failures = Vec::new();
     // What the last run block printed; a Python block's output is python/tests/test_docs.py's.
     let mut last_stdout: Option<String> = None;
@@ -446,7 +449,7 @@ fn not_ignored(dir: &Path) -> Vec<String> {
     for entry in std::fs::read_dir(dir).unwrap() {
         let entry = entry.unwrap();
         let mut name = entry.file_name().to_string_lossy().into_owned();
-        if name == "data-synthetic" {
+        if name == "data-synthetic" || name == "tests" {
             continue;
         }
         if entry.file_type().unwrap().is_dir() {

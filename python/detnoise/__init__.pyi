@@ -295,7 +295,7 @@ def fit_emgain(
     offset: Optional[_Path] = None,
     read_noise: Optional[_Path] = None,
     stages: Optional[int] = None,
-    serial_cic: bool = False,
+    serial_cic: bool | None = None,
     max_value_adu: Optional[float] = None,
     bin_width_adu: Optional[float] = None,
     reference_stack: Optional[_Paths] = None,

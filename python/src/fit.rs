@@ -226,11 +226,13 @@ impl PyEmGainFit {
 /// directories or globs), as `detnoise emgain` does. `gain_e_per_adu` (or `gain_map`, a file)
 /// reports the gain in e-/e-; `offset` (a bias map file, adu) is subtracted per pixel;
 /// `read_noise` (a map file, adu, with `offset`) holds bias and read noise fixed; `stages`
-/// fits the exact register; `reference_stack` with `reference_offset` adds the
+/// sets the register's stages (default 604: the exact register with a conversion gain, else a
+/// Gamma law with its F^2); `serial_cic` None fits with and without serial CIC and keeps the
+/// one the BIC prefers, True or False forces it; `reference_stack` with `reference_offset` adds the
 /// ratio-of-means cross-check.
 #[pyfunction]
 #[pyo3(name = "fit_emgain")]
-#[pyo3(signature = (paths, *, gain_e_per_adu = None, gain_map = None, offset = None, read_noise = None, stages = None, serial_cic = false, max_value_adu = None, bin_width_adu = None, reference_stack = None, reference_offset = None))]
+#[pyo3(signature = (paths, *, gain_e_per_adu = None, gain_map = None, offset = None, read_noise = None, stages = None, serial_cic = None, max_value_adu = None, bin_width_adu = None, reference_stack = None, reference_offset = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn fit_emgain_py(
     py: Python<'_>,
@@ -240,7 +242,7 @@ pub fn fit_emgain_py(
     offset: Option<PathBuf>,
     read_noise: Option<PathBuf>,
     stages: Option<u32>,
-    serial_cic: bool,
+    serial_cic: Option<bool>,
     max_value_adu: Option<f64>,
     bin_width_adu: Option<f64>,
     reference_stack: Option<&Bound<'_, PyAny>>,
@@ -264,7 +266,8 @@ pub fn fit_emgain_py(
         offset,
         read_noise,
         stages,
-        serial_cic,
+        serial_cic: serial_cic == Some(true),
+        no_serial_cic: serial_cic == Some(false),
         max_value_adu,
         bin_width_adu,
         reference_stack: reference_stack

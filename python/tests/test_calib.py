@@ -100,8 +100,6 @@ def test_bad_options_are_value_errors_naming_the_keyword(data):
             detnoise.dark_maps(path, **kwargs)
     with pytest.raises(ValueError, match="`upper_cut_e`"):
         detnoise.fit_pdf(np.ones(100), upper_cut_e=-1.0)
-    with pytest.raises(ValueError, match="`serial_cic`"):
-        detnoise.fit_emgain(path, serial_cic=True)
 
 
 def test_missing_and_unreadable_files_are_os_errors(data, tmp_path):

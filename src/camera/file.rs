@@ -116,11 +116,16 @@ impl CameraModel {
             names: &names,
         };
         let out = OutputDir::prepare(dir, plan)?;
-        self.write_into(&out)?;
+        self.write_files(&out.path(""))?;
         out.commit()
     }
 
-    fn write_into(&self, out: &OutputDir) -> Result<()> {
+    /// Write the model's files into the folder `dir` (created if missing), inside an output
+    /// that is being staged (e.g. the `camera/` folder of a campaign's output).
+    pub fn write_files(&self, dir: &Path) -> Result<()> {
+        self.check()?;
+        std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+        let out = StagedDir(dir);
         let map = |i: usize, m: &Map| {
             let (name, bunit, _) = MAP_FILES[i];
             write_image(
@@ -280,6 +285,15 @@ fn read_map(dir: &Path, i: usize, unit: Unit, shape: (usize, usize)) -> Result<M
         ));
     }
     Ok(Map::new(shape.0, shape.1, image.data, unit).with_source(path.display().to_string()))
+}
+
+/// A folder being written under a staged output.
+struct StagedDir<'a>(&'a Path);
+
+impl StagedDir<'_> {
+    fn path(&self, name: &str) -> std::path::PathBuf {
+        self.0.join(name)
+    }
 }
 
 #[cfg(test)]

@@ -6,8 +6,7 @@ use crate::calib::Map;
 use crate::detector::register::excess_noise_factor_sq;
 use crate::{Error, Result};
 
-/// Longest exposure of an operating point, s (a day: no dark frame is longer).
-pub const MAX_EXPOSURE_S: f64 = 86_400.0;
+pub use crate::settings::MAX_EXPOSURE_S;
 
 /// How the camera is run: the exposure of each frame, the EM gain commanded (None: no EM
 /// gain, or a camera without a register) and the sensor temperature (None: the temperature

@@ -8,8 +8,9 @@
 //! inconsistent campaign before any frame is read, `measure` streams each stack once into its
 //! [`ConditionStats`] (and fits the EM histogram of EMCCD darks), `fit` decomposes every
 //! pixel's mean dark into offset, CIC and dark current, `outputs` writes conditions.csv and
-//! campaign.json, and `run` is the whole `campaign` command as one call.
+//! campaign.json, `camera` the measured camera as a camera model, and `run` is the whole `campaign` command as one call.
 
+mod camera;
 mod checks;
 mod condition;
 pub mod fit;
@@ -18,6 +19,7 @@ mod measure;
 mod outputs;
 mod run;
 
+pub use camera::{camera_model, REGISTER_STAGES};
 pub use checks::{check_campaign, CampaignPlan, Design, MIN_CIC_GAINS, MIN_DARK_EXPOSURES};
 pub use condition::{Condition, ConditionStats, StackKind};
 pub use input::{CampaignInput, CampaignStack, KeywordOptions, Listing};

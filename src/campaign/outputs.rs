@@ -18,10 +18,14 @@ use crate::output::{render, write_atomic, write_json, TableFormat};
 /// The files `campaign` writes.
 pub const CAMPAIGN_OUTPUTS: [&str; 2] = ["conditions.csv", "campaign.json"];
 
+/// The camera model's folder inside the campaign's output.
+pub const CAMERA_DIR: &str = "camera";
+
 /// Every file `campaign` may write: its own and the decomposition's.
 pub fn campaign_output_names() -> Vec<&'static str> {
     let mut names = CAMPAIGN_OUTPUTS.to_vec();
     names.extend(super::fit::OUTPUT_NAMES);
+    names.push(CAMERA_DIR);
     names
 }
 

@@ -5,11 +5,11 @@
 use std::path::PathBuf;
 
 use super::checks::{check_campaign, Design};
-use super::fit::{self, DecomposeOptions, Decomposition, EmGainFit};
+use super::fit::{self, DecomposeOptions, Decomposition, EmGainFit, TemperatureTerm};
 use super::input::CampaignInput;
 use super::measure::{fit_em_gains, measure_campaign, MeasureOptions, StackMeasurement};
 use super::outputs::{
-    campaign_output_names, write_campaign_outputs, CampaignSummary, StackSummary,
+    campaign_output_names, write_campaign_outputs, CampaignSummary, StackSummary, CAMERA_DIR,
 };
 use crate::error::{Error, Result};
 use crate::output::{DirPlan, OutputDir};
@@ -26,6 +26,8 @@ pub struct CampaignRun {
     pub force: bool,
     /// How to measure each stack (conversion gain, checksums, EM fit).
     pub measure: MeasureOptions,
+    /// The temperature law of the dark current in the decomposition.
+    pub temperature: TemperatureTerm,
 }
 
 /// What a campaign run produced.
@@ -75,7 +77,7 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         observer.warn(note);
     }
     let mut stacks = measure_campaign(&plan, &job.measure, observer)?;
-    let mut decomposition = decompose(&plan.design, &stacks, gain)?;
+    let mut decomposition = decompose(&plan.design, &stacks, gain, job.temperature)?;
     if job.measure.em_fit && !plan.design.dark_em_gains.is_empty() {
         // The offsets do not depend on the gains' scale: fit the histograms with them, then
         // decompose again with the gains measured.
@@ -86,7 +88,7 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
             .collect();
         let offsets = &decomposition.offset_adu;
         fit_em_gains(&plan, &mut stacks, offsets, &keep, &job.measure, observer)?;
-        decomposition = decompose(&plan.design, &stacks, gain)?;
+        decomposition = decompose(&plan.design, &stacks, gain, job.temperature)?;
         if decomposition.summary.em_gain_curve.is_none() {
             observer.warn(
                 "the decomposition takes the commanded EM gains as exact: the histogram fit did \
@@ -117,6 +119,11 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
     };
     write_campaign_outputs(&dir.path(""), &stacks, &summary)?;
     fit::write_outputs(&decomposition, &dir.path(""), &[])?;
+    // A campaign the model cannot describe (no pixel fitted) still has its measurements.
+    match super::camera_model(&plan, &stacks, &decomposition, gain) {
+        Ok(model) => model.write_files(&dir.path(CAMERA_DIR))?,
+        Err(e) => observer.warn(&format!("no camera model written: {e}")),
+    }
     Ok(CampaignRunResult {
         stored_bytes: stacks.iter().map(|m| m.stored_bytes).sum(),
         read_seconds: stacks.iter().map(|m| m.read_seconds).sum(),
@@ -132,11 +139,13 @@ fn decompose(
     design: &Design,
     stacks: &[StackMeasurement],
     gain_e_per_adu: f64,
+    temperature: TemperatureTerm,
 ) -> Result<Decomposition> {
     let stats: Vec<_> = stacks.iter().map(|m| m.stats.clone()).collect();
     let mut opts = DecomposeOptions::new(gain_e_per_adu);
     opts.fit_cic = design.cic_separable == Some(true);
     opts.em_gains = fitted_em_gains(design, stacks);
+    opts.temperature = temperature;
     fit::decompose(&stats, &opts)
 }
 

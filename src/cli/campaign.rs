@@ -7,6 +7,7 @@ use std::path::PathBuf;
 
 use super::args::real;
 use super::progress::Terminal;
+use crate::campaign::fit::TemperatureTerm;
 use crate::campaign::{
     run as run_campaign, CampaignInput, CampaignRun, KeywordOptions, MeasureOptions, StackKind,
 };
@@ -79,6 +80,29 @@ pub struct CampaignArgs {
     /// Skip the EM-gain histogram fit of EMCCD darks (G and CIC per stack). Default: fitted.
     #[arg(long)]
     pub no_em_fit: bool,
+    /// Temperature law of the dark current, D(T) = D_ref 2^((T - T_ref)/T_d) (EMVA 1288):
+    /// `off` (one dark current for all darks), `fit` (T_d fitted, one for the sensor, with
+    /// its SE; needs darks at two temperatures or more), or T_d itself in deg C (> 0). T_ref
+    /// is the median temperature of the darks.
+    #[arg(long, default_value = "off", value_parser = parse_temperature_term)]
+    pub temperature_term: TemperatureTerm,
+}
+
+/// `off`, `fit` or a doubling temperature (deg C, > 0).
+fn parse_temperature_term(text: &str) -> std::result::Result<TemperatureTerm, String> {
+    match text {
+        "off" => Ok(TemperatureTerm::Off),
+        "fit" => Ok(TemperatureTerm::Fit { reference_c: None }),
+        _ => match text.parse::<f64>() {
+            Ok(t) if t > 0.0 && t.is_finite() => Ok(TemperatureTerm::Given {
+                doubling_c: t,
+                reference_c: None,
+            }),
+            _ => Err(format!(
+                "`{text}`: off, fit, or a doubling temperature in deg C (> 0)"
+            )),
+        },
+    }
 }
 
 impl CampaignArgs {
@@ -111,6 +135,7 @@ impl CampaignArgs {
                 checksum: (!self.no_checksums).then_some(self.checksum),
                 em_fit: !self.no_em_fit,
             },
+            temperature: self.temperature_term,
         }
     }
 }

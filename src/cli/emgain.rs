@@ -36,7 +36,7 @@ pub struct EmgainArgs {
     /// Default: both fitted.
     #[arg(long, requires = "offset")]
     pub read_noise: Option<PathBuf>,
-    /// Stages of the EM register, 1 to 2000. Default: 604.
+    /// Stages of the EM register (a count, unitless), 1 to 2000. Default: 604.
     #[arg(long, value_parser = whole::<u32>(1, MAX_STAGES as u64, "stages"))]
     pub stages: Option<u32>,
     /// Law of the register output for one input electron: `register` (exact, needs the
@@ -46,7 +46,7 @@ pub struct EmgainArgs {
     pub law: Option<EmLaw>,
     /// Serial clock-induced charge (electrons born inside the register, with partial gain):
     /// `auto` fits with and without it and keeps the model with the lower BIC; `on` (also
-    /// the bare flag) or `off` force it. Default: auto (parallel CIC is always part of lambda).
+    /// the bare flag) or `off` force it (parallel CIC is always part of lambda).
     #[arg(long, value_enum, num_args = 0..=1, default_missing_value = "on", default_value = "auto")]
     pub serial_cic: SerialCic,
     /// Exclude values above this (adu; cosmics, hot pixels). Default: bias + 40 G (1 + lambda + 5 sqrt(lambda)) from the start values.

@@ -44,6 +44,8 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("files", "FILES"),
     ("kind", "--kind"),
     ("kind_key", "--kind-key"),
+    ("temperature", "--temperature-term"),
+    ("conversion_gain", "--gain-e-per-adu"),
     // synth: non-Gaussian sCMOS noise (crate::synth::Defects); its `row_noise_e` and
     // `column_noise_e` are the registry's (scmos-correlated's amplitudes, same flags).
     ("rts_fraction", "--rts-fraction"),
@@ -71,6 +73,13 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
 /// Fields of library-only settings (chart building blocks) that no option sets: errors about
 /// them are programming errors of a caller and keep the library's name.
 pub const LIBRARY_ONLY_FIELDS: &[&str] = &[
+    // Campaign decomposition options no option sets (the fitted EM gains come from the
+    // campaign's own histogram fits, the classes and the flag use their defaults); the
+    // emgain histogram's pixel mask.
+    "em_gains",
+    "hot",
+    "bad_fit_p_value",
+    "keep",
     "axis_range",
     "heatmap_values",
     "hist_range",

@@ -20,6 +20,9 @@ pub const MAX_NOISE_E: f64 = 1e4;
 /// A read-noise amplitude, e- rms: 0 to [`MAX_NOISE_E`].
 const NOISE_E: Kind = Real(Included(0.0), Included(MAX_NOISE_E));
 
+/// Longest exposure of an operating point, s (a day: no dark frame is longer).
+pub const MAX_EXPOSURE_S: f64 = 86_400.0;
+
 /// Largest conversion gain, e- per adu: a 16-bit converter at 1e4 e-/adu spans 6.5e8 e-, a
 /// hundred times the full well of any pixel or EM register (~1e6 e-); cameras run at 0.1 to
 /// a few tens of e-/adu.
@@ -240,7 +243,7 @@ pub const CAMERA: Setting = Setting::new(
 pub const EXPOSURE_S: Setting = Setting::new(
     "exposure_s",
     "--exposure-s",
-    Real(Excluded(0.0), Included(crate::camera::MAX_EXPOSURE_S)),
+    Real(Excluded(0.0), Included(MAX_EXPOSURE_S)),
     "Exposure time of each frame of --camera, s, > 0 and at most 86400; default: \
      1 / --frame-rate-hz (the dark current's signal and shot noise scale with it)",
 )

@@ -3,8 +3,8 @@
 
 use rayon::prelude::*;
 
+use super::options::{ConversionGain, DecomposeOptions, EmGainFit};
 use super::wls::Normal;
-use super::{ConversionGain, DecomposeOptions, EmGainFit};
 use crate::campaign::{ConditionStats, StackKind};
 use crate::detector::register::{excess_noise_factor_sq, EmRegister};
 use crate::error::{Error, Result};

@@ -3,8 +3,8 @@
 
 use serde::Serialize;
 
+use super::options::EmGainFit;
 use super::wls::Normal;
-use super::EmGainFit;
 
 /// One row of em_gain_curve.csv.
 #[derive(Clone, Debug, Serialize, PartialEq)]

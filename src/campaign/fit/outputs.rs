@@ -6,7 +6,8 @@ use std::path::Path;
 
 use serde::Serialize;
 
-use super::{Decomposition, DecompositionSummary, HotClass};
+use super::classes::HotClass;
+use super::result::{Decomposition, DecompositionSummary};
 use crate::error::{Error, Result};
 use crate::io::fits::{key, write_image, ImageData, KeyValue, Keyword};
 use crate::output::{render, write_atomic, write_json, TableFormat};

@@ -4,9 +4,10 @@
 use rayon::prelude::*;
 
 use super::design::Design;
+use super::options::ConversionGain;
 use super::wls::{Normal, Solution};
-use super::{ConversionGain, FitQuality};
 use crate::stats::median;
+use serde::Serialize;
 
 /// Pixels per parallel work item; sums are made per chunk, then in chunk order, so a result
 /// does not depend on the number of threads.
@@ -335,4 +336,19 @@ pub(super) fn gain_systematic(design: &Design, k: &PixelGain, factors: &[f64]) -
         }
     }
     var.map(f64::sqrt)
+}
+
+/// Fit quality over the pixels.
+#[derive(Clone, Debug, Serialize, PartialEq)]
+pub struct FitQuality {
+    /// Degrees of freedom of each pixel's fit (conditions minus parameters).
+    pub dof: usize,
+    /// Median reduced chi2 over the fitted pixels (1 when the model and the weights hold).
+    pub median_reduced_chi2: f64,
+    /// The p-value below which a fit is flagged.
+    pub flag_p_value: f64,
+    /// The reduced chi2 above which a fit is flagged (that p-value at `dof`).
+    pub flag_reduced_chi2_above: f64,
+    /// Pixels flagged.
+    pub pixels_flagged: usize,
 }

@@ -3,12 +3,13 @@
 
 use super::classes::HotPixels;
 use super::design::Design;
+use super::gain_curve::EmGainCurve;
+use super::noise::ShotNoiseCheck;
+use super::options::{ConversionGain, DecomposeOptions};
+use super::pixels::FitQuality;
 use super::pixels::{gain_systematic, Maps, PixelGain};
+use super::result::{ConditionRow, DecompositionSummary, MedianSe};
 use super::temperature::Temperature;
-use super::{
-    ConditionRow, ConversionGain, DecomposeOptions, DecompositionSummary, EmGainCurve, FitQuality,
-    MedianSe, ShotNoiseCheck,
-};
 use rayon::prelude::*;
 
 use crate::stats::median_and_robust_sigma;

@@ -2,8 +2,9 @@
 //! given, or with T_d fitted globally by profiling the total chi2 of all pixels' fits.
 
 use super::design::{Design, CAMPAIGN};
+use super::options::TemperatureTerm;
 use super::pixels::{total_chi2, PixelGain};
-use super::{TemperatureSummary, TemperatureTerm};
+use super::result::TemperatureSummary;
 use crate::error::{Error, Result};
 use crate::stats::median;
 

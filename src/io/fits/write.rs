@@ -53,7 +53,9 @@ fn write_keys(f: &mut FitsFile, path: &Path, keys: &[Keyword]) -> Result<()> {
                 let s: String = s.chars().take(68).collect();
                 hdu.write_key(f, name, (s, comment.as_str()))
             }
-            KeyValue::F64(v) => hdu.write_key(f, name, (*v, comment.as_str())),
+            KeyValue::F64(v) if v.is_finite() => hdu.write_key(f, name, (*v, comment.as_str())),
+            // FITS has no NaN or infinity among its values: say it in words, as a string.
+            KeyValue::F64(v) => hdu.write_key(f, name, (format!("{v}"), comment.as_str())),
             KeyValue::I64(v) => hdu.write_key(f, name, (*v, comment.as_str())),
         };
         r.map_err(|e| fits_err(path, e))?;
