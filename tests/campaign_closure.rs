@@ -344,7 +344,12 @@ fn camera_closure(name: &str, em_gain: Option<f64>, exposure_s: f64) {
     detnoise()
         .arg("darks")
         .arg(&darks)
-        .args(["--gain-e-per-adu", &k.to_string(), "--accept-illuminated", "--out"])
+        .args([
+            "--gain-e-per-adu",
+            &k.to_string(),
+            "--accept-illuminated",
+            "--out",
+        ])
         .arg(&measured)
         .assert()
         .success();
