@@ -51,11 +51,3 @@ pub struct ConditionStats {
     /// The temporal noise split into pixel, row, column and frame parts (adu, with SEs).
     pub temporal: TemporalNoiseSummary,
 }
-
-impl ConditionStats {
-    /// Standard error of each pixel's mean (adu): sqrt(variance / frames).
-    pub fn mean_se_adu(&self) -> Vec<f64> {
-        let n = self.frames as f64;
-        self.var_adu2.iter().map(|v| (v / n).sqrt()).collect()
-    }
-}

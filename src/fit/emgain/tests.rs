@@ -82,25 +82,7 @@ fn serial_cic_is_separated_from_light() {
     // ~1.1 % here, so it must lie within max(2 %, 4 SE); read noise within 2 % (SE
     // 0.15 %); CIC rate and lambda within 4 SE.
     let (g, stages, lambda, cic, sigma) = (1000.0, 512u32, 0.05, 0.03, 50.0);
-    let reg = EmRegister::new(g, stages).unwrap();
-    let p = reg.p();
-    let noise = Normal::new(0.0, sigma).unwrap();
-    let mut rng = stream(17, 0, 0);
-    let v: Vec<f64> = (0..400_000)
-        .map(|_| {
-            let k = poisson(lambda, &mut rng) as u64;
-            let mut e = reg.sample(k, &mut rng);
-            for _ in 0..poisson(cic, &mut rng) {
-                let born = rand::RngExt::random_range(&mut rng, 1..=stages);
-                let mut m = 1u64;
-                for _ in born..stages {
-                    m += rand_distr::Binomial::new(m, p).unwrap().sample(&mut rng);
-                }
-                e += m as f64;
-            }
-            (1000.0 + e + noise.sample(&mut rng)).round()
-        })
-        .collect();
+    let v = synth_serial(400_000, g, stages, lambda, cic, sigma, 17);
     let h = ValueHistogram::from_values(&v, 1.0).unwrap();
     let opts = EmGainOptions {
         shape: Some(EmShape::Register { stages }),
