@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::model::{CameraModel, DarkCurrent, EmRegisterModel};
+use super::range::OperatingRange;
 use crate::calib::{Map, Unit};
 use crate::io::fits::{write_image, ImageData};
 use crate::output::{write_atomic, write_json, DirPlan, OutputDir};
@@ -82,6 +83,10 @@ struct Header {
     em_register: Option<RegisterHeader>,
     saturation_adu: f64,
     bit_depth: u32,
+    /// Absent in files written before the campaign recorded its conditions (and in models
+    /// without one): they read as before, and write the same bytes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    campaign: Option<OperatingRange>,
 }
 
 #[derive(Debug, Serialize, Deserialize)]
@@ -177,6 +182,7 @@ impl CameraModel {
             }),
             saturation_adu: self.saturation_adu,
             bit_depth: self.bit_depth,
+            campaign: self.campaign.clone(),
         }
     }
 
@@ -244,6 +250,7 @@ impl CameraModel {
             }),
             saturation_adu: h.saturation_adu,
             bit_depth: h.bit_depth,
+            campaign: h.campaign,
         };
         model.check().map_err(|e| match e {
             Error::Usage { field, message } => Error::input(&json, format!("`{field}`: {message}")),
@@ -348,6 +355,40 @@ mod tests {
             assert!(x == y, "{name} differs");
         }
         assert_eq!(CameraModel::read(&a.join(CAMERA_JSON)).unwrap(), cam);
+    }
+
+    #[test]
+    fn the_campaign_range_is_optional_and_reads_back() {
+        // A folder written before camera.json had `campaign` (python/tests' committed one).
+        let old = Path::new(env!("CARGO_MANIFEST_DIR")).join("python/tests/data/camera");
+        let cam = CameraModel::read(&old).unwrap();
+        assert_eq!(cam.campaign, None);
+        // Without a range camera.json holds no `campaign` key: its bytes are as before.
+        let d = tempfile::tempdir().unwrap();
+        cam.write(&d.path().join("old"), false, &[]).unwrap();
+        let text = std::fs::read_to_string(d.path().join("old").join(CAMERA_JSON)).unwrap();
+        assert_eq!(
+            text,
+            std::fs::read_to_string(old.join(CAMERA_JSON)).unwrap()
+        );
+        let range = OperatingRange {
+            exposures_s: vec![0.01, 0.5],
+            em_gains: vec![50.0, 800.0],
+            temperatures_c: vec![-60.0],
+        };
+        let cam = camera().with_campaign(range.clone()).unwrap();
+        let dir = d.path().join("new");
+        cam.write(&dir, false, &[]).unwrap();
+        assert_eq!(CameraModel::read(&dir).unwrap().campaign, Some(range));
+        // A bad range is refused naming the file and the list.
+        let json = dir.join(CAMERA_JSON);
+        let text = std::fs::read_to_string(&json).unwrap();
+        std::fs::write(&json, text.replace("0.01", "-0.01")).unwrap();
+        let e = CameraModel::read(&dir).unwrap_err().to_string();
+        assert!(
+            e.contains("camera.json: `campaign.exposures_s`: value 0"),
+            "{e}"
+        );
     }
 
     #[test]

@@ -4,12 +4,15 @@
 //! offset and the noise of each pixel, for the readout model `camera`, `synth` and the report.
 //!
 //! Layout: `model` (the type, its parts and their checks), `file` (the folder format),
-//! `operating` (an operating point and the camera at it).
+//! `operating` (an operating point and the camera at it), `range` (the campaign's conditions
+//! and the point a run chooses from them).
 
 mod file;
 mod model;
 mod operating;
+mod range;
 
 pub use file::{CAMERA_JSON, MAP_FILES};
 pub use model::{CameraModel, DarkCurrent, EmRegisterModel};
 pub use operating::{CameraAt, OperatingPoint, MAX_EXPOSURE_S};
+pub use range::{CameraChoice, ExposureChoice, OperatingRange};

@@ -1,6 +1,7 @@
 //! [`CameraModel`]: the measured camera as maps and amplitudes, each checked once, here,
 //! whether it was built from a campaign's maps or read from a folder.
 
+use super::range::OperatingRange;
 use crate::calib::{Map, Unit};
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
 use crate::detector::EmRegister;
@@ -67,6 +68,9 @@ pub struct CameraModel {
     pub saturation_adu: f64,
     /// Bits of the converter (1 to 32); the saturation is at most 2^bits - 1.
     pub bit_depth: u32,
+    /// The conditions the campaign measured the camera at; None: not recorded (a model built
+    /// by hand, or written before the campaign recorded them).
+    pub campaign: Option<OperatingRange>,
 }
 
 impl CameraModel {
@@ -99,6 +103,7 @@ impl CameraModel {
             register: None,
             saturation_adu,
             bit_depth,
+            campaign: None,
         };
         model.check()?;
         Ok(model)
@@ -164,6 +169,15 @@ impl CameraModel {
     pub fn with_rts_csv(self, rts_csv: String) -> Result<CameraModel> {
         CameraModel {
             rts_csv: Some(rts_csv),
+            ..self
+        }
+        .checked()
+    }
+
+    /// This camera with the conditions its campaign measured it at, checked.
+    pub fn with_campaign(self, campaign: OperatingRange) -> Result<CameraModel> {
+        CameraModel {
+            campaign: Some(campaign),
             ..self
         }
         .checked()
@@ -256,6 +270,9 @@ impl CameraModel {
         }
         if let Some(text) = &self.rts_csv {
             crate::detector::RtsTable::parse(text, std::path::Path::new("rts.csv"))?;
+        }
+        if let Some(range) = &self.campaign {
+            range.check()?;
         }
         Ok(())
     }

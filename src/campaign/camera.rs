@@ -7,7 +7,7 @@ use super::fit::{Decomposition, HotClass};
 use super::measure::StackMeasurement;
 use super::StackKind;
 use crate::calib::{Map, Unit};
-use crate::camera::{CameraModel, DarkCurrent, EmRegisterModel};
+use crate::camera::{CameraModel, DarkCurrent, EmRegisterModel, OperatingRange};
 use crate::detector::register::excess_noise_factor_sq;
 use crate::error::Result;
 
@@ -40,7 +40,8 @@ pub fn camera_model(
         map(read, Unit::Electrons),
         bits,
     )?
-    .with_common_noise(lines[0], lines[1], lines[2])?;
+    .with_common_noise(lines[0], lines[1], lines[2])?
+    .with_campaign(operating_range(plan))?;
     let temperature = &d.summary.temperature;
     model = model.with_dark_current(DarkCurrent {
         map_e_per_s: map(non_negative(&d.dark_current_e_per_s), Unit::Electrons),
@@ -65,6 +66,17 @@ pub fn camera_model(
         })?;
     }
     Ok(model)
+}
+
+/// The dark conditions of the campaign, for a run's default operating point and its
+/// extrapolation warnings.
+fn operating_range(plan: &CampaignPlan) -> OperatingRange {
+    let d = &plan.design;
+    OperatingRange {
+        exposures_s: d.dark_exposures_s.clone(),
+        em_gains: d.dark_em_gains.clone(),
+        temperatures_c: d.dark_temperatures_c.clone(),
+    }
 }
 
 /// Fitted values clipped at 0 (a pixel's dark current or CIC fitted below 0 within its SE);

@@ -156,8 +156,11 @@ How a report uses the simulation options:
       --help`); a file given is read and checked. Without them an sCMOS report takes what
       --darks measured (the row, column and frame-common noise, once each).
   --camera, --exposure-s, --temperature-c, --frame-rate-hz
-      The camera model of the `camera` readout at its operating point (exposure 1 / frame
-      rate unless --exposure-s): read and checked; not yet a section of the report.
+      Both detectors: the camera model's section (camera_noise.*): the camera at its operating
+      point (exposure 1 / frame rate unless --exposure-s; neither given: the campaign's
+      shortest dark exposure), its effective read noise against frame rate, and the `camera`
+      readout simulated at --operating-point (QE --qe-emccd when its EM register multiplies,
+      else --qe). A point beyond the campaign is warned of and marked extrapolated.
   --gain-e-per-adu
       The conversion gain of --darks (needed when no --flats are given) and of --dark-frames.
   --sigma, --gaussian-switch, --pattern-seed, --pp-rule, --pp-lambda
@@ -235,7 +238,11 @@ impl ReportArgs {
 /// Entry point of `detnoise report`.
 pub fn run_cli(args: &ReportArgs) -> Result<()> {
     let options = args.options()?;
-    let camera = options.model_params.camera.as_deref().map(camera_line);
+    let camera = options
+        .model_params
+        .camera_choice
+        .as_deref()
+        .map(camera_line);
     let result = crate::report::run(&options, &Terminal::default())?;
     if let Some(line) = camera {
         eprintln!("{line}");
@@ -254,18 +261,29 @@ pub fn run_cli(args: &ReportArgs) -> Result<()> {
 }
 
 /// The effective read noise of the camera model at the run's operating point, in one line:
-/// the frame rate is 1 / exposure (the exposure --frame-rate-hz gives unless --exposure-s).
-fn camera_line(at: &crate::camera::CameraAt) -> String {
+/// the frame rate is 1 / exposure, the exposure as chosen (given, 1 / --frame-rate-hz, or the
+/// campaign's shortest dark exposure), and whether the point extrapolates beyond the campaign.
+fn camera_line(choice: &crate::camera::CameraChoice) -> String {
+    let at = &choice.at;
     let op = at.point;
     let temperature = op
         .temperature_c
         .map_or(String::new(), |t| format!(", {t} C"));
+    let extrapolates = if choice.extrapolates.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; extrapolated beyond the campaign: {}",
+            choice.extrapolates.join("; ")
+        )
+    };
     format!(
-        "camera model at {:.6} Hz ({:.6} s exposure, EM gain {}{temperature}): effective read \
+        "camera model at {:.6} Hz ({:.6} s exposure: {}, EM gain {}{temperature}): effective read \
          noise {:.4} e- rms (median over the pixels of read, dark shot, CIC, row, column and \
-         frame noise, input-referred)",
+         frame noise, input-referred){extrapolates}",
         1.0 / op.exposure_s,
         op.exposure_s,
+        choice.exposure.describe(),
         at.em_gain,
         at.effective_read_noise_e()
     )
@@ -293,14 +311,13 @@ mod tests {
         })
         .unwrap();
         // 100 Hz: 8 e- of dark signal, noise sqrt(9 + 8) e-.
-        let op = crate::camera::OperatingPoint {
-            exposure_s: 0.01,
-            em_gain: None,
-            temperature_c: None,
-        };
-        let line = camera_line(&cam.at(op).unwrap());
+        let rate = Some((0.01, crate::camera::ExposureChoice::FrameRate));
+        let choice = crate::camera::CameraChoice::new(cam, rate, None, None).unwrap();
+        let line = camera_line(&choice);
         assert!(
-            line.starts_with("camera model at 100.000000 Hz (0.010000 s exposure"),
+            line.starts_with(
+                "camera model at 100.000000 Hz (0.010000 s exposure: 1 / the frame rate given"
+            ),
             "{line}"
         );
         assert!(

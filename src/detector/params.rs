@@ -6,7 +6,7 @@ use super::pp::PpRule;
 use super::rts_table::RtsTable;
 use super::{EmRegister, ModelSpec};
 use crate::calib::{Map, Unit};
-use crate::camera::{CameraAt, CameraModel, OperatingPoint};
+use crate::camera::{CameraAt, CameraChoice, CameraModel, ExposureChoice, OperatingPoint};
 use crate::pdf::RmsPdf;
 use crate::progress::Observer;
 use crate::settings::{self as s, Value, Values};
@@ -51,6 +51,9 @@ pub struct ModelParams {
     pub dark_frames: Option<Arc<DarkFrames>>,
     /// The camera model of `camera` at the run's operating point.
     pub camera: Option<Arc<CameraAt>>,
+    /// The camera model of `camera` itself and how its operating point was chosen (the same
+    /// point as `camera`'s).
+    pub camera_choice: Option<Arc<CameraChoice>>,
 }
 
 impl Default for ModelParams {
@@ -107,6 +110,7 @@ impl ModelParams {
     pub fn from_settings(values: &Values, observer: &dyn Observer) -> Result<ModelParams> {
         Self::check_settings(values, &[])?;
         let real = |setting| values.real(setting);
+        let camera_choice = camera(values, observer)?;
         Ok(ModelParams {
             em_gain: real(&s::EM_GAIN).expect("has a default"),
             stages: values.whole(&s::STAGES).expect("has a default") as u32,
@@ -130,7 +134,8 @@ impl ModelParams {
             column_noise_e: real(&s::COLUMN_NOISE_E),
             frame_noise_e: real(&s::FRAME_NOISE_E),
             dark_frames: dark_frames(values, observer)?,
-            camera: camera(values)?,
+            camera: camera_choice.as_ref().map(|c| c.at.clone()),
+            camera_choice,
         })
     }
 
@@ -149,7 +154,8 @@ impl ModelParams {
     }
 }
 
-/// The operating-point settings go with `camera`, which needs an exposure (or a frame rate).
+/// The operating-point settings go with `camera` (whose exposure defaults from its campaign,
+/// see [`CameraChoice::new`]).
 fn check_operating_point(values: &Values) -> Result<()> {
     if !values.is_given(&s::CAMERA) {
         for setting in [&s::EXPOSURE_S, &s::TEMPERATURE_C, &s::FRAME_RATE_HZ] {
@@ -160,41 +166,58 @@ fn check_operating_point(values: &Values) -> Result<()> {
                 ));
             }
         }
-        return Ok(());
-    }
-    if !values.is_given(&s::EXPOSURE_S) && !values.is_given(&s::FRAME_RATE_HZ) {
-        return Err(Error::invalid(
-            "exposure_s",
-            "the camera model is read at an operating point: give `exposure_s` (s) or \
-             `frame_rate_hz` (the exposure is then 1 / rate)",
-        ));
     }
     Ok(())
 }
 
 /// The operating point the settings give: `exposure_s` (else 1 / `frame_rate_hz`), `em_gain`
-/// when given (else none: no multiplication), `temperature_c` when given.
+/// when given (else none: no multiplication), `temperature_c` when given; None without an
+/// exposure or a frame rate.
 pub fn operating_point(values: &Values) -> Option<OperatingPoint> {
-    let exposure_s = values
-        .real(&s::EXPOSURE_S)
-        .or_else(|| values.real(&s::FRAME_RATE_HZ).map(|f| 1.0 / f))?;
+    let (exposure_s, _) = given_exposure(values)?;
     Some(OperatingPoint {
         exposure_s,
-        em_gain: values
-            .is_given(&s::EM_GAIN)
-            .then(|| values.real(&s::EM_GAIN))
-            .flatten(),
+        em_gain: given_em_gain(values),
         temperature_c: values.real(&s::TEMPERATURE_C),
     })
 }
 
-/// The camera model of `camera` at the operating point of the settings.
-fn camera(values: &Values) -> Result<Option<Arc<CameraAt>>> {
+/// The exposure the settings give (s) and how: `exposure_s`, else 1 / `frame_rate_hz`.
+fn given_exposure(values: &Values) -> Option<(f64, ExposureChoice)> {
+    values
+        .real(&s::EXPOSURE_S)
+        .map(|t| (t, ExposureChoice::Given))
+        .or_else(|| {
+            let rate = values.real(&s::FRAME_RATE_HZ)?;
+            Some((1.0 / rate, ExposureChoice::FrameRate))
+        })
+}
+
+/// The commanded EM gain when `em_gain` is given (its registry default is the EMCCD models').
+fn given_em_gain(values: &Values) -> Option<f64> {
+    values
+        .is_given(&s::EM_GAIN)
+        .then(|| values.real(&s::EM_GAIN))
+        .flatten()
+}
+
+/// The camera model of `camera` at the operating point of the settings (the exposure from its
+/// campaign when none is given); the default exposure and a point beyond the campaign are told
+/// to `observer`.
+fn camera(values: &Values, observer: &dyn Observer) -> Result<Option<Arc<CameraChoice>>> {
     let Some(path) = values.path(&s::CAMERA) else {
         return Ok(None);
     };
-    let op = operating_point(values).expect("checked: an exposure or a frame rate is given");
-    Ok(Some(Arc::new(CameraModel::read(&path)?.at(op)?)))
+    let choice = CameraChoice::new(
+        CameraModel::read(&path)?,
+        given_exposure(values),
+        given_em_gain(values),
+        values.real(&s::TEMPERATURE_C),
+    )?;
+    for notice in choice.notices() {
+        observer.warn(&format!("{}: {notice}", path.display()));
+    }
+    Ok(Some(Arc::new(choice)))
 }
 
 /// The files of the camera model folder of `camera` (for the output checks).

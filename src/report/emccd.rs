@@ -2,6 +2,7 @@
 //! signal for an EMCCD with the fitted gain and read noise beside sCMOS models, and the simple
 //! model's effective QE factor over the grid (`qe_factor`).
 
+use super::camera::{section as camera_section, CAMERA_FILES};
 use super::compare::{
     compare_models, emccd_groups, emccd_labels, write_comparison, COMPARISON_FILES,
 };
@@ -37,6 +38,7 @@ pub(super) fn outputs() -> impl Iterator<Item = &'static str> {
         .chain(COMPARISON_FILES)
         .chain(QE_TABLE_NAMES)
         .chain(QE_CHART_FILES)
+        .chain(CAMERA_FILES)
         .chain(PAGE_FILES)
 }
 
@@ -99,6 +101,10 @@ pub(crate) fn run(
     let qe_summary = QeSummary::new(&qe_records, (op.subap_px, op.spot, op.signal_photons));
     let qe_chart_png = (!qe_charts.is_empty()).then(|| format!("{}.png", chart_stem(&op.spot)));
     let qe_html = html_section(&qe_records, &qe_summary, qe_chart_png.as_deref());
+    let (camera, camera_files) = match camera_section(o, grid, &op, dir, observer)? {
+        Some((s, names)) => (Some(s), names),
+        None => (None, Vec::new()),
+    };
     let summary = EmccdSummary {
         tool: format!("detnoise {}", env!("CARGO_PKG_VERSION")),
         inputs: ReportInput::all("darks", inputs(stack, Checksum::Blake3)?).collect(),
@@ -113,6 +119,7 @@ pub(crate) fn run(
         quick: o.quick,
         effective_qe: qe_summary,
         effective_qe_records: qe_records,
+        camera,
     };
     let [json, html] = PAGE_FILES;
     write_json(&dir.path(json), &summary)?;
@@ -128,6 +135,7 @@ pub(crate) fn run(
         .chain(COMPARISON_FILES)
         .chain(QE_TABLE_NAMES)
         .chain(PAGE_FILES)
+        .chain(camera_files)
         .map(PathBuf::from)
         .chain(qe_files)
         .collect();

@@ -5,6 +5,7 @@
 //! the files written); progress and warnings go to a [`crate::progress::Observer`]. The output
 //! directory is written only when the whole report succeeded.
 
+mod camera;
 mod centroiders;
 mod compare;
 mod emccd;
@@ -24,6 +25,7 @@ mod tests;
 
 pub use crate::effective::EffectiveRecord;
 pub use crate::montecarlo::SimRecord;
+pub use camera::{CameraSection, CurveRow, Simulated, Terms, CURVE_RATES_HZ};
 pub use grid::{
     DEFAULT_AIRY_DIAMETERS_PX, DEFAULT_SIGNALS_PHOTONS, DEFAULT_SUBAPS_PX, QUICK_AIRY_DIAMETERS_PX,
     QUICK_MAX_ITERS, QUICK_SIGNALS_PHOTONS, QUICK_SUBAPS_PX,
@@ -51,6 +53,7 @@ pub fn output_names(with_subaps: bool) -> Vec<&'static str> {
             names.push(name);
         }
     }
+    names.extend(camera::CAMERA_FILES);
     if with_subaps {
         names.extend(crate::subaps::OUTPUT_NAMES);
     }

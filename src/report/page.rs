@@ -100,6 +100,9 @@ pub fn emccd_html(
     figure(&mut h, "emgain.png", "EM-gain fit: histogram of all pixel samples with the fitted model", "Histogram of all pixel-samples (log counts) with the fitted Poisson-register-Gaussian model and its zero- and one-or-more-electron parts.");
     figure(&mut h, "r_vs_signal.png", "R against signal: this EMCCD against sCMOS models", &format!("Mean radial centroid error R against signal, {}×{} px, {}: this EMCCD (fitted gain and read noise) against sCMOS models. Lower is better. {}", op.subap_px, op.subap_px, esc(&op.spot), esc(error_bars)));
     h.push_str(qe_section);
+    if let Some(c) = &s.camera {
+        super::camera::section_html(&mut h, c);
+    }
     h.push_str("<h2>Files</h2><p class=\"note\">summary.json (the fit with uncertainties and correlations, the operating point, the effective QE factor's key numbers, inputs with BLAKE3 checksums), r_vs_signal.csv/.svg, emgain.png, effective_qe.csv/.json (the QE factor of every configuration) and its chart.</p></body></html>\n");
     h
 }
@@ -228,6 +231,9 @@ pub fn index_html(p: &ScmosPage) -> String {
     );
     charts(&mut h, p);
     real_noise_section(&mut h, &s.real_noise, &at.describe());
+    if let Some(c) = &s.camera {
+        super::camera::section_html(&mut h, c);
+    }
     super::centroiders::section_html(&mut h, &s.centroiders, &op.at);
     if let Some(subaps) = &s.subaps {
         super::subaps::section_html(&mut h, subaps);

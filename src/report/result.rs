@@ -142,6 +142,9 @@ pub struct ReportSummary {
     /// The camera read through each centroider: sigma_eff per method, the best one, the gap
     /// each recovers, and the comparison with an EMCCD with each side's best centroider.
     pub centroiders: super::centroiders::Centroiders,
+    /// The camera model of `--camera` at its operating point; absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera: Option<super::camera::CameraSection>,
 }
 
 /// The headline numbers of an sCMOS report: the effective read noise at the operating point.
@@ -198,4 +201,7 @@ pub struct EmccdSummary {
     /// not to `summary.json`).
     #[serde(skip)]
     pub effective_qe_records: Vec<QeRecord>,
+    /// The camera model of `--camera` at its operating point; absent without one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub camera: Option<super::camera::CameraSection>,
 }

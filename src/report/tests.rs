@@ -271,6 +271,7 @@ fn scmos_page_with(
             rows: vec![],
             versus_emccd: vec![],
         },
+        camera: None,
     };
     change(&mut summary);
     let heatmaps = vec![

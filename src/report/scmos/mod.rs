@@ -5,6 +5,7 @@
 mod darks;
 mod effective;
 
+use super::camera::{CameraSection, CAMERA_FILES};
 use super::centroiders::CENTROIDER_FILES;
 use super::centroiders::{centroider_section, Centroiders, Inputs as CentroiderInputs};
 use super::compare::COMPARISON_FILES;
@@ -36,6 +37,7 @@ pub(super) fn outputs() -> impl Iterator<Item = &'static str> {
         .chain(REAL_NOISE_FILES)
         .chain(CENTROIDER_FILES)
         .chain(COMPARISON_FILES)
+        .chain(CAMERA_FILES)
         .chain(PAGE_FILES)
 }
 
@@ -55,6 +57,7 @@ struct Parts {
     real_noise: RealNoise,
     subaps: Option<SubapsSummary>,
     centroiders: Centroiders,
+    camera: Option<CameraSection>,
 }
 
 /// Run the sCMOS report on the dark `stack` into `dir`; `files` of the result are names
@@ -101,6 +104,7 @@ pub(crate) fn run(
         real_noise,
         subaps: job.subaps(&params)?,
         centroiders: job.centroiders(&params, fit.data.median_e, &table.effective)?,
+        camera: job.camera()?,
     };
     let comparison = compare_models(grid, &job.op, &params, &scmos_groups(o.qe, o.qe_emccd))?;
     let error_bars = write_comparison(&comparison, dir, &scmos_labels(&params))?;
@@ -208,6 +212,15 @@ impl Job<'_> {
         Ok(c)
     }
 
+    /// The camera model of `--camera` at its operating point, when given.
+    fn camera(&mut self) -> Result<Option<CameraSection>> {
+        let section = super::camera::section(self.o, self.grid, &self.op, self.dir, self.observer)?;
+        Ok(section.map(|(s, names)| {
+            self.wrote(names);
+            s
+        }))
+    }
+
     /// summary.json's content.
     fn summary(
         &self,
@@ -243,6 +256,7 @@ impl Job<'_> {
             real_noise: parts.real_noise,
             subaps: parts.subaps,
             centroiders: parts.centroiders,
+            camera: parts.camera,
         }
     }
 
