@@ -327,6 +327,15 @@ fn point_words(s: &CameraSection) -> String {
     )
 }
 
+/// A number in 3 significant digits (0 as 0), or a dash when it is not finite.
+fn sig3(v: f64) -> String {
+    if v == 0.0 {
+        return "0".into();
+    }
+    let decimals = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    num(v, decimals)
+}
+
 /// A number in at most 6 significant digits, without trailing zeros.
 fn fmt_g(v: f64) -> String {
     if !v.is_finite() {
@@ -403,15 +412,15 @@ pub(crate) fn section_html(h: &mut String, s: &CameraSection) {
     let t = &s.terms;
     h.push_str("<h2>The camera model at its operating point</h2>");
     let how = match s.exposure_choice {
-        ExposureChoice::Given => "the exposure given (--exposure-s)".to_string(),
-        ExposureChoice::FrameRate => "the frame rate given (--frame-rate-hz)".to_string(),
-        ExposureChoice::CampaignShortest => "by default the campaign's shortest dark exposure, the measured condition closest to AO operation (give --frame-rate-hz or --exposure-s for another)".to_string(),
+        ExposureChoice::Given => "the one given (--exposure-s)",
+        ExposureChoice::FrameRate => "1 / the frame rate given (--frame-rate-hz)",
+        ExposureChoice::CampaignShortest => "by default the campaign's shortest dark exposure, the measured condition closest to AO operation (give --frame-rate-hz or --exposure-s for another)",
     };
     let _ = write!(
         h,
-        "<p>The camera model of --camera at {}: {}.</p>",
+        "<p>The camera model of --camera at {}. The exposure is {}.</p>",
         esc(&point_words(s)),
-        esc(&how)
+        esc(how)
     );
     if !s.extrapolates.is_empty() {
         let _ = write!(h, "<p class=\"advice\">This operating point <b>extrapolates</b> beyond the campaign that measured the camera: {}. The model's terms scale there as they do inside it (dark current with exposure, CIC and noise with the gain curve), which the campaign has not checked.</p>", esc(&s.extrapolates.join("; ")));
@@ -442,31 +451,27 @@ pub(crate) fn section_html(h: &mut String, s: &CameraSection) {
     h.push_str("</div>");
     h.push_str("<p>Each term is the median over the pixels, in e⁻ input-referred (the EM gain divided out); the effective read noise is the median of each pixel's total temporal noise, so it is not the sum of the medians.</p><table><tr><th>term</th><th>value</th></tr>");
     let rows = [
-        ("read noise (e⁻ rms)", t.read_noise_e, 3),
+        ("read noise (e⁻ rms)", t.read_noise_e),
         (
             "dark current × exposure (e⁻/frame)",
             t.dark_current_signal_e,
-            4,
         ),
-        ("clock-induced charge (e⁻/frame)", t.cic_e, 4),
-        ("dark signal (e⁻/frame)", t.dark_signal_e, 4),
-        ("its shot noise (e⁻ rms)", t.dark_shot_noise_e, 3),
-        ("row noise (e⁻ rms)", t.row_noise_e, 3),
-        ("column noise (e⁻ rms)", t.column_noise_e, 3),
-        ("frame-common noise (e⁻ rms)", t.frame_noise_e, 3),
-        ("effective read noise (e⁻ rms)", t.effective_read_noise_e, 3),
+        ("clock-induced charge (e⁻/frame)", t.cic_e),
+        ("dark signal (e⁻/frame)", t.dark_signal_e),
+        ("its shot noise (e⁻ rms)", t.dark_shot_noise_e),
+        ("row noise (e⁻ rms)", t.row_noise_e),
+        ("column noise (e⁻ rms)", t.column_noise_e),
+        ("frame-common noise (e⁻ rms)", t.frame_noise_e),
+        ("effective read noise (e⁻ rms)", t.effective_read_noise_e),
+        ("excess noise factor F² of the register", s.excess_noise_f2),
     ];
-    for (name, v, decimals) in rows {
-        let _ = write!(h, "<tr><td>{name}</td><td>{}</td></tr>", num(v, decimals));
+    for (name, v) in rows {
+        let _ = write!(h, "<tr><td>{name}</td><td>{}</td></tr>", sig3(v));
     }
-    let _ = write!(
-        h,
-        "<tr><td>excess noise factor F² of the register</td><td>{}</td></tr></table>",
-        num(s.excess_noise_f2, 3)
-    );
+    h.push_str("</table>");
     match (&s.monte_carlo, &s.monte_carlo_note) {
         (Some(m), _) => {
-            let _ = write!(h, "<p>The <code>camera</code> readout (random windows of the camera model at this operating point, the dark signal drawn and its mean taken off) at {}×{} px, {}, {} photons (QE {}): R = {} ± {} px, effective read noise {}. It differs from the median total noise above because the spread of the pixels' noise and the dark signal's non-Gaussian shot noise weigh on the centroid.</p>", m.subap_px, m.subap_px, esc(&m.spot), m.signal_photons, m.qe, num(m.r_px, 4), num(m.r_se_px, 4), fmt_effective(m.sigma_eff_e.unwrap_or(f64::NAN), m.sigma_eff_se_e.unwrap_or(f64::NAN), m.status));
+            let _ = write!(h, "<p>The <code>camera</code> readout (random windows of the camera model at this operating point, the dark signal drawn and its mean taken off) at {}×{} px, {}, {} photons (QE {}): R = {} ± {} px, effective read noise σ<sub>eff</sub> {}. σ<sub>eff</sub> is the constant Gaussian read noise that gives the camera's centroid error, so it differs from the median total noise above: it also carries the spread of the pixels' noise, the dark signal's non-Gaussian shot noise{}.</p>", m.subap_px, m.subap_px, esc(&m.spot), m.signal_photons, m.qe, num(m.r_px, 4), num(m.r_se_px, 4), fmt_effective(m.sigma_eff_e.unwrap_or(f64::NAN), m.sigma_eff_se_e.unwrap_or(f64::NAN), m.status), if s.excess_noise_f2 > 1.0 { " and the register's excess noise, which multiplies the photons' shot-noise variance by F²" } else { "" });
         }
         (None, Some(note)) => {
             let _ = write!(
@@ -600,9 +605,12 @@ mod tests {
             "{h}"
         );
         assert!(
-            h.contains("campaign&#x27;s shortest dark exposure")
-                || h.contains("campaign's shortest dark exposure"),
+            h.contains("The exposure is by default the campaign's shortest dark exposure"),
             "{h}"
+        );
+        assert!(
+            h.contains("<td>0.0250</td>"),
+            "dark current x exposure: {h}"
         );
         assert!(!h.contains("extrapolates"), "{h}");
     }
