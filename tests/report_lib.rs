@@ -405,6 +405,32 @@ fn matches(pattern: &str, name: &str) -> bool {
     }
 }
 
+/// The readout parameters with a 16x16 camera model whose campaign took darks at 0.01 and
+/// 0.1 s (its operating point: the default exposure, 0.01 s).
+fn with_camera() -> detnoise::detector::ModelParams {
+    use detnoise::calib::{Map, Unit};
+    use detnoise::camera::{CameraChoice, CameraModel, OperatingRange};
+    let model = CameraModel::new(
+        Map::filled(16, 16, 100.0, Unit::Adu),
+        1.0,
+        Map::filled(16, 16, 1.5, Unit::Electrons),
+        16,
+    )
+    .unwrap()
+    .with_campaign(OperatingRange {
+        exposures_s: vec![0.01, 0.1],
+        em_gains: vec![],
+        temperatures_c: vec![],
+    })
+    .unwrap();
+    let choice = CameraChoice::new(model, None, None, None).unwrap();
+    detnoise::detector::ModelParams {
+        camera: Some(choice.at.clone()),
+        camera_choice: Some(std::sync::Arc::new(choice)),
+        ..Default::default()
+    }
+}
+
 #[test]
 fn the_declared_output_names_are_the_files_full_reports_write() {
     // Every part of a report: the darks with telegraph pixels (their example series), photon
@@ -439,10 +465,12 @@ fn the_declared_output_names_are_the_files_full_reports_write() {
                 .collect(),
             ..small("scmos-darks-64x64.fits", "flats")
         },
-        // The QE factor's chart needs an `ok` factor: the quick precision target.
+        // The QE factor's chart needs an `ok` factor: the quick precision target. With a
+        // camera model: its section's files.
         ReportOptions {
             detector: DetectorKind::Emccd,
             gain_e_per_adu: Some(10.0),
+            model_params: with_camera(),
             ..one_config("emccd-lowlight-32x48.fits", "emccd")
         },
     ];

@@ -53,7 +53,6 @@ pub fn output_names(with_subaps: bool) -> Vec<&'static str> {
             names.push(name);
         }
     }
-    names.extend(camera::CAMERA_FILES);
     if with_subaps {
         names.extend(crate::subaps::OUTPUT_NAMES);
     }
