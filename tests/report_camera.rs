@@ -130,3 +130,75 @@ fn a_point_beyond_the_campaign_is_warned_of() {
     let err = String::from_utf8_lossy(&a.get_output().stderr).into_owned();
     assert!(!err.contains("camera model"), "{err}");
 }
+
+/// The camera folder `detnoise campaign` writes (tests/fixtures/campaign/scmos: darks at 0.01,
+/// 0.5, 2 and 5 s) records its exposures, and a report at 1 kHz, beyond them, says it
+/// extrapolates: on the terminal, in summary.json and on the page.
+#[test]
+fn a_campaigns_camera_in_a_report_beyond_its_exposures() {
+    let fixture =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/campaign/scmos");
+    let d = tempfile::tempdir().unwrap();
+    let campaign = d.path().join("campaign");
+    detnoise()
+        .arg("campaign")
+        .arg("--manifest")
+        .arg(fixture.join("manifest.csv"))
+        .args(["--gain-e-per-adu", "0.5", "--out"])
+        .arg(&campaign)
+        .assert()
+        .success();
+    let cam = campaign.join("camera");
+    let model = CameraModel::read(&cam).unwrap();
+    assert_eq!(
+        model.campaign,
+        Some(OperatingRange {
+            exposures_s: vec![0.01, 0.5, 2.0, 5.0],
+            em_gains: vec![],
+            temperatures_c: vec![],
+        })
+    );
+    let out = d.path().join("report");
+    let a = detnoise()
+        .args(["report", "--gain-e-per-adu", "0.5", "--quick", "--darks"])
+        .arg(fixture.join("scmos-t0.010s.fits"))
+        .arg("--camera")
+        .arg(&cam)
+        .args(["--frame-rate-hz", "1000", "--out"])
+        .arg(&out)
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&a.get_output().stderr).into_owned();
+    let says = "exposure 0.001 s (1000 Hz) outside the campaign's darks (0.01 to 5 s)";
+    assert!(
+        err.contains(&format!(
+            "extrapolates beyond the campaign that measured it: {says}"
+        )),
+        "{err}"
+    );
+    assert!(
+        err.contains("0.001000 s exposure: 1 / the frame rate given, no EM gain"),
+        "{err}"
+    );
+    let text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    let summary: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let c = &summary["camera"];
+    assert_eq!(c["exposure_choice"], "frame_rate");
+    assert_eq!(c["extrapolates"][0], says);
+    let at = CameraChoice::new(
+        model,
+        Some((0.001, detnoise::camera::ExposureChoice::FrameRate)),
+        None,
+        None,
+    )
+    .unwrap();
+    assert_eq!(
+        c["effective_read_noise_e"].as_f64().unwrap(),
+        at.at.effective_read_noise_e()
+    );
+    let html = std::fs::read_to_string(out.join("index.html")).unwrap();
+    assert!(
+        html.contains("<b>extrapolates</b> beyond the campaign"),
+        "no extrapolation on the page"
+    );
+}

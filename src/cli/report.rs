@@ -269,6 +269,10 @@ fn camera_line(choice: &crate::camera::CameraChoice) -> String {
     let temperature = op
         .temperature_c
         .map_or(String::new(), |t| format!(", {t} C"));
+    let gain = match op.em_gain {
+        Some(g) => format!("EM gain {g} (actual {:.2})", at.em_gain),
+        None => "no EM gain".into(),
+    };
     let extrapolates = if choice.extrapolates.is_empty() {
         String::new()
     } else {
@@ -278,13 +282,12 @@ fn camera_line(choice: &crate::camera::CameraChoice) -> String {
         )
     };
     format!(
-        "camera model at {:.6} Hz ({:.6} s exposure: {}, EM gain {}{temperature}): effective read \
+        "camera model at {:.6} Hz ({:.6} s exposure: {}, {gain}{temperature}): effective read \
          noise {:.4} e- rms (median over the pixels of read, dark shot, CIC, row, column and \
          frame noise, input-referred){extrapolates}",
         1.0 / op.exposure_s,
         op.exposure_s,
         choice.exposure.describe(),
-        at.em_gain,
         at.effective_read_noise_e()
     )
 }
