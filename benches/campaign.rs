@@ -64,8 +64,11 @@ fn main() {
             gain_e_per_adu: 1.0,
             checksum: Some(Checksum::Blake3),
             em_fit: false,
+            clip: detnoise::calib::darks::Clip::None,
+            common_mode: false,
         },
         temperature: detnoise::campaign::fit::TemperatureTerm::Off,
+        thresholds: Default::default(),
     };
     // Warm the page cache (and the thread pool).
     run(&job("warm"), &Silent).expect("campaign runs");
@@ -92,6 +95,7 @@ fn main() {
                 gain_e_per_adu: Some(1.0),
                 checksum: Some(Checksum::Blake3),
                 accept_illuminated: true,
+                expected_dark: None,
             },
             &Silent,
         )

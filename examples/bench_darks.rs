@@ -112,6 +112,7 @@ fn measure(what: &str, cube: &Path, out: &Path) {
                 gain_e_per_adu: Some(0.25),
                 checksum: (what != "darks-no-checksums").then(|| algorithm_of(what)),
                 accept_illuminated: false,
+                expected_dark: None,
             };
             Some(run(&job, &Silent).expect("darks").read_seconds)
         }

@@ -339,20 +339,20 @@ fn camera_closure(name: &str, em_gain: Option<f64>, exposure_s: f64) {
     }
     synth.assert().success();
     let measured = tmp.path().join("measured");
-    // `darks` reads the dark charge's shot noise of long sCMOS darks (20 e- at 10 s) as light:
-    // these frames are dark by construction.
-    detnoise()
+    // `darks` takes the model's dark signal (20 e- at 10 s for sCMOS, whose shot noise looks
+    // like light's) off before it looks for light.
+    let mut measure = detnoise();
+    measure
         .arg("darks")
         .arg(&darks)
-        .args([
-            "--gain-e-per-adu",
-            &k.to_string(),
-            "--accept-illuminated",
-            "--out",
-        ])
-        .arg(&measured)
-        .assert()
-        .success();
+        .args(["--gain-e-per-adu", &k.to_string(), "--camera"])
+        .arg(&cam)
+        .args(["--exposure-s", &exposure_s.to_string(), "--out"])
+        .arg(&measured);
+    if let Some(g) = em_gain {
+        measure.args(["--em-gain", &g.to_string()]);
+    }
+    measure.assert().success();
     let model = CameraModel::read(&cam)
         .unwrap()
         .at(OperatingPoint {

@@ -107,7 +107,7 @@ fn simulate_and_effective_name_each_bad_option_and_its_range() {
             &["--gaussian-switch", "-3"],
             &["--gaussian-switch", "whole number"],
         ),
-        (&["--pp-lambda", "0"], &["--pp-lambda", "> 0"]),
+        (&["--pp-lambda", "0"], &["--pp-lambda", "(0, 100000]"]),
         (&["--position-range", "-1"], &["--position-range", ">= 0"]),
         (&["--spot", "airy:0"], &["--spot", ">= 0.1 px"]),
         (&["--bg-grid", "5:1:1"], &["--bg-grid", "start <= stop"]),
@@ -250,7 +250,7 @@ fn calibration_commands_check_their_options_before_reading() {
         ),
         (
             &["darks", "BIG", "--out", "OUT", "--sigma-clip", "0"],
-            &["--sigma-clip", "> 0"],
+            &["--sigma-clip", "(0, 1000]"],
         ),
         (
             &["darks", "BIG", "--out", "OUT", "--hot-sigma", "-1"],

@@ -96,6 +96,7 @@ fn every_file_of_darks_fit_pdf_and_emgain_is_0644() {
         gain_e_per_adu: Some(0.25),
         checksum: Some(detnoise::io::Checksum::Blake3),
         accept_illuminated: false,
+        expected_dark: None,
     };
     let r = darks::run(&job, &Silent).unwrap();
     assert!(assert_shared(&r.out) >= 6);

@@ -5,6 +5,8 @@ numpy in and out, units in names (``_e`` electrons, ``_adu`` camera counts, ``_p
 
 - ``read_stack(paths)``: the frames of FITS/TIFF/OpenEXR stacks as 2-D arrays;
 - ``dark_maps(paths, gain_e_per_adu=None, ...)``: offset, read-noise and flag maps;
+- ``campaign(manifest=..., out=..., gain_e_per_adu=...)``: darks at several exposures, EM gains
+  and temperatures decomposed per pixel into offset, CIC and dark current (a ``Campaign``);
 - ``fit_pdf(rms_e)``, ``fit_emgain(paths, ...)``: calibration fits with standard errors;
 - ``Readout(model, **params)``: a camera as a noise generator, ``cam.read(image_e)``;
 - ``simulate(...)``, ``effective(...)``: Monte-Carlo records for ``pandas.DataFrame``;
@@ -25,6 +27,7 @@ from ._detnoise import (
     MODEL_PARAMS,
     MODELS_HELP,
     SETTINGS,
+    Campaign,
     DarkMaps,
     DetnoiseWarning,
     EmGainFit,
@@ -43,6 +46,7 @@ __all__ = [
     "MODEL_PARAMS",
     "MODELS_HELP",
     "SETTINGS",
+    "Campaign",
     "DarkMaps",
     "DetnoiseWarning",
     "EmGainFit",
@@ -51,6 +55,7 @@ __all__ = [
     "Report",
     "StackIterator",
     "__version__",
+    "campaign",
     "dark_maps",
     "effective",
     "fit_emgain",
@@ -138,6 +143,7 @@ def _with_progress(function):
 
 
 dark_maps = _with_progress(_detnoise.dark_maps)
+campaign = _with_progress(_detnoise.campaign)
 simulate = _with_progress(_detnoise.simulate)
 effective = _with_progress(_detnoise.effective)
 report = _with_progress(_detnoise.report)

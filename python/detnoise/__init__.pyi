@@ -70,9 +70,10 @@ class ModelParams(TypedDict, total=False):
     #: per-pixel thresholds and correction) or equal-density (fixed, ~0.203, 0.719, 1.896 g ...);
     #: default: poisson-prior.
     pp_rule: Literal["poisson-prior", "equal-density", "pixel-prior"]
-    #: `emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture mean
-    #: (not with `pp_rule` pixel-prior, whose levels are the pixels' own); > 0 photo-electrons per
-    #: pixel.
+    #: `emccd-pp` reference light level, photo-electrons per pixel, > 0 and at most 1e5 (the largest
+    #: level the correction's thresholds can span; photon counting is for levels of a few e- at
+    #: most); default: the sub-aperture mean (not with `pp_rule` pixel-prior, whose levels are the
+    #: pixels' own); in (0, 100000] photo-electrons per pixel.
     pp_lambda: Optional[float]
     #: Per-pixel rms distribution of the sCMOS models: `paper` (Eq. 3 on [0, 10] e-) or the path of
     #: a `pdf_fit.json` written by `detnoise fit-pdf` (its best model unless `pdf_model`); default:
@@ -241,6 +242,66 @@ def dark_maps(
     stack, as `detnoise darks` computes them. clip: reject the N highest and lowest samples
     per pixel; sigma_clip: reject samples beyond K standard deviations; hot_sigma (robust
     sigmas), dead_fraction (of the median rms), rts_sigma (standard errors): flag thresholds."""
+
+class Campaign:
+    """A campaign measured and decomposed as `detnoise campaign` does, its outputs in `out`."""
+
+    @property
+    def out(self) -> Path:
+        """The output directory written (conditions.csv, campaign.json, the maps, camera/)."""
+    @property
+    def conditions(self) -> List[Dict[str, Any]]:
+        """One dict per stack, in input order, with the columns of conditions.csv (adu)."""
+    @property
+    def summary(self) -> Dict[str, Any]:
+        """campaign.json."""
+    @property
+    def decomposition(self) -> Dict[str, Any]:
+        """decomposition.json: the fit's figures, hot pixels, fit quality, notes."""
+    @property
+    def maps(self) -> Dict[str, npt.NDArray[np.float64]]:
+        """The decomposition's 2-D maps by file name without .fits: offset_adu, offset_se_adu,
+        dark_current_e_per_s, dark_current_se_e_per_s, fit_reduced_chi2, hot_class (0 normal,
+        1 warm, 2 hot, 3 not fitted) and, with CIC fitted, cic_e_per_frame, cic_se_e_per_frame."""
+    @property
+    def camera(self) -> Optional[Path]:
+        """The camera model folder written (None when no camera could be described)."""
+
+def campaign(
+    *,
+    manifest: Optional[_Path] = None,
+    emva: Optional[_Path] = None,
+    files: Optional[_Paths] = None,
+    out: _Path,
+    gain_e_per_adu: float,
+    exposure_key: str = "EXPTIME",
+    em_gain_key: Optional[str] = None,
+    temperature_key: Optional[str] = None,
+    kind_key: Optional[str] = None,
+    kind: Optional[Literal["dark", "flat"]] = None,
+    light_key: Optional[str] = None,
+    force: bool = False,
+    checksum: Optional[str] = "blake3",
+    em_fit: bool = True,
+    temperature_term: Union[Literal["off", "fit"], float, None] = None,
+    clip: int = 0,
+    sigma_clip: Optional[float] = None,
+    common_mode: bool = False,
+    warm_sigma: float = 5.0,
+    hot_sigma: float = 25.0,
+    warm_e_per_s: Optional[float] = None,
+    hot_e_per_s: Optional[float] = None,
+    bad_fit_p_value: float = 1e-3,
+    progress: _Progress = None,
+) -> Campaign:
+    """Measure and decompose a campaign as `detnoise campaign`: the stacks from exactly one of
+    manifest (CSV), emva (EMVA 1288 descriptor) or files (FITS, conditions from the *_key
+    header keywords); gain_e_per_adu (e- per adu); temperature_term "off" (default), "fit" or
+    a doubling temperature (deg C); clip (samples), sigma_clip (standard deviations, at most
+    1000) and common_mode as `dark_maps`; warm/hot classes at warm_sigma/hot_sigma robust
+    sigmas (at most 1000) or warm_e_per_s/hot_e_per_s (e-/s, at most 1e6); bad_fit_p_value in
+    (0, 1). Writes `out` (replaced only if detnoise wrote it; force: write into a folder of
+    other files)."""
 
 class PdfFit:
     """A fit of the per-pixel read-noise pdf; pass it as ``pdf=`` to simulate with it."""

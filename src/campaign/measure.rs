@@ -14,7 +14,9 @@ use std::time::Instant;
 use super::checks::CampaignPlan;
 use super::condition::{ConditionStats, StackKind};
 use super::input::CampaignStack;
-use crate::calib::darks::{pixel_stats, pixel_stats_hashed, Clip};
+use crate::calib::darks::{
+    mean_common_level, pixel_stats, pixel_stats_hashed, take_common_level, Clip, FrameHook,
+};
 use crate::calib::summary::{unhashed, Checksum, InputFile};
 use crate::calib::Map;
 use crate::error::{Error, Result};
@@ -31,6 +33,12 @@ pub struct MeasureOptions {
     pub checksum: Option<Checksum>,
     /// Fit the EM-gain histogram model to each EMCCD dark stack.
     pub em_fit: bool,
+    /// Rejection of outlying samples per pixel (cosmic rays), as `darks --clip/--sigma-clip`.
+    pub clip: Clip,
+    /// Take each frame's common level (median, exact for integer data) off before
+    /// accumulating, as `darks --common-mode`; the mean level taken off is added back to the
+    /// per-pixel means, so the dark signal stays in them and only the frame-common noise goes.
+    pub common_mode: bool,
 }
 
 /// What one stack gave.
@@ -142,10 +150,12 @@ pub fn measure_stack(
     options: &MeasureOptions,
 ) -> Result<StackMeasurement> {
     let t = Instant::now();
+    let hook: Option<FrameHook> = options.common_mode.then_some(&take_common_level);
     let (stats, inputs) = match options.checksum {
-        Some(algorithm) => pixel_stats_hashed(stack, Clip::None, None, algorithm)?,
-        None => (pixel_stats(stack, Clip::None, None)?, unhashed(stack)),
+        Some(algorithm) => pixel_stats_hashed(stack, options.clip, hook, algorithm)?,
+        None => (pixel_stats(stack, options.clip, hook)?, unhashed(stack)),
     };
+    let common = mean_common_level(&stats.per_frame);
     let read_seconds = t.elapsed().as_secs_f64();
     let (rows, cols) = stack.shape;
     Ok(StackMeasurement {
@@ -156,7 +166,7 @@ pub fn measure_stack(
             rows,
             cols,
             var_adu2: stats.rms.data.iter().map(|s| s * s).collect(),
-            mean_adu: stats.mean.data,
+            mean_adu: stats.mean.data.iter().map(|m| m + common).collect(),
             temporal: stats.temporal.summary(Some(options.gain_e_per_adu)),
         },
         inputs,

@@ -25,6 +25,7 @@ pub use condition::{Condition, ConditionStats, StackKind};
 pub use input::{CampaignInput, CampaignStack, KeywordOptions, Listing};
 pub use measure::{measure_campaign, measure_stack, MeasureOptions, StackMeasurement};
 pub use outputs::{
-    write_campaign_outputs, CampaignSummary, ConditionRow, StackSummary, CAMPAIGN_OUTPUTS,
+    write_campaign_outputs, CampaignSummary, ConditionRow, StackSummary, CAMERA_DIR,
+    CAMPAIGN_OUTPUTS,
 };
 pub use run::{run, CampaignRun, CampaignRunResult};

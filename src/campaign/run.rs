@@ -5,7 +5,9 @@
 use std::path::PathBuf;
 
 use super::checks::{check_campaign, Design};
-use super::fit::{self, DecomposeOptions, Decomposition, EmGainFit, TemperatureTerm};
+use super::fit::{
+    self, DecomposeOptions, Decomposition, EmGainFit, FitThresholds, TemperatureTerm,
+};
 use super::input::CampaignInput;
 use super::measure::{fit_em_gains, measure_campaign, MeasureOptions, StackMeasurement};
 use super::outputs::{
@@ -28,6 +30,8 @@ pub struct CampaignRun {
     pub measure: MeasureOptions,
     /// The temperature law of the dark current in the decomposition.
     pub temperature: TemperatureTerm,
+    /// The decomposition's warm/hot pixel classes and bad-fit p-value.
+    pub thresholds: FitThresholds,
 }
 
 /// What a campaign run produced.
@@ -56,6 +60,8 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
             format!("{gain} is not a positive conversion gain (e- per adu)"),
         ));
     }
+    job.thresholds.check()?;
+    job.measure.clip.check()?;
     let listing = job.input.read()?;
     let mut inputs: Vec<PathBuf> = listing
         .stacks
@@ -77,7 +83,7 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         observer.warn(note);
     }
     let mut stacks = measure_campaign(&plan, &job.measure, observer)?;
-    let mut decomposition = decompose(&plan.design, &stacks, gain, job.temperature)?;
+    let mut decomposition = decompose(&plan.design, &stacks, job)?;
     if job.measure.em_fit && !plan.design.dark_em_gains.is_empty() {
         // The offsets do not depend on the gains' scale: fit the histograms with them, then
         // decompose again with the gains measured.
@@ -88,7 +94,7 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
             .collect();
         let offsets = &decomposition.offset_adu;
         fit_em_gains(&plan, &mut stacks, offsets, &keep, &job.measure, observer)?;
-        decomposition = decompose(&plan.design, &stacks, gain, job.temperature)?;
+        decomposition = decompose(&plan.design, &stacks, job)?;
         if decomposition.summary.em_gain_curve.is_none() {
             observer.warn(
                 "the decomposition takes the commanded EM gains as exact: the histogram fit did \
@@ -138,14 +144,14 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
 fn decompose(
     design: &Design,
     stacks: &[StackMeasurement],
-    gain_e_per_adu: f64,
-    temperature: TemperatureTerm,
+    job: &CampaignRun,
 ) -> Result<Decomposition> {
     let stats: Vec<_> = stacks.iter().map(|m| m.stats.clone()).collect();
-    let mut opts = DecomposeOptions::new(gain_e_per_adu);
+    let mut opts =
+        DecomposeOptions::new(job.measure.gain_e_per_adu).with_thresholds(job.thresholds);
     opts.fit_cic = design.cic_separable == Some(true);
     opts.em_gains = fitted_em_gains(design, stacks);
-    opts.temperature = temperature;
+    opts.temperature = job.temperature;
     fit::decompose(&stats, &opts)
 }
 

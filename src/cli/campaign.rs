@@ -6,8 +6,12 @@ use std::ops::Bound::{Excluded, Included};
 use std::path::PathBuf;
 
 use super::args::real;
+use super::darks::SampleArgs;
 use super::progress::Terminal;
-use crate::campaign::fit::TemperatureTerm;
+use crate::campaign::fit::{
+    FitThresholds, HotRule, TemperatureTerm, DEFAULT_BAD_FIT_P_VALUE, MAX_CLASS_E_PER_S,
+    MAX_CLASS_SIGMAS,
+};
 use crate::campaign::{
     run as run_campaign, CampaignInput, CampaignRun, KeywordOptions, MeasureOptions, StackKind,
 };
@@ -86,10 +90,34 @@ pub struct CampaignArgs {
     /// is the median temperature of the darks.
     #[arg(long, default_value = "off", value_parser = parse_temperature_term)]
     pub temperature_term: TemperatureTerm,
+    /// Clipping and common mode of every stack, as `darks`.
+    #[command(flatten)]
+    pub samples: SampleArgs,
+    /// Warm pixels: dark current above the median + K robust sigmas of the dark-current map,
+    /// K in robust sigmas, > 0 and at most 1000 (beyond, no pixel of a million is classed by
+    /// chance), below --hot-sigma.
+    #[arg(long, default_value_t = 5.0, value_parser = real(Excluded(0.0), Included(MAX_CLASS_SIGMAS), "robust sigmas"))]
+    pub warm_sigma: f64,
+    /// Hot pixels: dark current above the median + K robust sigmas of the dark-current map,
+    /// K in robust sigmas, > 0 and at most 1000, above --warm-sigma.
+    #[arg(long, default_value_t = 25.0, value_parser = real(Excluded(0.0), Included(MAX_CLASS_SIGMAS), "robust sigmas"))]
+    pub hot_sigma: f64,
+    /// Warm pixels by absolute dark current instead: above this many e- per s, > 0 and at most
+    /// 1e6 (a full well of ~1e6 e- filled within a second), with --hot-e-per-s.
+    #[arg(long, requires = "hot_e_per_s", conflicts_with_all = ["warm_sigma", "hot_sigma"], value_parser = real(Excluded(0.0), Included(MAX_CLASS_E_PER_S), "e- per s"))]
+    pub warm_e_per_s: Option<f64>,
+    /// Hot pixels by absolute dark current instead: above this many e- per s, > 0 and at most
+    /// 1e6, above --warm-e-per-s.
+    #[arg(long, requires = "warm_e_per_s", value_parser = real(Excluded(0.0), Included(MAX_CLASS_E_PER_S), "e- per s"))]
+    pub hot_e_per_s: Option<f64>,
+    /// A pixel's decomposition fit is flagged bad (fit_quality.fits) when its chi2 has a
+    /// p-value below this, unitless, in (0, 1).
+    #[arg(long, default_value_t = DEFAULT_BAD_FIT_P_VALUE, value_parser = real(Excluded(0.0), Excluded(1.0), ""))]
+    pub bad_fit_p_value: f64,
 }
 
 /// `off`, `fit` or a doubling temperature (deg C, > 0).
-fn parse_temperature_term(text: &str) -> std::result::Result<TemperatureTerm, String> {
+pub fn parse_temperature_term(text: &str) -> std::result::Result<TemperatureTerm, String> {
     match text {
         "off" => Ok(TemperatureTerm::Off),
         "fit" => Ok(TemperatureTerm::Fit { reference_c: None }),
@@ -134,8 +162,23 @@ impl CampaignArgs {
                 gain_e_per_adu: self.gain_e_per_adu,
                 checksum: (!self.no_checksums).then_some(self.checksum),
                 em_fit: !self.no_em_fit,
+                clip: self.samples.clip(),
+                common_mode: self.samples.common_mode,
             },
             temperature: self.temperature_term,
+            thresholds: FitThresholds {
+                hot: match (self.warm_e_per_s, self.hot_e_per_s) {
+                    (Some(warm_e_per_s), Some(hot_e_per_s)) => HotRule::Absolute {
+                        warm_e_per_s,
+                        hot_e_per_s,
+                    },
+                    _ => HotRule::Robust {
+                        warm_sigmas: self.warm_sigma,
+                        hot_sigmas: self.hot_sigma,
+                    },
+                },
+                bad_fit_p_value: self.bad_fit_p_value,
+            },
         }
     }
 }

@@ -5,7 +5,10 @@ use std::path::PathBuf;
 
 use super::args::{real, whole};
 use super::progress::Terminal;
-use crate::calib::darks::{run as run_darks, Clip, DarkOptions, DarksRun};
+use crate::calib::darks::{
+    run as run_darks, Clip, DarkOptions, DarksRun, ExpectedDark, MAX_CLIP, MAX_SIGMA_CLIP,
+};
+use crate::camera::{CameraModel, OperatingPoint};
 use crate::error::Result;
 use crate::io::Checksum;
 
@@ -25,17 +28,9 @@ pub struct DarksArgs {
     /// Conversion gain (e- per adu); when given, rms_e.fits is written too. Default: none.
     #[arg(long, value_parser = real(Excluded(0.0), Included(crate::settings::MAX_GAIN_E_PER_ADU), "e- per adu"))]
     pub gain_e_per_adu: Option<f64>,
-    /// Reject the N highest and N lowest samples of each pixel (cosmic rays), N up to 100,000
-    /// (and 2N + 2 at most the frame count). Default: 0.
-    #[arg(long, conflicts_with = "sigma_clip", value_parser = whole::<usize>(0, MAX_CLIP, "samples"))]
-    pub clip: Option<usize>,
-    /// Reject samples more than K standard deviations from the pixel mean (two passes). Default: off.
-    #[arg(long, value_parser = real(Excluded(0.0), Unbounded, "standard deviations"))]
-    pub sigma_clip: Option<f64>,
-    /// Subtract each frame's median (common-mode offset, adu; read between integer steps when
-    /// values tie, so integer data leave no rounding residue) before accumulating. Default: off.
-    #[arg(long)]
-    pub common_mode: bool,
+    /// Clipping and common mode.
+    #[command(flatten)]
+    pub samples: SampleArgs,
     /// Hot-pixel threshold: offset above median + K robust sigmas of the offset map.
     #[arg(long, default_value_t = 5.0, value_parser = real(Excluded(0.0), Unbounded, "robust sigmas"))]
     pub hot_sigma: f64,
@@ -58,25 +53,64 @@ pub struct DarksArgs {
     /// level near the top of the stored range) as darks. Default: refuse them.
     #[arg(long)]
     pub accept_illuminated: bool,
+    /// Measured camera model (a folder written by `campaign`, docs/camera.md) whose dark current
+    /// and CIC the frames hold: the check for light takes that expected dark signal and its
+    /// shot noise off first, so long darks are not read as light. Default: none (no dark
+    /// signal expected).
+    #[arg(long, value_name = "DIR", value_hint = clap::ValueHint::DirPath, requires = "exposure_s")]
+    pub camera: Option<PathBuf>,
+    /// Exposure time of each dark frame, s, > 0 and at most 86400 (with --camera).
+    #[arg(long, value_parser = real(Excluded(0.0), Included(crate::camera::MAX_EXPOSURE_S), "s"), requires = "camera")]
+    pub exposure_s: Option<f64>,
+    /// Commanded EM gain of the dark frames, e-/e-, 1 to 10,000 (with --camera, of a camera
+    /// with an EM register). Default: no multiplication.
+    #[arg(long, value_parser = real(Included(1.0), Included(crate::detector::register::MAX_EM_GAIN), "e-/e-"), requires = "camera")]
+    pub em_gain: Option<f64>,
+    /// Sensor temperature of the dark frames, degrees C, -273.15 to 200 (with --camera). Default:
+    /// the temperature the model's dark current was measured at.
+    #[arg(long, value_parser = real(Included(-273.15), Included(200.0), "degrees C"), requires = "camera")]
+    pub temperature_c: Option<f64>,
 }
 
-/// Largest `--clip` (samples rejected at each end of every pixel).
-const MAX_CLIP: u64 = 100_000;
+/// The options of a stack's per-pixel statistics shared by `darks` and `campaign`: sample
+/// rejection per pixel and common-mode removal.
+#[derive(clap::Args, Debug)]
+pub struct SampleArgs {
+    /// Reject the N highest and N lowest samples of each pixel (cosmic rays), N up to 100,000
+    /// (and 2N + 2 at most the frame count of every stack). Default: 0.
+    #[arg(long, conflicts_with = "sigma_clip", value_parser = whole::<usize>(0, MAX_CLIP as u64, "samples"))]
+    pub clip: Option<usize>,
+    /// Reject samples more than K standard deviations from the pixel mean (two passes), K > 0
+    /// and at most 1000 (by Chebyshev's inequality at most one sample in a million lies that
+    /// far out, so a larger K rejects nothing). Default: off.
+    #[arg(long, value_parser = real(Excluded(0.0), Included(MAX_SIGMA_CLIP), "standard deviations"))]
+    pub sigma_clip: Option<f64>,
+    /// Subtract each frame's median (common-mode offset, adu; read between integer steps when
+    /// values tie, so integer data leave no rounding residue) before accumulating. Default: off.
+    #[arg(long)]
+    pub common_mode: bool,
+}
+
+impl SampleArgs {
+    /// The sample rejection asked for.
+    pub fn clip(&self) -> Clip {
+        match (self.clip, self.sigma_clip) {
+            (Some(n), None) if n > 0 => Clip::Extremes(n),
+            (_, Some(k)) => Clip::Sigma(k),
+            _ => Clip::None,
+        }
+    }
+}
 
 /// Run `detnoise darks`.
 pub fn run(args: &DarksArgs) -> Result<()> {
-    let clip = match (args.clip, args.sigma_clip) {
-        (Some(n), None) if n > 0 => Clip::Extremes(n),
-        (_, Some(k)) => Clip::Sigma(k),
-        _ => Clip::None,
-    };
     let job = DarksRun {
         stack: args.stack.clone(),
         out: args.out.clone(),
         force: args.force,
         options: DarkOptions {
-            clip,
-            common_mode: args.common_mode,
+            clip: args.samples.clip(),
+            common_mode: args.samples.common_mode,
             hot_sigma: args.hot_sigma,
             dead_fraction: args.dead_fraction,
             rts_sigma: args.rts_sigma,
@@ -84,6 +118,7 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         gain_e_per_adu: args.gain_e_per_adu,
         checksum: (!args.no_checksums).then_some(args.checksum),
         accept_illuminated: args.accept_illuminated,
+        expected_dark: expected_dark(args)?,
     };
     let r = run_darks(&job, &Terminal::default())?;
     let (bytes, secs) = (r.stored_bytes as f64, r.read_seconds);
@@ -106,6 +141,26 @@ pub fn run(args: &DarksArgs) -> Result<()> {
         r.out.display()
     );
     Ok(())
+}
+
+/// The dark signal the frames hold by --camera at the operating point of --exposure-s,
+/// --em-gain and --temperature-c (None without --camera).
+fn expected_dark(args: &DarksArgs) -> Result<Option<ExpectedDark>> {
+    let (Some(dir), Some(exposure_s)) = (&args.camera, args.exposure_s) else {
+        return Ok(None);
+    };
+    let at = CameraModel::read(dir)?.at(OperatingPoint {
+        exposure_s,
+        em_gain: args.em_gain,
+        temperature_c: args.temperature_c,
+    })?;
+    let adu_per_e: Vec<f64> = (0..at.pixels()).map(|i| at.adu_per_e(i)).collect();
+    Ok(Some(ExpectedDark::new(
+        &at.dark_e,
+        &adu_per_e,
+        at.excess_noise_f2,
+        dir.display().to_string(),
+    )))
 }
 
 /// A number of bytes in decimal units with three significant digits: "280 B", "1.64 MB",

@@ -46,6 +46,11 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
     ("kind_key", "--kind-key"),
     ("temperature", "--temperature-term"),
     ("conversion_gain", "--gain-e-per-adu"),
+    // campaign: the decomposition's classes and fit flag (crate::campaign::fit::FitThresholds).
+    ("warm_sigma", "--warm-sigma"),
+    ("warm_e_per_s", "--warm-e-per-s"),
+    ("hot_e_per_s", "--hot-e-per-s"),
+    ("bad_fit_p_value", "--bad-fit-p-value"),
     // synth: non-Gaussian sCMOS noise (crate::synth::Defects); its `row_noise_e` and
     // `column_noise_e` are the registry's (scmos-correlated's amplitudes, same flags).
     ("rts_fraction", "--rts-fraction"),
@@ -74,11 +79,10 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
 /// them are programming errors of a caller and keep the library's name.
 pub const LIBRARY_ONLY_FIELDS: &[&str] = &[
     // Campaign decomposition options no option sets (the fitted EM gains come from the
-    // campaign's own histogram fits, the classes and the flag use their defaults); the
-    // emgain histogram's pixel mask.
+    // campaign's own histogram fits; `hot` is the class rule as a whole, its thresholds have
+    // options); the emgain histogram's pixel mask.
     "em_gains",
     "hot",
-    "bad_fit_p_value",
     "keep",
     "axis_range",
     "heatmap_values",

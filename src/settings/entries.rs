@@ -20,6 +20,10 @@ pub const MAX_NOISE_E: f64 = 1e4;
 /// A read-noise amplitude, e- rms: 0 to [`MAX_NOISE_E`].
 const NOISE_E: Kind = Real(Included(0.0), Included(MAX_NOISE_E));
 
+/// Largest `emccd-pp` reference light level, photo-electrons per pixel: the bound of the
+/// correction's `pp_lambda_max`, the brightest level its thresholds span.
+pub const MAX_PP_LAMBDA: f64 = 1e5;
+
 /// Longest exposure of an operating point, s (a day: no dark frame is longer).
 pub const MAX_EXPOSURE_S: f64 = 86_400.0;
 
@@ -149,9 +153,11 @@ pub const PP_RULE: Setting = Setting::new(
 pub const PP_LAMBDA: Setting = Setting::new(
     "pp_lambda",
     "--pp-lambda",
-    POSITIVE,
-    "`emccd-pp` reference light level, photo-electrons per pixel; default: the sub-aperture \
-     mean (not with --pp-rule pixel-prior, whose levels are the pixels' own)",
+    Real(Excluded(0.0), Included(MAX_PP_LAMBDA)),
+    "`emccd-pp` reference light level, photo-electrons per pixel, > 0 and at most 1e5 (the \
+     largest level the correction's thresholds can span; photon counting is for levels of a few \
+     e- at most); default: the sub-aperture mean (not with --pp-rule pixel-prior, whose levels \
+     are the pixels' own)",
 )
 .unit("photo-electrons per pixel");
 
@@ -439,8 +445,9 @@ pub const CENTROID: &[&Setting] = &[&CENTROIDER, &MASK_ABOVE];
 pub const TARGET_SE_E: Setting = Setting::new(
     "target_se_e",
     "--target-se-e",
-    NON_NEGATIVE,
-    "Target standard error of each effective read noise, e- (0 = off). A value is `ok` when its \
+    Real(Included(0.0), Included(MAX_NOISE_E)),
+    "Target standard error of each effective read noise, e- (0 = off), at most 1e4 (the largest \
+     read noise of any setting: every value meets a larger target). A value is `ok` when its \
      SE is at most this or at most --target-rel times the value; until then iterations are \
      added (same random numbers, continued), up to --max-iters",
 )
@@ -630,6 +637,12 @@ pub const COMMAND_DEFAULTS: &[CommandDefault] = &[
               multiplication) with --camera: the run chooses, its help says so",
     },
     CommandDefault {
+        command: "darks",
+        setting: &EM_GAIN,
+        default: None,
+        why: "the EM gain of --camera's dark frames: none means no multiplication",
+    },
+    CommandDefault {
         command: "synth",
         setting: &ROW_NOISE_E,
         default: Some("0"),
@@ -649,4 +662,22 @@ pub fn default_in(command: &str, setting: &Setting) -> Option<&'static str> {
         .iter()
         .find(|d| d.command == command && d.setting.field == setting.field)
         .map_or(setting.default, |d| d.default)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn light_level_and_precision_target_are_bounded_with_a_reason() {
+        // Issue 31: both took any finite number (1e300 photo-electrons, 1e300 e- of SE).
+        for (s, max) in [(&PP_LAMBDA, MAX_PP_LAMBDA), (&TARGET_SE_E, MAX_NOISE_E)] {
+            assert!(s.parse(&max.to_string()).is_ok(), "{}", s.field);
+            let err = s.parse(&(2.0 * max).to_string()).unwrap_err();
+            assert!(err.contains("]"), "{}: {err}", s.field);
+            assert!(s.parse("1e300").is_err(), "{}", s.field);
+            assert!(s.help.contains("at most 1e"), "{}: {}", s.field, s.help);
+        }
+        assert!(PP_LAMBDA.parse("0").is_err() && TARGET_SE_E.parse("0").is_ok());
+    }
 }

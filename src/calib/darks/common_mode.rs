@@ -12,6 +12,24 @@
 
 use crate::stats::median;
 
+/// A [`super::FrameHook`] for `--common-mode`: takes the frame's common level off every
+/// sample and returns it (adu), frame index unused.
+pub fn take_common_level(_frame_index: usize, frame: &mut [f64]) -> f64 {
+    let m = common_level(frame);
+    frame.iter_mut().for_each(|v| *v -= m);
+    m
+}
+
+/// The mean of the levels [`take_common_level`] took off a stack's frames (adu; 0 when none
+/// were): added back to the per-pixel means, it keeps them the stack's own levels.
+pub fn mean_common_level(levels: &[f64]) -> f64 {
+    if levels.is_empty() {
+        0.0
+    } else {
+        levels.iter().sum::<f64>() / levels.len() as f64
+    }
+}
+
 /// The common level of a frame (adu; its finite values): the median, interpolated within the
 /// grid step when several values equal it; NaN without finite values.
 pub(super) fn common_level(frame: &[f64]) -> f64 {

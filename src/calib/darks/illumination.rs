@@ -29,6 +29,43 @@ const LIGHT_LEVEL_MIN_ADU: f64 = 1000.0;
 /// Fewest pixels for the photon-transfer test across pixels.
 const LIGHT_MIN_PIXELS: usize = 64;
 
+/// The dark signal a stack is expected to hold at its operating point (a camera model's dark
+/// current and CIC): the check for light looks at what is left once it is taken off, so a long
+/// dark, whose dark charge's shot noise grows with its level across pixels as light's does, is
+/// not read as light.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExpectedDark {
+    /// Expected dark signal of each pixel, adu (row-major, like the stack).
+    pub mean_adu: Vec<f64>,
+    /// Variance of its shot noise, adu^2 (times the EM register's excess noise factor squared).
+    pub variance_adu2: Vec<f64>,
+    /// Median expected dark signal, e- per pixel and frame (input-referred).
+    pub median_e: f64,
+    /// Where it comes from (e.g. the camera model's folder), for messages.
+    pub source: String,
+}
+
+impl ExpectedDark {
+    /// From each pixel's dark signal `dark_e` (e- per frame, input-referred), its output adu
+    /// per input e- `adu_per_e` (EM gain over conversion gain) and the register's excess
+    /// noise factor squared `excess_noise_f2` (1 without one): mean dark_e x a, shot-noise
+    /// variance F^2 x dark_e x a^2.
+    pub fn new(
+        dark_e: &[f64],
+        adu_per_e: &[f64],
+        excess_noise_f2: f64,
+        source: impl Into<String>,
+    ) -> ExpectedDark {
+        let pairs = dark_e.iter().zip(adu_per_e);
+        ExpectedDark {
+            mean_adu: pairs.clone().map(|(d, a)| d * a).collect(),
+            variance_adu2: pairs.map(|(d, a)| excess_noise_f2 * d * a * a).collect(),
+            median_e: median(dark_e),
+            source: source.into(),
+        }
+    }
+}
+
 /// Evidence that a dark stack saw light, from its per-pixel offset and read-noise maps.
 ///
 /// Shot noise makes a pixel's temporal variance grow with its signal: across the pixels of a
@@ -55,6 +92,9 @@ pub struct Illumination {
     pub implied_electrons: f64,
     /// Signal the slope implies as a fraction of the level: variance / (slope x level).
     pub implied_signal_fraction: f64,
+    /// The median expected dark signal taken off before the test (e-), when one was given.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub expected_dark_e: Option<f64>,
     /// True when the frames look illuminated.
     pub illuminated: bool,
 }
@@ -63,7 +103,30 @@ impl Illumination {
     /// Measure the evidence from per-pixel offsets (adu) and read noise (adu) of a stack whose
     /// stored type saturates at `type_max` (None for floats).
     pub fn measure(offset_adu: &[f64], rms_adu: &[f64], type_max: Option<f64>) -> Illumination {
-        let var: Vec<f64> = rms_adu.iter().map(|r| r * r).collect();
+        Self::measure_expecting(offset_adu, rms_adu, type_max, None)
+    }
+
+    /// [`Illumination::measure`] of what is left once the `expected` dark signal (its mean and
+    /// its shot noise's variance, per pixel) is taken off: a dark then shows no slope, light
+    /// still its photon-transfer slope. `expected` has one value per pixel.
+    pub fn measure_expecting(
+        offset_adu: &[f64],
+        rms_adu: &[f64],
+        type_max: Option<f64>,
+        expected: Option<&ExpectedDark>,
+    ) -> Illumination {
+        let mut var: Vec<f64> = rms_adu.iter().map(|r| r * r).collect();
+        let mut offset = offset_adu.to_vec();
+        if let Some(e) = expected {
+            offset
+                .iter_mut()
+                .zip(&e.mean_adu)
+                .for_each(|(m, d)| *m -= d);
+            var.iter_mut()
+                .zip(&e.variance_adu2)
+                .for_each(|(v, d)| *v -= d);
+        }
+        let offset_adu = &offset[..];
         let level_adu = median(offset_adu);
         let variance_adu2 = median(&var);
         let level_fraction_of_range = type_max.map(|m| level_adu / m);
@@ -100,6 +163,7 @@ impl Illumination {
             slope_t,
             implied_electrons,
             implied_signal_fraction,
+            expected_dark_e: expected.map(|e| e.median_e),
             illuminated: follows_light || too_high,
         }
     }
@@ -125,8 +189,17 @@ impl Illumination {
                 self.pixels
             )
         };
+        let expected = self
+            .expected_dark_e
+            .map(|e| {
+                format!(
+                    " after the expected dark signal ({} e- per pixel) and its shot noise are taken off",
+                    significant(e)
+                )
+            })
+            .unwrap_or_default();
         format!(
-            "median level {:.1} adu{range}, median variance {} adu^2; {slope}",
+            "median level {:.1} adu{range}, median variance {} adu^2{expected}; {slope}",
             self.level_adu,
             significant(self.variance_adu2)
         )
@@ -150,10 +223,21 @@ pub fn require_dark(
     maps: &DarkMaps,
     accept_illuminated: bool,
 ) -> Result<Option<String>> {
-    let seen = Illumination::measure(
+    require_dark_expecting(stack, maps, accept_illuminated, None)
+}
+
+/// [`require_dark`] with the dark signal the stack is `expected` to hold taken off first.
+pub fn require_dark_expecting(
+    stack: &FrameStack,
+    maps: &DarkMaps,
+    accept_illuminated: bool,
+    expected: Option<&ExpectedDark>,
+) -> Result<Option<String>> {
+    let seen = Illumination::measure_expecting(
         &maps.offset_adu.data,
         &maps.rms_adu.data,
         stack.saturation_value(),
+        expected,
     );
     let path = &stack.sources[0].path;
     match (seen.illuminated, accept_illuminated) {
@@ -166,8 +250,13 @@ pub fn require_dark(
         (true, false) => Err(Error::input(
             path,
             format!(
-                "these frames look illuminated, not dark: {}. Give frames taken without light (shutter closed, same exposure), or --accept-illuminated to use these anyway",
-                seen.describe()
+                "these frames look illuminated, not dark: {}. Give frames taken without light (shutter closed, same exposure){}, or --accept-illuminated to use these anyway",
+                seen.describe(),
+                if expected.is_some() {
+                    ""
+                } else {
+                    ", the camera model whose dark current they hold (--camera with --exposure-s)"
+                }
             ),
         )),
     }
@@ -188,6 +277,40 @@ mod tests {
             .map(|_| 1.5 + 0.1 * Normal::new(0.0, 1.0).unwrap().sample(&mut rng))
             .collect();
         (offsets, rms)
+    }
+
+    /// Maps of a long sCMOS dark (K = 0.5 e-/adu, 1.6 e- read noise, offsets 100 +/- 6 adu)
+    /// whose pixels hold a lognormal dark charge of median `dark_e` (log SD 0.6), plus
+    /// `light_e` of light per pixel (10 % spread); with the expected dark signal.
+    fn long_dark(dark_e: f64, light_e: f64) -> (Vec<f64>, Vec<f64>, ExpectedDark) {
+        let k = 0.5;
+        let mut rng = stream(31, 9, 0);
+        let unit = Normal::new(0.0f64, 1.0).unwrap();
+        let (mut off, mut rms, mut q) = (Vec::new(), Vec::new(), Vec::new());
+        for _ in 0..4096 {
+            let d = dark_e * (0.6 * unit.sample(&mut rng)).exp();
+            let l = light_e * (1.0 + 0.1 * unit.sample(&mut rng));
+            off.push(100.0 + 6.0 * unit.sample(&mut rng) + (d + l) / k);
+            rms.push((1.6f64.powi(2) + d + l).sqrt() / k);
+            q.push(d);
+        }
+        let expected = ExpectedDark::new(&q, &vec![1.0 / k; q.len()], 1.0, "test");
+        (off, rms, expected)
+    }
+
+    #[test]
+    fn an_expected_dark_signal_is_not_light_and_light_beyond_it_still_is() {
+        // 20 e- of dark charge: its shot noise follows the level across pixels as light's does.
+        let (off, rms, expected) = long_dark(20.0, 0.0);
+        let seen = Illumination::measure(&off, &rms, Some(65_535.0));
+        assert!(seen.illuminated, "was refused: {}", seen.describe());
+        let seen = Illumination::measure_expecting(&off, &rms, Some(65_535.0), Some(&expected));
+        assert!(!seen.illuminated, "{}", seen.describe());
+        // 50 e- of light on top: still light.
+        let (off, rms, expected) = long_dark(20.0, 50.0);
+        let seen = Illumination::measure_expecting(&off, &rms, Some(65_535.0), Some(&expected));
+        assert!(seen.illuminated, "{}", seen.describe());
+        assert!(seen.describe().contains("expected dark signal"));
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! the common-mode offsets removed, and the telegraph fits of the RTS pixels.
 
 use super::accumulate::{stats_tapped, FrameHook, PixelStats};
-use super::common_mode::common_level;
+use super::common_mode::{mean_common_level, take_common_level};
 use super::flags::flag_pixels;
 use super::options::DarkOptions;
 use super::rts::{fit_rts, RtsFits};
@@ -48,19 +48,14 @@ pub fn dark_maps_hashed(
 
 /// Dark maps, handing the frames read to `tap`.
 fn maps(stack: &FrameStack, opts: &DarkOptions, tap: Option<&ByteTap>) -> Result<DarkMaps> {
-    let cm = |_k: usize, f: &mut [f64]| {
-        let m = common_level(f);
-        f.iter_mut().for_each(|v| *v -= m);
-        m
+    let hook: Option<FrameHook> = if opts.common_mode {
+        Some(&take_common_level)
+    } else {
+        None
     };
-    let hook: Option<FrameHook> = if opts.common_mode { Some(&cm) } else { None };
     let stats = stats_tapped(stack, opts.clip, hook, None, tap)?;
     let common_mode_adu = stats.per_frame.clone();
-    let cm_mean = if common_mode_adu.is_empty() {
-        0.0
-    } else {
-        common_mode_adu.iter().sum::<f64>() / common_mode_adu.len() as f64
-    };
+    let cm_mean = mean_common_level(&common_mode_adu);
     let offset: Vec<f64> = stats.mean.data.iter().map(|m| m + cm_mean).collect();
     let source = stack.sources[0].path.display().to_string();
     let offset_adu =

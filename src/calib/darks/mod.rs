@@ -28,15 +28,16 @@ mod telegraph;
 mod tile;
 
 pub use accumulate::{pixel_stats, pixel_stats_hashed, pixel_stats_of, FrameHook, PixelStats};
+pub use common_mode::{mean_common_level, take_common_level};
 pub use decompose::{rms_of, TemporalNoise, TemporalNoiseSummary};
 pub use flags::{
     FlagCounts, FLAG_BITS, FLAG_DEAD, FLAG_HOT, FLAG_NO_DATA, FLAG_RTS, FLAG_SATURATED,
 };
-pub use illumination::{require_dark, Illumination};
+pub use illumination::{require_dark, require_dark_expecting, ExpectedDark, Illumination};
 pub use kurtosis::{kurtosis_se, KurtosisSummary, KURTOSIS_SIGMAS};
 pub use lines::LineVariances;
 pub use maps::{dark_maps, dark_maps_hashed, DarkMaps};
-pub use options::{Clip, DarkOptions};
+pub use options::{Clip, DarkOptions, MAX_CLIP, MAX_SIGMA_CLIP};
 pub use outputs::{summarise, write_outputs, DarkSummary, OUTPUT_NAMES};
 pub use rts::{
     RtsFits, RtsPixel, RtsSummary, EXAMPLE_FRAMES, EXAMPLE_PIXELS, MAX_RTS_PIXELS, MAX_RTS_SAMPLES,

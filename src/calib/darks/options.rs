@@ -17,6 +17,33 @@ pub enum Clip {
     Sigma(f64),
 }
 
+/// Largest [`Clip::Extremes`] (samples rejected at each end of every pixel).
+pub const MAX_CLIP: usize = 100_000;
+/// Largest [`Clip::Sigma`] (standard deviations): Chebyshev's inequality bounds the fraction
+/// of any distribution's samples beyond it at 1e-6, so a larger K rejects nothing.
+pub const MAX_SIGMA_CLIP: f64 = 1e3;
+
+impl Clip {
+    /// Check the value (the frame count is checked when a stack is read): at most
+    /// [`MAX_CLIP`] samples, K in (0, [`MAX_SIGMA_CLIP`]]; the error names `clip` or
+    /// `sigma_clip`.
+    pub fn check(&self) -> Result<()> {
+        match *self {
+            Clip::None => Ok(()),
+            Clip::Extremes(n) if n <= MAX_CLIP => Ok(()),
+            Clip::Extremes(n) => Err(Error::invalid(
+                "clip",
+                format!("{n} samples: must be at most {MAX_CLIP}"),
+            )),
+            Clip::Sigma(k) if k > 0.0 && k <= MAX_SIGMA_CLIP => Ok(()),
+            Clip::Sigma(k) => Err(Error::invalid(
+                "sigma_clip",
+                format!("{k} must be > 0 and at most {MAX_SIGMA_CLIP} standard deviations"),
+            )),
+        }
+    }
+}
+
 /// Options of the dark-stack statistics.
 #[derive(Clone, Debug, Serialize)]
 pub struct DarkOptions {
@@ -57,9 +84,7 @@ impl DarkOptions {
         };
         positive("hot_sigma", self.hot_sigma, "robust sigmas")?;
         positive("rts_sigma", self.rts_sigma, "standard errors")?;
-        if let Clip::Sigma(k) = self.clip {
-            positive("sigma_clip", k, "standard deviations")?;
-        }
+        self.clip.check()?;
         if !(0.0..=1.0).contains(&self.dead_fraction) {
             return Err(Error::invalid(
                 "dead_fraction",
@@ -89,6 +114,11 @@ mod tests {
         assert_eq!(field(bad(|o| o.hot_sigma = 0.0)), "hot_sigma");
         assert_eq!(field(bad(|o| o.rts_sigma = f64::NAN)), "rts_sigma");
         assert_eq!(field(bad(|o| o.clip = Clip::Sigma(-1.0))), "sigma_clip");
+        assert_eq!(field(bad(|o| o.clip = Clip::Sigma(1e4))), "sigma_clip");
+        assert_eq!(
+            field(bad(|o| o.clip = Clip::Extremes(MAX_CLIP + 1))),
+            "clip"
+        );
         assert_eq!(field(bad(|o| o.dead_fraction = 1.5)), "dead_fraction");
     }
 }

@@ -4,12 +4,12 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use super::illumination::require_dark;
+use super::illumination::{require_dark_expecting, ExpectedDark};
 use super::maps::{dark_maps, dark_maps_hashed};
 use super::options::DarkOptions;
 use super::outputs::{write_outputs, DarkSummary, OUTPUT_NAMES};
 use crate::calib::summary::{unhashed, Checksum};
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::io::FrameStack;
 use crate::output::{DirPlan, OutputDir};
 use crate::progress::Observer;
@@ -33,6 +33,9 @@ pub struct DarksRun {
     pub checksum: Option<Checksum>,
     /// Use frames that look illuminated as darks (with a warning) instead of refusing them.
     pub accept_illuminated: bool,
+    /// The dark signal the frames are expected to hold (a camera model at their exposure),
+    /// taken off before the check for light; one value per pixel of the stack.
+    pub expected_dark: Option<ExpectedDark>,
 }
 
 /// What a dark calibration produced.
@@ -62,13 +65,30 @@ pub fn run(job: &DarksRun, observer: &dyn Observer) -> Result<DarksRunResult> {
         },
     )?;
     let stack = FrameStack::open(&job.stack)?;
+    if let Some(e) = &job.expected_dark {
+        if e.mean_adu.len() != stack.pixels() {
+            return Err(Error::invalid(
+                "camera",
+                format!(
+                    "{}: the camera model has {} pixels, the dark stack {} ({}x{})",
+                    e.source,
+                    e.mean_adu.len(),
+                    stack.pixels(),
+                    stack.shape.0,
+                    stack.shape.1
+                ),
+            ));
+        }
+    }
     let t = Instant::now();
     let (maps, inputs) = match job.checksum {
         Some(algorithm) => dark_maps_hashed(&stack, &job.options, algorithm)?,
         None => (dark_maps(&stack, &job.options)?, unhashed(&stack)),
     };
     let read_seconds = t.elapsed().as_secs_f64();
-    if let Some(warning) = require_dark(&stack, &maps, job.accept_illuminated)? {
+    let expected = job.expected_dark.as_ref();
+    if let Some(warning) = require_dark_expecting(&stack, &maps, job.accept_illuminated, expected)?
+    {
         observer.warn(&warning);
     }
     let summary = write_outputs(

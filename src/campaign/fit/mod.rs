@@ -32,7 +32,10 @@ use crate::error::Result;
 pub use classes::{HotClass, HotPixels, HotRule};
 pub use gain_curve::{EmGainCurve, EmGainRow};
 pub use noise::{GainNoiseFactor, ShotNoiseCheck};
-pub use options::{ConversionGain, DecomposeOptions, EmGainFit, TemperatureTerm};
+pub use options::{
+    ConversionGain, DecomposeOptions, EmGainFit, FitThresholds, TemperatureTerm,
+    DEFAULT_BAD_FIT_P_VALUE, MAX_CLASS_E_PER_S, MAX_CLASS_SIGMAS,
+};
 pub use outputs::{write_outputs, OUTPUT_NAMES};
 pub use pixels::FitQuality;
 pub use result::{ConditionRow, Decomposition, DecompositionSummary, MedianSe, TemperatureSummary};

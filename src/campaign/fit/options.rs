@@ -4,6 +4,16 @@
 use serde::Serialize;
 
 use super::classes::HotRule;
+use crate::error::{Error, Result};
+
+/// Largest threshold of the warm and hot classes in robust sigmas of the dark-current map:
+/// beyond it no pixel of a map of a million is classed by chance or by its spread alone.
+pub const MAX_CLASS_SIGMAS: f64 = 1e3;
+/// Largest threshold of the warm and hot classes in e-/s: a dark current that fills a full
+/// well (~1e6 e-) within a second.
+pub const MAX_CLASS_E_PER_S: f64 = 1e6;
+/// Default p-value below which a pixel's fit is flagged bad.
+pub const DEFAULT_BAD_FIT_P_VALUE: f64 = 1e-3;
 
 /// The conversion gain K that turns adu into electrons.
 #[derive(Clone, Debug, PartialEq)]
@@ -87,7 +97,131 @@ impl DecomposeOptions {
             temperature: TemperatureTerm::Off,
             register_stages: 604,
             hot: HotRule::default(),
-            bad_fit_p_value: 1e-3,
+            bad_fit_p_value: DEFAULT_BAD_FIT_P_VALUE,
         }
+    }
+
+    /// These options with the user's thresholds `t`.
+    pub fn with_thresholds(self, t: FitThresholds) -> Self {
+        DecomposeOptions {
+            hot: t.hot,
+            bad_fit_p_value: t.bad_fit_p_value,
+            ..self
+        }
+    }
+}
+
+/// The thresholds of a decomposition a user sets (`campaign --warm-sigma`, ...): the warm and
+/// hot pixel classes and the bad-fit p-value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FitThresholds {
+    /// Thresholds of the warm and hot classes.
+    pub hot: HotRule,
+    /// A pixel's fit is flagged bad when its chi2 has a p-value below this (unitless).
+    pub bad_fit_p_value: f64,
+}
+
+impl Default for FitThresholds {
+    /// Warm/hot at 5/25 robust sigmas above the median dark current, bad fit at p < 1e-3.
+    fn default() -> Self {
+        FitThresholds {
+            hot: HotRule::default(),
+            bad_fit_p_value: DEFAULT_BAD_FIT_P_VALUE,
+        }
+    }
+}
+
+impl FitThresholds {
+    /// Check every value before any frame is read: thresholds in (0, max] of their unit and
+    /// warm below hot, the p-value in (0, 1); the error names the field at fault.
+    pub fn check(&self) -> Result<()> {
+        let (warm, hot, max, unit, names) = match self.hot {
+            HotRule::Robust {
+                warm_sigmas,
+                hot_sigmas,
+            } => (
+                warm_sigmas,
+                hot_sigmas,
+                MAX_CLASS_SIGMAS,
+                "robust sigmas",
+                ["warm_sigma", "hot_sigma"],
+            ),
+            HotRule::Absolute {
+                warm_e_per_s,
+                hot_e_per_s,
+            } => (
+                warm_e_per_s,
+                hot_e_per_s,
+                MAX_CLASS_E_PER_S,
+                "e-/s",
+                ["warm_e_per_s", "hot_e_per_s"],
+            ),
+        };
+        for (field, v) in names.iter().zip([warm, hot]) {
+            if !(v > 0.0 && v <= max) {
+                return Err(Error::invalid(
+                    *field,
+                    format!("{v} {unit}: must be > 0 and at most {max:e}"),
+                ));
+            }
+        }
+        if warm >= hot {
+            return Err(Error::invalid(
+                names[1],
+                format!(
+                    "{hot} {unit}: the hot threshold must be above the warm one (`{}` {warm})",
+                    names[0]
+                ),
+            ));
+        }
+        let p = self.bad_fit_p_value;
+        if !(p > 0.0 && p < 1.0) {
+            return Err(Error::invalid(
+                "bad_fit_p_value",
+                format!("{p}: must be in (0, 1)"),
+            ));
+        }
+        self.hot.check()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn thresholds_are_bounded_and_errors_name_the_field() {
+        assert!(FitThresholds::default().check().is_ok());
+        let field = |hot: HotRule, p: f64| match (FitThresholds {
+            hot,
+            bad_fit_p_value: p,
+        })
+        .check()
+        {
+            Err(Error::Usage { field, .. }) => field,
+            other => panic!("{other:?}"),
+        };
+        let robust = |warm_sigmas, hot_sigmas| HotRule::Robust {
+            warm_sigmas,
+            hot_sigmas,
+        };
+        let absolute = |warm_e_per_s, hot_e_per_s| HotRule::Absolute {
+            warm_e_per_s,
+            hot_e_per_s,
+        };
+        assert_eq!(field(robust(0.0, 25.0), 1e-3), "warm_sigma");
+        assert_eq!(field(robust(5.0, 2e3), 1e-3), "hot_sigma");
+        assert_eq!(field(robust(5.0, f64::NAN), 1e-3), "hot_sigma");
+        assert_eq!(field(robust(30.0, 25.0), 1e-3), "hot_sigma");
+        assert_eq!(field(absolute(-1.0, 5.0), 1e-3), "warm_e_per_s");
+        assert_eq!(field(absolute(1.0, 1e7), 1e-3), "hot_e_per_s");
+        assert_eq!(field(robust(5.0, 25.0), 1.0), "bad_fit_p_value");
+        assert_eq!(field(robust(5.0, 25.0), 0.0), "bad_fit_p_value");
+        assert!(FitThresholds {
+            hot: absolute(1.0, 1e6),
+            bad_fit_p_value: 0.5
+        }
+        .check()
+        .is_ok());
     }
 }
