@@ -4,12 +4,14 @@
 //! offset and the noise of each pixel, for the readout model `camera`, `synth` and the report.
 //!
 //! Layout: `model` (the type, its parts and their checks), `file` (the folder format),
-//! `operating` (an operating point and the camera at it).
+//! `operating` (an operating point and the camera at it), `sample` (a frame's draws of it).
 
 mod file;
 mod model;
 mod operating;
+mod sample;
 
 pub use file::{CAMERA_JSON, MAP_FILES};
 pub use model::{CameraModel, DarkCurrent, EmRegisterModel};
 pub use operating::{CameraAt, OperatingPoint, MAX_EXPOSURE_S};
+pub use sample::CameraSampler;
