@@ -486,6 +486,25 @@ mod tests {
     }
 
     #[test]
+    fn telegraph_pixels_and_serial_cic_are_checked() {
+        use crate::detector::rts_table::fixture::{row, table};
+        // A telegraph pixel outside the 2x3 frame (column 3) is refused naming its line.
+        let rts = table(&[row(3, 0, "ok", &[(-1.0, 0.5, 1.0), (1.0, 0.5, 1.0)], true)]);
+        let e = small().with_rts_csv(rts).unwrap_err().to_string();
+        assert!(
+            e.contains("rts.csv: line 2: pixel (x_px 3, y_px 0) is outside the 2x3 px camera"),
+            "{e}"
+        );
+        let reg = EmRegisterModel {
+            stages: 604,
+            gain_curve: vec![],
+            serial_cic_e: Some(-0.1),
+        };
+        let e = small().with_register(reg).unwrap_err().to_string();
+        assert!(e.contains("`em_register.serial_cic_e`"), "{e}");
+    }
+
+    #[test]
     fn the_gain_curve_is_interpolated_and_bounded() {
         let reg = EmRegisterModel {
             stages: 604,

@@ -336,6 +336,10 @@ mod tests {
             .collect();
         let x = least_squares(&rows, 2).unwrap();
         let line = x[0] + x[1] * 400.0;
-        assert!((line / s(400.0) - 1.0).abs() < 0.07, "{line} vs {}", s(400.0));
+        assert!(
+            (line / s(400.0) - 1.0).abs() < 0.07,
+            "{line} vs {}",
+            s(400.0)
+        );
     }
 }
