@@ -240,7 +240,8 @@ impl ScmosRts {
         for i in 0..n {
             for (c, t) in self.telegraph.in_row(r0 + i, c0, n) {
                 let j = i * n + (c - c0);
-                out[j] = input.photo_e[j] as f64 + t.value(aux.random::<f64>(), input.normals[j]);
+                let k = t.level(aux.random::<f64>());
+                out[j] = input.photo_e[j] as f64 + t.level_e[k] + t.width_e[k] * input.normals[j];
             }
         }
         (r0, c0)
