@@ -101,6 +101,9 @@ struct DarkHeader {
 struct RegisterHeader {
     stages: u32,
     gain_curve: Vec<[f64; 2]>,
+    /// Absent in models written before serial CIC was measured (and when it was not).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    serial_cic_e: Option<f64>,
 }
 
 impl CameraModel {
@@ -179,6 +182,7 @@ impl CameraModel {
             em_register: self.register.as_ref().map(|r| RegisterHeader {
                 stages: r.stages,
                 gain_curve: r.gain_curve.iter().map(|&(c, a)| [c, a]).collect(),
+                serial_cic_e: r.serial_cic_e,
             }),
             saturation_adu: self.saturation_adu,
             bit_depth: self.bit_depth,
@@ -247,6 +251,7 @@ impl CameraModel {
             register: h.em_register.map(|r| EmRegisterModel {
                 stages: r.stages,
                 gain_curve: r.gain_curve.iter().map(|p| (p[0], p[1])).collect(),
+                serial_cic_e: r.serial_cic_e,
             }),
             saturation_adu: h.saturation_adu,
             bit_depth: h.bit_depth,
@@ -330,6 +335,7 @@ mod tests {
             .with_register(EmRegisterModel {
                 stages: 604,
                 gain_curve: vec![(10.0, 11.0), (1000.0, 950.0)],
+                serial_cic_e: Some(0.05),
             })
             .unwrap()
             .with_gain_map(Map::filled(2, 3, 0.5, Unit::EPerAdu))
@@ -389,6 +395,30 @@ mod tests {
             e.contains("camera.json: `campaign.exposures_s`: value 0"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_camera_json_without_serial_cic_reads_as_none() {
+        // Models written before the register had a serial-CIC rate hold no such key.
+        let d = tempfile::tempdir().unwrap();
+        let dir = d.path().join("cam");
+        camera().write(&dir, false, &[]).unwrap();
+        let json = dir.join(CAMERA_JSON);
+        let mut h: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let reg = h["em_register"].as_object_mut().unwrap();
+        assert_eq!(reg.remove("serial_cic_e"), Some(serde_json::json!(0.05)));
+        std::fs::write(&json, serde_json::to_string_pretty(&h).unwrap()).unwrap();
+        let back = CameraModel::read(&dir).unwrap();
+        assert_eq!(back.register.as_ref().unwrap().serial_cic_e, None);
+        let mut expect = camera();
+        expect.register.as_mut().unwrap().serial_cic_e = None;
+        assert_eq!(back, expect);
+        // And a model without it writes no key (older readers' files stay as they were).
+        let again = d.path().join("again");
+        back.write(&again, false, &[]).unwrap();
+        let text = std::fs::read_to_string(again.join(CAMERA_JSON)).unwrap();
+        assert!(!text.contains("serial_cic_e"), "{text}");
     }
 
     #[test]

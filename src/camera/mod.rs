@@ -5,14 +5,16 @@
 //!
 //! Layout: `model` (the type, its parts and their checks), `file` (the folder format),
 //! `operating` (an operating point and the camera at it), `range` (the campaign's conditions
-//! and the point a run chooses from them).
+//! and the point a run chooses from them), `sample` (a frame's draws of it).
 
 mod file;
 mod model;
 mod operating;
 mod range;
+mod sample;
 
 pub use file::{CAMERA_JSON, MAP_FILES};
 pub use model::{CameraModel, DarkCurrent, EmRegisterModel};
 pub use operating::{CameraAt, OperatingPoint, MAX_EXPOSURE_S};
 pub use range::{CameraChoice, ExposureChoice, OperatingRange};
+pub use sample::CameraSampler;

@@ -4,6 +4,7 @@
 use super::range::OperatingRange;
 use crate::calib::{Map, Unit};
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
+use crate::detector::scmos_rts::TelegraphPixels;
 use crate::detector::EmRegister;
 use crate::settings::{MAX_GAIN_E_PER_ADU, MAX_NOISE_E};
 use crate::{Error, Result};
@@ -34,6 +35,9 @@ pub struct EmRegisterModel {
     /// Commanded gain -> actual mean gain, (commanded, actual) pairs with the commanded gain
     /// strictly ascending, interpolated linearly; empty: the actual gain is the commanded one.
     pub gain_curve: Vec<(f64, f64)>,
+    /// Serial (in-register) clock-induced charge, events per pixel over the whole register
+    /// (each born at a uniformly random stage, as `emgain` fits it); None: not measured.
+    pub serial_cic_e: Option<f64>,
 }
 
 /// The measured camera. Maps share one shape (rows x cols, the offset's); amplitudes of noise
@@ -268,13 +272,22 @@ impl CameraModel {
                 ),
             ));
         }
-        if let Some(text) = &self.rts_csv {
-            crate::detector::RtsTable::parse(text, std::path::Path::new("rts.csv"))?;
-        }
+        self.telegraph()?;
         if let Some(range) = &self.campaign {
             range.check()?;
         }
         Ok(())
+    }
+
+    /// The telegraph pixels of `rts_csv` on the camera's frame (None: none), checked: the
+    /// table's reader and every pixel inside the frame.
+    pub(crate) fn telegraph(&self) -> Result<Option<TelegraphPixels>> {
+        let Some(text) = &self.rts_csv else {
+            return Ok(None);
+        };
+        let table = crate::detector::RtsTable::parse(text, std::path::Path::new("rts.csv"))?;
+        let (rows, cols) = self.shape();
+        TelegraphPixels::new(&table, rows, cols, "camera").map(Some)
     }
 
     /// The actual mean EM gain at the commanded gain `commanded` (e-/e-), through the gain
@@ -406,6 +419,15 @@ fn check_register(r: &EmRegisterModel) -> Result<()> {
             format!("{}: must be 1 to {MAX_STAGES}", r.stages),
         ));
     }
+    if let Some(c) = r.serial_cic_e {
+        check_scalar(
+            "em_register.serial_cic_e",
+            c,
+            true,
+            MAX_CIC_E,
+            "events per pixel",
+        )?;
+    }
     for (i, &(c, a)) in r.gain_curve.iter().enumerate() {
         let ok = |g: f64| g.is_finite() && (1.0..=MAX_EM_GAIN).contains(&g);
         if !ok(c) || !ok(a) {
@@ -474,9 +496,29 @@ mod tests {
         let reg = EmRegisterModel {
             stages: 604,
             gain_curve: vec![(10.0, 9.0), (5.0, 6.0)],
+            serial_cic_e: None,
         };
         let e = cam.with_register(reg).unwrap_err();
         assert!(e.to_string().contains("ascend strictly"), "{e}");
+    }
+
+    #[test]
+    fn telegraph_pixels_and_serial_cic_are_checked() {
+        use crate::detector::rts_table::fixture::{row, table};
+        // A telegraph pixel outside the 2x3 frame (column 3) is refused naming its line.
+        let rts = table(&[row(3, 0, "ok", &[(-1.0, 0.5, 1.0), (1.0, 0.5, 1.0)], true)]);
+        let e = small().with_rts_csv(rts).unwrap_err().to_string();
+        assert!(
+            e.contains("rts.csv: line 2: pixel (x_px 3, y_px 0) is outside the 2x3 px camera"),
+            "{e}"
+        );
+        let reg = EmRegisterModel {
+            stages: 604,
+            gain_curve: vec![],
+            serial_cic_e: Some(-0.1),
+        };
+        let e = small().with_register(reg).unwrap_err().to_string();
+        assert!(e.contains("`em_register.serial_cic_e`"), "{e}");
     }
 
     #[test]
@@ -484,6 +526,7 @@ mod tests {
         let reg = EmRegisterModel {
             stages: 604,
             gain_curve: vec![(100.0, 80.0), (300.0, 280.0)],
+            serial_cic_e: None,
         };
         let cam = small().with_register(reg).unwrap();
         assert_eq!(cam.actual_em_gain(200.0).unwrap(), 180.0);

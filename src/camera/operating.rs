@@ -1,9 +1,12 @@
 //! An operating point (exposure, EM gain, temperature) and the camera at it: per pixel the
 //! expected dark signal, the offset and the noise of every term, input-referred.
 
+use std::sync::Arc;
+
 use super::model::CameraModel;
 use crate::calib::Map;
-use crate::detector::register::excess_noise_factor_sq;
+use crate::detector::register::{excess_noise_factor_sq, serial_cic_moments};
+use crate::detector::scmos_rts::TelegraphPixels;
 use crate::{Error, Result};
 
 pub use crate::settings::MAX_EXPOSURE_S;
@@ -39,8 +42,19 @@ pub struct CameraAt {
     pub offset_adu: Vec<f64>,
     /// Conversion gain of each pixel, e- (output) per adu.
     pub gain_e_per_adu: Vec<f64>,
-    /// Expected dark signal of each pixel per frame, e-: dark current x exposure + CIC.
+    /// Expected dark charge of each pixel per frame, e-: dark current x exposure + CIC (the
+    /// charge that enters the register; serial CIC apart, see [`CameraAt::dark_signal_e`]).
     pub dark_e: Vec<f64>,
+    /// Serial (in-register) CIC, events per pixel per frame (0 without multiplication or
+    /// without a measured rate).
+    pub serial_cic_e: f64,
+    /// Mean of the serial CIC's output per pixel, e- input-referred.
+    pub serial_cic_mean_e: f64,
+    /// Variance of the serial CIC's output per pixel, e-^2 input-referred.
+    pub serial_cic_variance_e2: f64,
+    /// The telegraph pixels of the model's `rts.csv`, levels and widths output-referred e-
+    /// (divided by the EM gain where used); None: none.
+    pub(crate) telegraph: Option<Arc<TelegraphPixels>>,
     /// Read noise of each pixel, e- rms, input-referred (a pixel without a value: the map's rms).
     pub read_noise_e: Vec<f64>,
     /// Row noise, e- rms, input-referred.
@@ -102,6 +116,11 @@ impl CameraModel {
                 .collect(),
             None => vec![self.gain_e_per_adu; n],
         };
+        let serial_cic_e = match (stages, &self.register) {
+            (Some(_), Some(r)) => r.serial_cic_e.unwrap_or(0.0),
+            _ => 0.0,
+        };
+        let (m1, m2) = stages.map_or((0.0, 0.0), |s| serial_cic_moments(em_gain, s));
         Ok(CameraAt {
             point: op,
             shape: self.shape(),
@@ -111,6 +130,10 @@ impl CameraModel {
             offset_adu: filled(&self.offset_adu, median),
             gain_e_per_adu,
             dark_e,
+            serial_cic_e,
+            serial_cic_mean_e: serial_cic_e * m1 / em_gain,
+            serial_cic_variance_e2: serial_cic_e * m2 / (em_gain * em_gain),
+            telegraph: self.telegraph()?.map(Arc::new),
             read_noise_e: filled(&self.read_noise_e, rms)
                 .iter()
                 .map(|s| s / em_gain)
@@ -157,10 +180,68 @@ impl CameraAt {
         self.offset_adu.len()
     }
 
-    /// Variance of pixel `i`'s own noise, e-^2: read noise plus the dark signal's shot noise
-    /// (times the register's excess noise factor squared).
+    /// The kind of camera at this point: an EMCCD when its register multiplies, else a camera
+    /// read directly (sCMOS, or a CCD without EM gain).
+    pub fn sensor(&self) -> crate::detector::Sensor {
+        match self.stages {
+            Some(_) => crate::detector::Sensor::Emccd,
+            None => crate::detector::Sensor::Scmos,
+        }
+    }
+
+    /// Expected dark signal of pixel `i` per frame, e- input-referred: its dark charge and
+    /// the serial CIC's mean output.
+    pub fn dark_signal_e(&self, i: usize) -> f64 {
+        self.dark_e[i] + self.serial_cic_mean_e
+    }
+
+    /// Variance of pixel `i`'s own noise, e-^2: read noise (at a telegraph pixel its
+    /// telegraph's variance instead), the dark charge's shot noise (times the register's excess
+    /// noise factor squared), the serial CIC's and the quantisation's.
     pub fn pixel_variance_e2(&self, i: usize) -> f64 {
-        self.read_noise_e[i].powi(2) + self.excess_noise_f2 * self.dark_e[i]
+        self.read_variance_e2(i)
+            + self.excess_noise_f2 * self.dark_e[i]
+            + self.serial_cic_variance_e2
+            + self.quantisation_variance_e2(i)
+    }
+
+    /// Variance of pixel `i`'s read noise, e-^2 input-referred: the read noise map's, or at a
+    /// telegraph pixel sum_k occupancy_k ((level_k - mean)^2 + width_k^2) (the table's widths
+    /// are the pixel's Gaussian noise around each level, so they replace the map's sigma there,
+    /// as in `scmos-rts`).
+    pub fn read_variance_e2(&self, i: usize) -> f64 {
+        match self.telegraph_at(i) {
+            Some(t) => t.variance_e2() / (self.em_gain * self.em_gain),
+            None => self.read_noise_e[i].powi(2),
+        }
+    }
+
+    /// The telegraph of pixel `i`, if it is a telegraph pixel.
+    pub(crate) fn telegraph_at(&self, i: usize) -> Option<&crate::detector::scmos_rts::Telegraph> {
+        let cols = self.shape.1;
+        self.telegraph.as_ref()?.at(i / cols, i % cols)
+    }
+
+    /// Variance the rounding to whole adu adds to pixel `i`, e-^2 input-referred: 1/12 adu^2
+    /// (exact for noise above about 0.5 adu rms; Sheppard's correction).
+    pub fn quantisation_variance_e2(&self, i: usize) -> f64 {
+        (self.gain_e_per_adu[i] / self.em_gain).powi(2) / 12.0
+    }
+
+    /// Pixel `i` holding `e` e- (input-referred, the dark signal included) as the camera
+    /// outputs it, adu: offset plus `e` converted, rounded to a whole adu and clipped to
+    /// [0, saturation].
+    pub fn digitise(&self, i: usize, e: f64) -> f64 {
+        (self.offset_adu[i] + e * self.adu_per_e(i))
+            .round()
+            .clamp(0.0, self.saturation_adu)
+    }
+
+    /// Pixel `i`'s value `x` (e- input-referred, the expected dark signal taken off) after the
+    /// camera's converter: digitised ([`CameraAt::digitise`]) and converted back.
+    pub fn quantised_e(&self, i: usize, x: f64) -> f64 {
+        let dark = self.dark_signal_e(i);
+        (self.digitise(i, x + dark) - self.offset_adu[i]) / self.adu_per_e(i) - dark
     }
 
     /// Variance of noise common to a row, a column and the frame, e-^2 (each counted once).
@@ -187,7 +268,7 @@ impl CameraAt {
 
     /// Expected value of pixel `i` in a dark frame, adu: offset plus the dark signal.
     pub fn mean_adu(&self, i: usize) -> f64 {
-        self.offset_adu[i] + self.dark_e[i] * self.adu_per_e(i)
+        self.offset_adu[i] + self.dark_signal_e(i) * self.adu_per_e(i)
     }
 
     /// Total temporal noise of pixel `i`, adu rms.
@@ -196,7 +277,8 @@ impl CameraAt {
     }
 
     /// The effective read noise of the camera at this point, e- rms input-referred: the median
-    /// over the pixels of the total temporal noise (read, dark shot, CIC, row, column, frame).
+    /// over the pixels of the total temporal noise (read or telegraph, dark shot, CIC, serial
+    /// CIC, quantisation, row, column, frame).
     pub fn effective_read_noise_e(&self) -> f64 {
         crate::stats::median(&self.total_noise_e())
     }
@@ -253,6 +335,7 @@ mod tests {
             cam.with_register(EmRegisterModel {
                 stages: 604,
                 gain_curve: vec![],
+                serial_cic_e: None,
             })
             .unwrap()
         } else {
@@ -272,8 +355,11 @@ mod tests {
         assert_eq!(at.dark_e, vec![2.1, 6.1]);
         assert_eq!(at.read_noise_e, vec![3.0, 3.0]);
         let common = 0.09 + 0.16 + 1.44;
-        assert!((at.total_variance_e2(0) - (9.0 + 2.1 + common)).abs() < 1e-12);
+        // The rounding to whole adu adds 1/12 adu^2: (2 e-/adu)^2 / 12.
+        let q = 4.0 / 12.0;
+        assert!((at.total_variance_e2(0) - (9.0 + 2.1 + q + common)).abs() < 1e-12);
         assert_eq!(at.mean_adu(1), 100.0 + 6.1 / 2.0);
+        assert_eq!(at.sensor(), crate::detector::Sensor::Scmos);
         // Behind a register of gain 100: read and common noise divided by it, shot noise
         // times F^2 (1.976 for 604 stages at this gain, not 2).
         let op = OperatingPoint {
@@ -288,9 +374,20 @@ mod tests {
             "{}",
             at.excess_noise_f2
         );
-        let v = 0.03f64.powi(2) + at.excess_noise_f2 * 1.1 + common / 1e4;
+        let v = 0.03f64.powi(2) + at.excess_noise_f2 * 1.1 + common / 1e4 + q / 1e4;
         assert!((at.total_variance_e2(0) - v).abs() < 1e-12);
         assert_eq!(at.mean_adu(0), 100.0 + 1.1 * 50.0);
+        assert_eq!(at.sensor(), crate::detector::Sensor::Emccd);
+        // With serial CIC (0.1 events per pixel): its mean output and variance, divided by
+        // the gain, join the dark signal and the variance.
+        let mut cam = camera(true, false);
+        cam.register.as_mut().unwrap().serial_cic_e = Some(0.1);
+        let with = cam.at(op).unwrap();
+        let (m1, m2) = serial_cic_moments(100.0, 604);
+        assert!((with.dark_signal_e(0) - (1.1 + 0.1 * m1 / 100.0)).abs() < 1e-12);
+        assert!((with.mean_adu(0) - (100.0 + with.dark_signal_e(0) * 50.0)).abs() < 1e-9);
+        let dv = with.total_variance_e2(0) - at.total_variance_e2(0);
+        assert!((dv - 0.1 * m2 / 1e4).abs() < 1e-12, "{dv}");
     }
 
     #[test]

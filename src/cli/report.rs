@@ -324,7 +324,7 @@ mod tests {
             "{line}"
         );
         assert!(
-            line.contains(&format!("noise {:.4} e- rms", 17f64.sqrt())),
+            line.contains(&format!("noise {:.4} e- rms", (17f64 + 1.0 / 12.0).sqrt())),
             "{line}"
         );
     }

@@ -168,17 +168,88 @@ impl EmRegister {
     }
 }
 
+/// Serial (in-register) clock-induced charge: electrons born inside the register, a Poisson
+/// number per pixel (`rate`, events per pixel over the whole register, the unit `emgain`
+/// fits), each at a uniformly random stage, so that it passes j = 0 to N-1 of the N stages
+/// with equal probability (as `emgain`'s model of it). Sampled exactly from the tabulated
+/// mixture of the j-stage single-electron laws.
+#[derive(Debug, Clone)]
+pub struct SerialCic {
+    rate: f64,
+    alias: AliasTable,
+}
+
+impl SerialCic {
+    /// Serial CIC at `rate` events per pixel (> 0) in the register of mean gain `gain` and
+    /// `stages` stages (checked as [`EmRegister::check`]).
+    pub fn new(rate: f64, gain: f64, stages: u32) -> crate::Result<Self> {
+        EmRegister::check(gain, stages, "em_gain")?;
+        let p = stage_probability(gain, stages);
+        Ok(SerialCic {
+            rate,
+            alias: AliasTable::new(&output_pmf(gain, |z| serial_mixture(z, p, stages))),
+        })
+    }
+
+    /// Output electrons of one pixel's serial CIC: a Poisson number of events, each through
+    /// the stages left after its birth.
+    pub fn sample(&self, rng: &mut SimRng) -> f64 {
+        let k = crate::stats::poisson(self.rate, rng);
+        (0..k).map(|_| self.alias.sample(rng) as f64).sum()
+    }
+}
+
+/// Mean and second moment of the output (e-, e-^2) of one serial-CIC electron of a register of
+/// mean gain `gain` and `stages` stages: the averages over j = 0..N-1 stages passed of
+/// (1+p)^j and of var_j + (1+p)^(2j).
+pub fn serial_cic_moments(gain: f64, stages: u32) -> (f64, f64) {
+    let p = stage_probability(gain, stages);
+    let (mut m1, mut m2) = (0.0, 0.0);
+    for j in 0..stages {
+        let mean = (1.0 + p).powi(j as i32);
+        m1 += mean;
+        m2 += single_electron_variance(p, j) + mean * mean;
+    }
+    let n = f64::from(stages);
+    (m1 / n, m2 / n)
+}
+
+/// The mixture over j = 0..N-1 stages of the pgf after j stages, at each point of `z` (in
+/// place), in blocks as [`compose_stages`].
+fn serial_mixture(z: &mut [Complex64], p: f64, stages: u32) {
+    let n = f64::from(stages);
+    for block in z.chunks_mut(64) {
+        let mut sum = [Complex64::new(0.0, 0.0); 64];
+        for _ in 0..stages {
+            for (v, s) in block.iter_mut().zip(sum.iter_mut()) {
+                *s += *v;
+                *v = *v * ((1.0 - p) + p * *v);
+            }
+        }
+        for (v, s) in block.iter_mut().zip(sum) {
+            *v = s / n;
+        }
+    }
+}
+
 /// Round-off allowed in p = gain^(1/stages) - 1 <= 1 (gain exactly 2^stages).
 const P_ROUND_OFF: f64 = 1e-12;
 
 /// Single-electron output pmf, index = output electrons (index 0 has probability 0).
 fn single_electron_pmf(p: f64, stages: u32, gain: f64) -> Vec<f64> {
+    output_pmf(gain, |z| compose_stages(z, p, stages))
+}
+
+/// The pmf of an output of at least one electron (index = output electrons, index 0 has
+/// probability 0) whose pgf `pgf` evaluates in place on the roots of unity, for a register of
+/// mean gain `gain`.
+fn output_pmf(gain: f64, pgf: impl FnOnce(&mut [Complex64])) -> Vec<f64> {
     // The tail falls as exp(-x/g): 40 g leaves < 1e-17 of the mass outside.
     let size = ((40.0 * gain) as usize + 64).next_power_of_two().max(1024);
     let mut z: Vec<Complex64> = (0..size)
         .map(|j| Complex64::from_polar(1.0, 2.0 * std::f64::consts::PI * j as f64 / size as f64))
         .collect();
-    compose_stages(&mut z, p, stages);
+    pgf(&mut z);
     FftPlanner::new().plan_fft_forward(size).process(&mut z);
     // z_j = sum_k p_k e^{2 pi i jk/M}, so the forward FFT gives M p_m at index m.
     let mut pmf: Vec<f64> = z.iter().map(|v| (v.re / size as f64).max(0.0)).collect();
@@ -248,6 +319,36 @@ mod tests {
     use super::*;
     use crate::rng::stream;
     use crate::stats::mean_var;
+
+    #[test]
+    fn serial_cic_has_the_moments_of_uniform_birth_stages() {
+        // Mean per event (1/N) sum_j (1+p)^j = (G - 1) / (N p); a pixel's output is compound
+        // Poisson: mean rate m1, variance rate m2, both within 4 SE over 200k pixels.
+        let (g, stages, rate) = (100.0, 200, 0.5);
+        let (m1, m2) = serial_cic_moments(g, stages);
+        let p = stage_probability(g, stages);
+        assert!(
+            (m1 - (g - 1.0) / (f64::from(stages) * p)).abs() < 1e-9 * m1,
+            "{m1}"
+        );
+        let serial = SerialCic::new(rate, g, stages).unwrap();
+        let mut rng = stream(11, 0, 0);
+        let n = 200_000;
+        let xs: Vec<f64> = (0..n).map(|_| serial.sample(&mut rng)).collect();
+        let (m, v) = mean_var(&xs);
+        let var = rate * m2;
+        assert!(
+            (m - rate * m1).abs() < 4.0 * (var / n as f64).sqrt(),
+            "mean {m}"
+        );
+        // The variance's SE from the sample's own fourth moment.
+        let m4 = xs.iter().map(|x| (x - m).powi(4)).sum::<f64>() / n as f64;
+        let se = ((m4 - v * v) / n as f64).sqrt();
+        assert!(
+            (v - var).abs() < 4.0 * se,
+            "variance {v} vs {var} (se {se})"
+        );
+    }
 
     #[test]
     fn stages_composed_in_blocks_are_composed_point_by_point() {

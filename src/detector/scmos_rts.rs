@@ -37,8 +37,8 @@ pub const ENTRY: ModelEntry = ModelEntry {
 };
 
 /// One telegraph pixel as the readout draws it: cumulative occupancies, levels and widths.
-#[derive(Debug, Clone, Copy)]
-struct Telegraph {
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Telegraph {
     /// Cumulative occupancy up to each level; the last used one is exactly 1.
     cumulative: [f64; MAX_LEVELS],
     /// Level relative to the pixel's offset (e-).
@@ -74,32 +74,49 @@ impl Telegraph {
     fn level(&self, u: f64) -> usize {
         self.cumulative.iter().position(|&c| u < c).unwrap_or(0)
     }
+
+    /// One frame's value (e-, about the offset): the level a uniform deviate `u` in [0, 1)
+    /// falls in, plus its width times the normal deviate `z`.
+    pub(crate) fn value(&self, u: f64, z: f64) -> f64 {
+        let k = self.level(u);
+        self.level_e[k] + self.width_e[k] * z
+    }
+
+    /// Occupancy of each level (levels past the pixel's last have 0).
+    fn occupancies(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        (0..MAX_LEVELS).map(|k| {
+            let below = if k == 0 { 0.0 } else { self.cumulative[k - 1] };
+            (k, self.cumulative[k] - below)
+        })
+    }
+
+    /// Mean value, e-: sum_k occupancy_k level_k (0 for a table of `darks`, whose levels are
+    /// about the pixel's mean).
+    pub(crate) fn mean_e(&self) -> f64 {
+        self.occupancies().map(|(k, o)| o * self.level_e[k]).sum()
+    }
+
+    /// Variance of the value, e-^2: sum_k occupancy_k ((level_k - mean)^2 + width_k^2).
+    pub(crate) fn variance_e2(&self) -> f64 {
+        let m = self.mean_e();
+        self.occupancies()
+            .map(|(k, o)| o * ((self.level_e[k] - m).powi(2) + self.width_e[k].powi(2)))
+            .sum()
+    }
 }
 
-/// `scmos-rts`: each frame reads through a random window of the measured map (as `scmos-map`),
-/// except at the telegraph pixels of `darks`' table: there the pixel takes level k with
-/// probability occupancy_k, independently each frame (the Monte-Carlo's frames are
-/// independent, so the dwell times do not enter), and adds the level plus its Gaussian width
-/// times the frame's normal deviate. It replaces the map's sigma there rather than adding to
-/// it: the map's rms at an RTS pixel already contains the telegraph variance
-/// (sum_k occupancy_k (level_k^2 + width_k^2) about the pixel's offset).
-#[derive(Debug, Clone)]
-pub struct ScmosRts {
-    map: ScmosMap,
-    n: usize,
-    /// Telegraph pixels sorted by (row, column): those of map row r are
-    /// `pixels[row_start[r]..row_start[r + 1]]`, each with its column.
+/// The telegraph pixels of a table on a frame, by row: those of row r are
+/// `pixels[row_start[r]..row_start[r + 1]]`, each with its column, sorted by column.
+#[derive(Debug, Clone, PartialEq)]
+pub(crate) struct TelegraphPixels {
     row_start: Vec<usize>,
     pixels: Vec<(usize, Telegraph)>,
 }
 
-impl ScmosRts {
-    /// Windows of `n` x `n` pixels of `map` (in e-) with the `ok` telegraph pixels of `table`;
-    /// a pixel of the table outside the map is an error naming the table and its line.
-    pub fn new(map: Arc<Map>, table: &RtsTable, n: usize) -> Result<Self> {
-        let (rows, cols) = (map.rows, map.cols);
-        let map_source = map.source.clone();
-        let map = ScmosMap::new(map, n)?;
+impl TelegraphPixels {
+    /// The `ok` pixels of `table` on a `rows` x `cols` frame; a pixel outside it is an error
+    /// naming the table, its line and `frame` (what the frame is, e.g. the noise map's file).
+    pub(crate) fn new(table: &RtsTable, rows: usize, cols: usize, frame: &str) -> Result<Self> {
         // Telegraph pixels by row in linear time (a counting sort; a million rows are read):
         // each row's in table order, then sorted by column (stably, as one sort by (row,
         // column) would leave them).
@@ -109,9 +126,9 @@ impl ScmosRts {
                 return Err(Error::input(
                     &table.source,
                     format!(
-                        "line {}: pixel (x_px {}, y_px {}) is outside the {rows}x{cols} px noise \
-                         map {map_source}: the table and the map must come from the same camera \
-                         (x_px is the column, y_px the row, 0-based, of the full frame)",
+                        "line {}: pixel (x_px {}, y_px {}) is outside the {rows}x{cols} px {frame}: \
+                         the table and the map must come from the same camera (x_px is the \
+                         column, y_px the row, 0-based, of the full frame)",
                         p.line, p.x_px, p.y_px
                     ),
                 ));
@@ -130,17 +147,61 @@ impl ScmosRts {
         for r in 0..rows {
             pixels[row_start[r]..row_start[r + 1]].sort_by_key(|&(c, _)| c);
         }
-        Ok(ScmosRts {
-            map,
-            n,
-            row_start,
-            pixels,
-        })
+        Ok(TelegraphPixels { row_start, pixels })
+    }
+
+    /// Number of telegraph pixels.
+    pub(crate) fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    /// The telegraph pixels of row `row` from column `c0` to before `c0 + n`, with their columns.
+    pub(crate) fn in_row(
+        &self,
+        row: usize,
+        c0: usize,
+        n: usize,
+    ) -> impl Iterator<Item = &(usize, Telegraph)> {
+        let row = &self.pixels[self.row_start[row]..self.row_start[row + 1]];
+        let first = row.partition_point(|&(c, _)| c < c0);
+        row[first..].iter().take_while(move |&&(c, _)| c < c0 + n)
+    }
+
+    /// The telegraph pixel at (`row`, `col`), if it is one.
+    pub(crate) fn at(&self, row: usize, col: usize) -> Option<&Telegraph> {
+        self.in_row(row, col, 1).next().map(|(_, t)| t)
+    }
+}
+
+/// `scmos-rts`: each frame reads through a random window of the measured map (as `scmos-map`),
+/// except at the telegraph pixels of `darks`' table: there the pixel takes level k with
+/// probability occupancy_k, independently each frame (the Monte-Carlo's frames are
+/// independent, so the dwell times do not enter), and adds the level plus its Gaussian width
+/// times the frame's normal deviate. It replaces the map's sigma there rather than adding to
+/// it: the map's rms at an RTS pixel already contains the telegraph variance
+/// (sum_k occupancy_k (level_k^2 + width_k^2) about the pixel's offset).
+#[derive(Debug, Clone)]
+pub struct ScmosRts {
+    map: ScmosMap,
+    n: usize,
+    telegraph: TelegraphPixels,
+}
+
+impl ScmosRts {
+    /// Windows of `n` x `n` pixels of `map` (in e-) with the `ok` telegraph pixels of `table`;
+    /// a pixel of the table outside the map is an error naming the table and its line.
+    pub fn new(map: Arc<Map>, table: &RtsTable, n: usize) -> Result<Self> {
+        let (rows, cols) = (map.rows, map.cols);
+        let map_source = map.source.clone();
+        let map = ScmosMap::new(map, n)?;
+        let frame = format!("noise map {map_source}");
+        let telegraph = TelegraphPixels::new(table, rows, cols, &frame)?;
+        Ok(ScmosRts { map, n, telegraph })
     }
 
     /// Number of telegraph pixels simulated.
     pub fn rts_pixels(&self) -> usize {
-        self.pixels.len()
+        self.telegraph.len()
     }
 }
 
@@ -177,9 +238,7 @@ impl ScmosRts {
         let (r0, c0) = self.map.read_window(input, aux, out);
         // Then one uniform draw per telegraph pixel of the window, in pixel order.
         for i in 0..n {
-            let row = &self.pixels[self.row_start[r0 + i]..self.row_start[r0 + i + 1]];
-            let first = row.partition_point(|&(c, _)| c < c0);
-            for (c, t) in row[first..].iter().take_while(|&&(c, _)| c < c0 + n) {
+            for (c, t) in self.telegraph.in_row(r0 + i, c0, n) {
                 let j = i * n + (c - c0);
                 let k = t.level(aux.random::<f64>());
                 out[j] = input.photo_e[j] as f64 + t.level_e[k] + t.width_e[k] * input.normals[j];

@@ -4,8 +4,8 @@
 use std::path::{Path, PathBuf};
 
 use crate::calib::Unit;
-use crate::camera::CameraAt;
-use crate::detector::{draw_normals, EmRegister};
+use crate::camera::{CameraAt, CameraSampler};
+use crate::detector::draw_normals;
 use crate::io::fits::{key, write_cube, KeyValue};
 use crate::rng::{stream, SimRng};
 use crate::Result;
@@ -18,24 +18,22 @@ const PURPOSE_CAMERA: u64 = 40;
 #[derive(Debug, Clone)]
 pub struct CameraDarks<'a> {
     at: &'a CameraAt,
-    register: Option<EmRegister>,
+    sampler: CameraSampler,
     seed: u64,
 }
 
 impl<'a> CameraDarks<'a> {
     /// The darks of `at` with seed `seed`.
     pub fn new(at: &'a CameraAt, seed: u64) -> Result<Self> {
-        let register = at
-            .stages
-            .map(|s| EmRegister::new(at.em_gain, s))
-            .transpose()?;
-        Ok(CameraDarks { at, register, seed })
+        let sampler = CameraSampler::new(at)?;
+        Ok(CameraDarks { at, sampler, seed })
     }
 
-    /// Frame `k` in adu, row-major, clipped to [0, saturation]: per pixel a Poisson draw of
-    /// the dark signal (through the register), read noise, and one draw per row, per column
-    /// and per frame scaled by their amplitudes, converted with the pixel's gain plus its
-    /// offset.
+    /// Frame `k` in adu, row-major, whole adu clipped to [0, saturation]: per pixel a Poisson
+    /// draw of the dark charge (through the register), serial CIC, read noise (or the
+    /// telegraph), and one draw per row, per column and per frame scaled by their amplitudes,
+    /// converted with the pixel's gain plus its offset (see [`CameraSampler::pixel_e`] and
+    /// [`CameraAt::digitise`]).
     pub fn frame(&self, k: usize) -> Vec<f64> {
         let at = self.at;
         let (rows, cols) = at.shape;
@@ -50,20 +48,11 @@ impl<'a> CameraDarks<'a> {
         (0..rows * cols)
             .map(|p| {
                 let (i, j) = (p / cols, p % cols);
-                let d = match at.dark_e[p] {
-                    m if m > 0.0 => crate::stats::poisson(m, &mut rng),
-                    _ => 0,
-                };
-                let out_e = match &self.register {
-                    Some(reg) if d > 0 => reg.sample(u64::from(d), &mut rng),
-                    _ => f64::from(d),
-                };
-                let noise_in = at.read_noise_e[p] * z[p]
+                let e = self.sampler.pixel_e(at, p, 0, z[p], &mut rng)
                     + at.row_noise_e * row_z[i]
                     + at.column_noise_e * col_z[j]
                     + frame;
-                let adu = at.offset_adu[p] + (out_e + at.em_gain * noise_in) / at.gain_e_per_adu[p];
-                adu.clamp(0.0, at.saturation_adu)
+                at.digitise(p, e)
             })
             .collect()
     }
@@ -146,7 +135,9 @@ pub fn write_camera_darks(
         .collect();
     at.map(se_e, Unit::Electrons).write_fits(&se, &keys)?;
     Ok(CameraDarksSummary {
-        dark_e_median: crate::stats::median(&at.dark_e),
+        dark_e_median: crate::stats::median(
+            &(0..npx).map(|i| at.dark_signal_e(i)).collect::<Vec<_>>(),
+        ),
         noise_e_median: at.effective_read_noise_e(),
     })
 }
@@ -159,7 +150,7 @@ mod tests {
 
     /// Each pixel's mean and variance over many frames agree with the camera at the
     /// operating point (4 SE), in adu.
-    fn check(cam: &CameraModel, op: OperatingPoint, n: usize, kurtosis: f64) {
+    fn check(cam: &CameraModel, op: OperatingPoint, n: usize) {
         let at = cam.at(op).unwrap();
         let darks = CameraDarks::new(&at, 3).unwrap();
         let frames: Vec<Vec<f64>> = (0..n).map(|k| darks.frame(k)).collect();
@@ -171,8 +162,11 @@ mod tests {
                 (m - at.mean_adu(p)).abs() < 4.0 * (var / n as f64).sqrt(),
                 "{p}: mean {m}"
             );
-            let se = var * ((kurtosis - 1.0) / n as f64).sqrt();
+            // The variance's SE from the sample's fourth moment.
+            let m4 = xs.iter().map(|x| (x - m).powi(4)).sum::<f64>() / n as f64;
+            let se = ((m4 - v * v) / n as f64).sqrt();
             assert!((v - var).abs() < 4.0 * se, "{p}: var {v} vs {var}");
+            assert!(xs.iter().all(|x| x.fract() == 0.0), "{p}: whole adu");
         }
     }
 
@@ -203,10 +197,11 @@ mod tests {
             em_gain: None,
             temperature_c: None,
         };
-        check(&camera(), op, 40_000, 3.5);
+        check(&camera(), op, 40_000);
         let reg = EmRegisterModel {
             stages: 604,
             gain_curve: vec![],
+            serial_cic_e: None,
         };
         let em = camera().with_register(reg).unwrap();
         let op = OperatingPoint {
@@ -214,6 +209,40 @@ mod tests {
             em_gain: Some(50.0),
             temperature_c: None,
         };
-        check(&em, op, 40_000, 12.0);
+        check(&em, op, 40_000);
+    }
+
+    #[test]
+    fn dark_frames_hold_the_serial_cic_and_the_telegraph_pixels() {
+        // Pixel (row 1, column 0) a two-level telegraph of 30 e- steps (output-referred), and
+        // 0.1 serial CIC events per pixel, at G 50: both in the frames' mean and variance.
+        let rts = crate::detector::rts_table::fixture::table(&[
+            crate::detector::rts_table::fixture::row(
+                0,
+                1,
+                "ok",
+                &[(-10.0, 0.5, 1.5), (20.0, 0.5, 1.5)],
+                true,
+            ),
+        ]);
+        let reg = EmRegisterModel {
+            stages: 604,
+            gain_curve: vec![],
+            serial_cic_e: Some(0.1),
+        };
+        let em = camera()
+            .with_register(reg)
+            .unwrap()
+            .with_rts_csv(rts)
+            .unwrap();
+        let op = OperatingPoint {
+            exposure_s: 0.2,
+            em_gain: Some(50.0),
+            temperature_c: None,
+        };
+        let at = em.at(op).unwrap();
+        assert!(at.serial_cic_mean_e > 0.0);
+        assert!((at.read_variance_e2(2) - (225.0 + 2.25) / 2500.0).abs() < 1e-12);
+        check(&em, op, 40_000);
     }
 }
