@@ -523,6 +523,7 @@ mod tests {
         .with_register(EmRegisterModel {
             stages: 604,
             gain_curve: vec![],
+            serial_cic_e: None,
         })
         .unwrap()
         .with_campaign(OperatingRange {
