@@ -116,14 +116,16 @@ class ModelParams(TypedDict, total=False):
     #: default: none.
     camera: Optional[_Path]
     #: Exposure time of each frame of `camera`, s, > 0 and at most 86400; default: 1 /
-    #: `frame_rate_hz` (the dark current's signal and shot noise scale with it); in (0, 86400] s.
+    #: `frame_rate_hz`, else the campaign's shortest dark exposure (camera.json `campaign`) (the
+    #: dark current's signal and shot noise scale with it); in (0, 86400] s.
     exposure_s: Optional[float]
     #: Sensor temperature of `camera`, degrees C, -273.15 to 200 (its dark current scaled by the
     #: model's doubling temperature); default: the temperature its dark current was measured at; in
     #: [-273.15, 200] degrees C.
     temperature_c: Optional[float]
     #: Frame rate the camera of `camera` runs at, Hz, > 0 and at most 1e6: the exposure is 1 / rate
-    #: unless `exposure_s` is given; in (0, 1e6] Hz; default: none.
+    #: unless `exposure_s` is given; default: the rate of the campaign's shortest dark exposure
+    #: (camera.json `campaign`); in (0, 1e6] Hz.
     frame_rate_hz: Optional[float]
     # END settings
 
@@ -141,13 +143,14 @@ class Readout:
     def from_camera(
         path: _Path,
         *,
-        exposure_s: float,
+        exposure_s: Optional[float] = None,
         em_gain: Optional[float] = None,
         temperature_c: Optional[float] = None,
         seed: int = 0,
     ) -> "Readout":
         """The ``camera`` readout of a camera model folder (docs/camera.md) at an operating
-        point: exposure (s), commanded EM gain (None: no multiplication), sensor temperature
+        point: exposure (s; None: the campaign's shortest dark exposure, recorded in
+        camera.json), commanded EM gain (None: no multiplication), sensor temperature
         (degrees C; None: the dark current's reference)."""
         ...
     def read(

@@ -149,21 +149,24 @@ impl PyReadout {
     }
 
     /// The `camera` readout of the camera model folder `path` (docs/camera.md) at an
-    /// operating point: `exposure_s` (s), `em_gain` (commanded, e-/e-; None: no
-    /// multiplication), `temperature_c` (degrees C; None: the dark current's reference).
+    /// operating point: `exposure_s` (s; None: the campaign's shortest dark exposure, which
+    /// camera.json records), `em_gain` (commanded, e-/e-; None: no multiplication),
+    /// `temperature_c` (degrees C; None: the dark current's reference).
     #[staticmethod]
-    #[pyo3(signature = (path, *, exposure_s, em_gain = None, temperature_c = None, seed = 0))]
+    #[pyo3(signature = (path, *, exposure_s = None, em_gain = None, temperature_c = None, seed = 0))]
     fn from_camera(
         py: Python<'_>,
         path: std::path::PathBuf,
-        exposure_s: f64,
+        exposure_s: Option<f64>,
         em_gain: Option<f64>,
         temperature_c: Option<f64>,
         seed: u64,
     ) -> PyResult<Self> {
         let params = PyDict::new(py);
         params.set_item("camera", path)?;
-        params.set_item("exposure_s", exposure_s)?;
+        if let Some(t) = exposure_s {
+            params.set_item("exposure_s", t)?;
+        }
         if let Some(g) = em_gain {
             params.set_item("em_gain", g)?;
         }
@@ -289,10 +292,15 @@ impl PyReadout {
         self.text.clone()
     }
 
-    /// The camera type: "scmos" or "emccd".
+    /// The camera type: "scmos" or "emccd" (a camera model's: "emccd" when its register
+    /// multiplies at the operating point).
     #[getter]
     fn sensor(&self) -> &'static str {
-        match self.spec.sensor() {
+        let sensor = match &self.params.camera {
+            Some(at) if self.spec.name() == "camera" => at.sensor(),
+            _ => self.spec.sensor(),
+        };
+        match sensor {
             Sensor::Emccd => "emccd",
             Sensor::Scmos => "scmos",
         }

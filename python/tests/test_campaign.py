@@ -42,6 +42,9 @@ def test_campaign_returns_its_table_and_maps(tmp_path):
     assert (maps["hot_class"] == 2).sum() == c.decomposition["hot_pixels"]["hot"] == 8
     assert c.summary["command"] == "campaign" and c.camera == c.out / "camera"
     assert "4 stacks" in repr(c)
+    # Its camera model runs without an exposure: the campaign's shortest (0.01 s) is taken.
+    r = detnoise.Readout.from_camera(c.camera)
+    assert r.sensor == "scmos" and r.read(np.zeros((2, 8, 8))).shape == (2, 8, 8)
 
 
 def test_campaign_options_reach_the_measurement_and_the_fit(tmp_path):

@@ -283,8 +283,8 @@ fn camera_line(choice: &crate::camera::CameraChoice) -> String {
     };
     format!(
         "camera model at {:.6} Hz ({:.6} s exposure: {}, {gain}{temperature}): effective read \
-         noise {:.4} e- rms (median over the pixels of read, dark shot, CIC, row, column and \
-         frame noise, input-referred){extrapolates}",
+         noise {:.4} e- rms (median over the pixels of read, telegraph, dark shot, CIC (parallel and serial), \
+         row, column and frame noise and the adu rounding, input-referred){extrapolates}",
         1.0 / op.exposure_s,
         op.exposure_s,
         choice.exposure.describe(),

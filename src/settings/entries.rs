@@ -251,7 +251,8 @@ pub const EXPOSURE_S: Setting = Setting::new(
     "--exposure-s",
     Real(Excluded(0.0), Included(MAX_EXPOSURE_S)),
     "Exposure time of each frame of --camera, s, > 0 and at most 86400; default: \
-     1 / --frame-rate-hz (the dark current's signal and shot noise scale with it)",
+     1 / --frame-rate-hz, else the campaign's shortest dark exposure (camera.json `campaign`) \
+     (the dark current's signal and shot noise scale with it)",
 )
 .unit("s");
 
@@ -271,7 +272,8 @@ pub const FRAME_RATE_HZ: Setting = Setting::new(
     "--frame-rate-hz",
     Real(Excluded(0.0), Included(1e6)),
     "Frame rate the camera of --camera runs at, Hz, > 0 and at most 1e6: the exposure is \
-     1 / rate unless --exposure-s is given",
+     1 / rate unless --exposure-s is given; default: the rate of the campaign's shortest dark \
+     exposure (camera.json `campaign`)",
 )
 .unit("Hz");
 
