@@ -22,7 +22,8 @@ use std::time::Instant;
 use detnoise::calib::darks::{run as run_darks, DarkOptions, DarksRun};
 use detnoise::campaign::fit::{decompose, DecomposeOptions, TemperatureTerm};
 use detnoise::campaign::{
-    run, CampaignInput, CampaignRun, Condition, ConditionStats, MeasureOptions, StackKind,
+    check_campaign, measure_campaign, run, CampaignInput, CampaignRun, Condition, ConditionStats,
+    MeasureOptions, StackKind,
 };
 use detnoise::io::fits::write_cube;
 use detnoise::io::Checksum;
@@ -113,6 +114,22 @@ fn peak_mb() -> f64 {
         .map_or(f64::NAN, |kb| kb / 1e3)
 }
 
+/// CPU seconds (user + system, every thread) this process has used, from /proc/self/stat
+/// (clock ticks of 10 ms).
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    // Fields after the command name (which may hold spaces): utime and stime are the 12th
+    // and 13th.
+    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
+    let f: Vec<f64> = rest
+        .split_whitespace()
+        .skip(11)
+        .take(2)
+        .filter_map(|v| v.parse().ok())
+        .collect();
+    f.iter().sum::<f64>() / 100.0
+}
+
 /// Peak memory as text: MB, and in frames of `pixels` f64.
 fn peak_text(pixels: usize) -> String {
     let mb = peak_mb();
@@ -138,13 +155,15 @@ fn bench_campaign(label: &str, dir: &Path, manifest: &Path, em_fit: bool) {
     };
     run(&job(&format!("{label}-warm")), &Silent).expect("campaign runs");
     reset_peak();
-    let t = Instant::now();
+    let (t, cpu) = (Instant::now(), cpu_seconds());
     let r = run(&job(label), &Silent).expect("campaign runs");
     let wall = t.elapsed().as_secs_f64();
+    let cpu = cpu_seconds() - cpu;
     let gb = r.stored_bytes as f64 / 1e9;
     println!(
         "campaign {label}: 9 stacks of {}x{}x{} uint16 ({gb:.2} GB), blake3: {:.2} GB/s reading \
-         ({:.2} s), {:.2} GB/s wall ({wall:.2} s: decomposition {:.2} s, files {:.2} s{}); {}",
+         ({:.2} s), {:.2} GB/s wall ({wall:.2} s: decomposition {:.2} s, files {:.2} s{}); \
+         {cpu:.2} CPU s; {}",
         SHAPE.0,
         SHAPE.1,
         r.stacks[0].stats.frames,
@@ -163,6 +182,18 @@ fn bench_campaign(label: &str, dir: &Path, manifest: &Path, em_fit: bool) {
             String::new()
         },
         peak_text(SHAPE.0 * SHAPE.1)
+    );
+    // The reading alone again, for its CPU time: on 2 idle cores its wall time is at least
+    // half of it (what the GB/s above would be with nothing else running).
+    let plan = check_campaign(job("").input.read().expect("the manifest reads")).expect("a plan");
+    let (t, cpu) = (Instant::now(), cpu_seconds());
+    measure_campaign(&plan, &job("").measure, &Silent).expect("the stacks read");
+    let (wall, cpu) = (t.elapsed().as_secs_f64(), cpu_seconds() - cpu);
+    println!(
+        "campaign {label}: reading alone {:.2} GB/s ({wall:.2} s), {cpu:.2} CPU s: {:.2} GB/s \
+         if 2 idle cores did that work",
+        gb / wall,
+        gb / (cpu / 2.0)
     );
 }
 

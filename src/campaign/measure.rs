@@ -209,3 +209,38 @@ pub fn measure_stack(
         read_seconds,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::campaign::{check_campaign, CampaignInput};
+    use crate::progress::Silent;
+
+    #[test]
+    fn stacks_measured_at_once_give_each_stack_its_own_figures_in_input_order() {
+        let manifest = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/fixtures/campaign/scmos/manifest.csv");
+        let plan = check_campaign(CampaignInput::Manifest(manifest).read().unwrap()).unwrap();
+        assert!(
+            plan.stacks.len() > IN_FLIGHT,
+            "more stacks than measured at once"
+        );
+        let options = MeasureOptions {
+            gain_e_per_adu: 1.0,
+            checksum: Some(Checksum::Blake3),
+            em_fit: false,
+        };
+        let all = measure_campaign(&plan, &options, &Silent).unwrap();
+        assert_eq!(all.len(), plan.stacks.len());
+        for ((m, entry), stack) in all.iter().zip(&plan.stacks).zip(&plan.opened) {
+            let one = measure_stack(stack, entry, &options).unwrap();
+            assert_eq!(m.stats.file, entry.files[0]);
+            let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&m.stats.mean_adu), bits(&one.stats.mean_adu));
+            assert_eq!(bits(&m.stats.var_adu2), bits(&one.stats.var_adu2));
+            assert_eq!(m.stats.temporal, one.stats.temporal);
+            assert!(m.inputs[0].blake3.is_some());
+            assert_eq!(m.inputs[0].blake3, one.inputs[0].blake3);
+        }
+    }
+}
