@@ -3,13 +3,17 @@
 //! appears only when the run succeeds.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use super::checks::{check_campaign, Design};
+use super::condition::ConditionStats;
 use super::fit::{
     self, DecomposeOptions, Decomposition, EmGainFit, FitThresholds, TemperatureTerm,
 };
 use super::input::CampaignInput;
-use super::measure::{fit_em_gains, measure_campaign, MeasureOptions, StackMeasurement};
+use super::measure::{
+    fit_em_gains, measure_campaign, wants_em_fit, MeasureOptions, StackMeasurement,
+};
 use super::outputs::{
     campaign_output_names, write_campaign_outputs, CampaignSummary, StackSummary, CAMERA_DIR,
 };
@@ -45,8 +49,17 @@ pub struct CampaignRunResult {
     pub out: PathBuf,
     /// Bytes of sample data read, as stored.
     pub stored_bytes: u64,
-    /// Wall-clock seconds spent reading and accumulating the stacks.
+    /// Wall-clock seconds spent reading and accumulating the stacks (stacks overlap, so this
+    /// is less than the sum of theirs).
     pub read_seconds: f64,
+    /// Bytes of sample data read again by the EM-gain histogram fits (EMCCD darks; 0 without).
+    pub em_fit_bytes: u64,
+    /// Wall-clock seconds of that second pass, the fits included.
+    pub em_fit_seconds: f64,
+    /// Wall-clock seconds of the per-pixel decomposition (both, when the EM fits ran).
+    pub decompose_seconds: f64,
+    /// Wall-clock seconds spent writing the output files.
+    pub write_seconds: f64,
 }
 
 /// Run a campaign: every check (input, output directory, stacks' headers) before any frame
@@ -82,8 +95,13 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
     for note in &plan.design.notes {
         observer.warn(note);
     }
+    let t = Instant::now();
     let mut stacks = measure_campaign(&plan, &job.measure, observer)?;
-    let mut decomposition = decompose(&plan.design, &stacks, job)?;
+    let read_seconds = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut decomposition = decompose(&plan.design, &mut stacks, job)?;
+    let mut decompose_seconds = t.elapsed().as_secs_f64();
+    let (mut em_fit_bytes, mut em_fit_seconds) = (0, 0.0);
     if job.measure.em_fit && !plan.design.dark_em_gains.is_empty() {
         // The offsets do not depend on the gains' scale: fit the histograms with them, then
         // decompose again with the gains measured.
@@ -93,8 +111,16 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
             .map(|c| *c == fit::HotClass::Normal)
             .collect();
         let offsets = &decomposition.offset_adu;
+        let t = Instant::now();
         fit_em_gains(&plan, &mut stacks, offsets, &keep, &job.measure, observer)?;
-        decomposition = decompose(&plan.design, &stacks, job)?;
+        em_fit_seconds = t.elapsed().as_secs_f64();
+        em_fit_bytes = (stacks.iter().zip(&plan.stacks))
+            .filter(|(_, s)| wants_em_fit(s, &job.measure))
+            .map(|(m, _)| m.stored_bytes)
+            .sum();
+        let t = Instant::now();
+        decomposition = decompose(&plan.design, &mut stacks, job)?;
+        decompose_seconds += t.elapsed().as_secs_f64();
         if decomposition.summary.em_gain_curve.is_none() {
             observer.warn(
                 "the decomposition takes the commanded EM gains as exact: the histogram fit did \
@@ -123,6 +149,7 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
             Error::Numeric(format!("cannot encode the decomposition's summary: {e}"))
         })?),
     };
+    let t = Instant::now();
     write_campaign_outputs(&dir.path(""), &stacks, &summary)?;
     fit::write_outputs(&decomposition, &dir.path(""), &[])?;
     // A campaign the model cannot describe (no pixel fitted) still has its measurements.
@@ -130,9 +157,14 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         Ok(model) => model.write_files(&dir.path(CAMERA_DIR))?,
         Err(e) => observer.warn(&format!("no camera model written: {e}")),
     }
+    let write_seconds = t.elapsed().as_secs_f64();
     Ok(CampaignRunResult {
         stored_bytes: stacks.iter().map(|m| m.stored_bytes).sum(),
-        read_seconds: stacks.iter().map(|m| m.read_seconds).sum(),
+        read_seconds,
+        em_fit_bytes,
+        em_fit_seconds,
+        decompose_seconds,
+        write_seconds,
         stacks,
         design: plan.design,
         out: dir.commit()?,
@@ -143,16 +175,33 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
 /// measured (the commanded gains, with a warning, when any gain has no fit).
 fn decompose(
     design: &Design,
-    stacks: &[StackMeasurement],
+    stacks: &mut [StackMeasurement],
     job: &CampaignRun,
 ) -> Result<Decomposition> {
-    let stats: Vec<_> = stacks.iter().map(|m| m.stats.clone()).collect();
     let mut opts =
         DecomposeOptions::new(job.measure.gain_e_per_adu).with_thresholds(job.thresholds);
     opts.fit_cic = design.cic_separable == Some(true);
     opts.em_gains = fitted_em_gains(design, stacks);
     opts.temperature = job.temperature;
-    fit::decompose(&stats, &opts)
+    // The maps are lent to the fit and given back, not copied: they are most of a campaign's
+    // memory (two f64 per pixel and stack; 600 MB for 9 stacks of 2048 x 2048).
+    let stats: Vec<ConditionStats> = stacks.iter_mut().map(|m| lend(&mut m.stats)).collect();
+    let result = fit::decompose(&stats, &opts);
+    for (m, s) in stacks.iter_mut().zip(stats) {
+        m.stats = s;
+    }
+    result
+}
+
+/// `stats` moved out, leaving it with empty maps.
+fn lend(stats: &mut ConditionStats) -> ConditionStats {
+    let mean_adu = std::mem::take(&mut stats.mean_adu);
+    let var_adu2 = std::mem::take(&mut stats.var_adu2);
+    ConditionStats {
+        mean_adu,
+        var_adu2,
+        ..stats.clone()
+    }
 }
 
 /// One fitted gain (e-/e-) per commanded gain of the darks: the inverse-variance mean of its

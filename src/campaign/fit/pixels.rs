@@ -76,8 +76,16 @@ const REWEIGHT_ROUNDS: usize = 2;
 /// shot noise is the pixel's fitted one but at least the condition's median
 /// ([`set_signal_floor`]): a pixel's own fit is noisy, and a low fit with the low variance it
 /// implies would again weight its own low draws up.
+/// `var` is scratch space (one variance per condition), reused from pixel to pixel so that
+/// millions of fits allocate nothing.
 #[inline]
-pub(super) fn fit_pixel(design: &Design, k: f64, factors: &[f64], p: usize) -> Option<PixelFit> {
+pub(super) fn fit_pixel(
+    design: &Design,
+    k: f64,
+    factors: &[f64],
+    p: usize,
+    var: &mut Vec<f64>,
+) -> Option<PixelFit> {
     let conds = &design.conds;
     if conds.iter().any(|c| {
         let (y, v) = (c.stats.mean_adu[p], c.stats.var_adu2[p]);
@@ -85,11 +93,12 @@ pub(super) fn fit_pixel(design: &Design, k: f64, factors: &[f64], p: usize) -> O
     }) {
         return None;
     }
-    let mut var: Vec<f64> = conds.iter().map(|c| c.stats.var_adu2[p]).collect();
-    let mut sol = solve_weighted(design, k, factors, p, &var)?;
+    var.clear();
+    var.extend(conds.iter().map(|c| c.stats.var_adu2[p]));
+    let mut sol = solve_weighted(design, k, factors, p, var)?;
     for _ in 0..REWEIGHT_ROUNDS {
-        model_variance(design, k, factors, p, &sol.x, &mut var);
-        sol = solve_weighted(design, k, factors, p, &var)?;
+        model_variance(design, k, factors, p, &sol.x, var);
+        sol = solve_weighted(design, k, factors, p, var)?;
     }
     let mut chi2 = 0.0;
     for (i, c) in conds.iter().enumerate() {
@@ -165,7 +174,9 @@ pub(super) fn set_signal_floor(design: &mut Design, k: &PixelGain, factors: &[f6
     let fits: Vec<Option<PixelFit>> = (0..n)
         .into_par_iter()
         .with_min_len(CHUNK)
-        .map(|j| fit_pixel(design, k.at(j * stride), factors, j * stride))
+        .map_init(Vec::new, |var, j| {
+            fit_pixel(design, k.at(j * stride), factors, j * stride, var)
+        })
         .collect();
     let floors: Vec<f64> = (0..design.conds.len())
         .map(|i| {
@@ -217,7 +228,9 @@ pub(super) fn fit_all(design: &Design, k: &PixelGain, factors: &[f64]) -> Maps {
     let fits: Vec<Option<PixelFit>> = (0..design.npix)
         .into_par_iter()
         .with_min_len(CHUNK)
-        .map(|p| fit_pixel(design, k.at(p), factors, p))
+        .map_init(Vec::new, |var, p| {
+            fit_pixel(design, k.at(p), factors, p, var)
+        })
         .collect();
     let dof = design.dof() as f64;
     let get = |f: &(dyn Fn(&PixelFit) -> f64 + Sync)| -> Vec<f64> {
@@ -254,10 +267,10 @@ pub(super) fn total_chi2(
     let parts: Vec<(f64, usize)> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|c| {
-            let mut s = (0.0, 0);
+            let (mut s, mut var) = ((0.0, 0), Vec::new());
             for j in c * CHUNK..((c + 1) * CHUNK).min(n) {
                 let p = j * stride;
-                if let Some(f) = fit_pixel(design, k.at(p), factors, p) {
+                if let Some(f) = fit_pixel(design, k.at(p), factors, p, &mut var) {
                     s.0 += f.chi2;
                     s.1 += 1;
                 }
