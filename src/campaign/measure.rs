@@ -18,7 +18,10 @@ use crate::calib::darks::{pixel_stats, pixel_stats_hashed, Clip};
 use crate::calib::summary::{unhashed, Checksum, InputFile};
 use crate::calib::Map;
 use crate::error::{Error, Result};
-use crate::fit::emgain::{accumulate_kept, fit_emgain, EmGainFit, EmGainOptions};
+use crate::fit::emgain::{
+    accumulate_kept, fit_emgain, zero_peak_lambda, EmGainFit, EmGainOptions, LambdaMixture,
+    DEFAULT_MIXTURE_GROUPS,
+};
 use crate::io::FrameStack;
 use crate::progress::Observer;
 
@@ -79,7 +82,12 @@ fn wants_em_fit(entry: &CampaignStack, options: &MeasureOptions) -> bool {
 /// Fit the EM-gain histogram model to every EMCCD dark stack of `plan` (a second pass over
 /// each), with `offset_adu` (each pixel's fixed offset, NaN where unknown: the stack's own
 /// mean is used there) subtracted, over the pixels `keep` marks (warm and hot pixels hold a
-/// dark charge far from the one lambda of the model); failures are warnings kept in `em_fit`.
+/// dark charge far from the rest); failures are warnings kept in `em_fit`.
+///
+/// The kept pixels' dark charges differ (dark current varies from pixel to pixel): the light
+/// term is the mixture of their mean signals in the stack ([`LambdaMixture`], the signals'
+/// sampling noise drawn in), which a single lambda would read as gain. Each fit carries the
+/// zero-electron peak's estimate of the mean charge beside its own (`zero_peak`).
 pub fn fit_em_gains(
     plan: &CampaignPlan,
     stacks: &mut [StackMeasurement],
@@ -100,14 +108,21 @@ pub fn fit_em_gains(
         }
         let (stack, m) = (&plan.opened[i], &mut stacks[i]);
         let bias = bias_map(offset_adu, &m.stats);
+        let opts = EmGainOptions {
+            gain_e_per_adu: Some(options.gain_e_per_adu),
+            lambda_mixture: charge_mixture(&m.stats, &bias, keep),
+            ..EmGainOptions::default()
+        };
         let fit = accumulate_kept(stack, Some(&bias), None, Some(keep)).and_then(|(h, _)| {
-            fit_emgain(
-                &h,
-                &EmGainOptions {
-                    gain_e_per_adu: Some(options.gain_e_per_adu),
-                    ..EmGainOptions::default()
-                },
-            )
+            let mut fit = fit_emgain(&h, &opts)?;
+            match zero_peak_lambda(&h, &fit) {
+                Ok(z) => fit.zero_peak = Some(z),
+                Err(why) => observer.warn(&format!(
+                    "{}: no zero-peak estimate of the mean charge ({why})",
+                    plan.stacks[i].files[0].display()
+                )),
+            }
+            Ok(fit)
         });
         if let Err(why) = &fit {
             observer.warn(&format!(
@@ -120,6 +135,16 @@ pub fn fit_em_gains(
     }
     observer.end();
     Ok(())
+}
+
+/// The kept pixels' spread of mean charge in one stack: their mean signals above `bias`
+/// (adu), whose sampling noise (the mean variance / frames) is drawn in.
+fn charge_mixture(stats: &ConditionStats, bias: &Map, keep: &[bool]) -> Option<LambdaMixture> {
+    let kept = || (0..keep.len()).filter(|&i| keep[i] && stats.mean_adu[i].is_finite());
+    let signal: Vec<f64> = kept().map(|i| stats.mean_adu[i] - bias.data[i]).collect();
+    let var: Vec<f64> = kept().map(|i| stats.var_adu2[i]).collect();
+    let noise = var.iter().sum::<f64>() / var.len().max(1) as f64 / stats.frames as f64;
+    LambdaMixture::from_estimates(&signal, noise, DEFAULT_MIXTURE_GROUPS)
 }
 
 /// Each pixel's offset (adu) as a map: `offset_adu`, or the stack's own mean where that is
