@@ -22,7 +22,10 @@ use crate::calib::darks::{
 use crate::calib::summary::{unhashed, Checksum, InputFile};
 use crate::calib::Map;
 use crate::error::{Error, Result};
-use crate::fit::emgain::{accumulate_kept, fit_emgain, EmGainFit, EmGainOptions};
+use crate::fit::emgain::{
+    accumulate_kept, fit_emgain, zero_peak_lambda, EmGainFit, EmGainOptions, LambdaMixture,
+    SerialCic, DEFAULT_MIXTURE_GROUPS,
+};
 use crate::io::FrameStack;
 use crate::progress::Observer;
 
@@ -131,7 +134,16 @@ pub(super) fn wants_em_fit(entry: &CampaignStack, options: &MeasureOptions) -> b
 /// Fit the EM-gain histogram model to every EMCCD dark stack of `plan` (a second pass over
 /// each), with `offset_adu` (each pixel's fixed offset, NaN where unknown: the stack's own
 /// mean is used there) subtracted, over the pixels `keep` marks (warm and hot pixels hold a
-/// dark charge far from the one lambda of the model); failures are warnings kept in `em_fit`.
+/// dark charge far from the rest); failures are warnings kept in `em_fit`.
+///
+/// The kept pixels' dark charges differ (dark current varies from pixel to pixel): the light
+/// term is the mixture of their mean signals in the stack ([`LambdaMixture`], the signals'
+/// sampling noise drawn in), which a single lambda would read as gain. Serial CIC belongs to
+/// the register's clocking at a gain, not to one stack: when the model comparison finds it in
+/// a stack, the stacks of that EM gain where it did not are fitted again with it (a fit
+/// without it reads its events as charge of a lower gain), unless that fit's rate comes out
+/// negative (serial events hidden in the read noise, at low gain). Each fit carries the
+/// zero-electron peak's estimate of the mean charge beside its own (`zero_peak`).
 pub fn fit_em_gains(
     plan: &CampaignPlan,
     stacks: &mut [StackMeasurement],
@@ -146,32 +158,81 @@ pub fn fit_em_gains(
     let frames: usize = todo.iter().map(|&i| plan.opened[i].frames).sum();
     let pixels = (plan.shape.0 * plan.shape.1) as u64;
     observer.begin("EM gain fits", frames as u64, frames as u64 * pixels);
-    for i in todo {
+    let mut fits = Vec::with_capacity(todo.len());
+    for &i in &todo {
         if observer.cancelled() {
             return Err(Error::Interrupted);
         }
-        let (stack, m) = (&plan.opened[i], &mut stacks[i]);
+        let (stack, m) = (&plan.opened[i], &stacks[i]);
         let bias = bias_map(offset_adu, &m.stats);
-        let fit = accumulate_kept(stack, Some(&bias), None, Some(keep)).and_then(|(h, _)| {
-            fit_emgain(
-                &h,
-                &EmGainOptions {
-                    gain_e_per_adu: Some(options.gain_e_per_adu),
-                    ..EmGainOptions::default()
-                },
-            )
-        });
-        if let Err(why) = &fit {
-            observer.warn(&format!(
-                "{}: EM-gain histogram fit failed ({why}); its gain and CIC are left empty",
-                plan.stacks[i].files[0].display()
-            ));
-        }
-        m.em_fit = Some(fit.map_err(|e| e.to_string()));
+        let opts = EmGainOptions {
+            gain_e_per_adu: Some(options.gain_e_per_adu),
+            lambda_mixture: charge_mixture(&m.stats, &bias, keep),
+            ..EmGainOptions::default()
+        };
+        let fit = accumulate_kept(stack, Some(&bias), None, Some(keep))
+            .and_then(|(h, _)| fit_emgain(&h, &opts).map(|f| (h, f)));
+        fits.push((opts, fit));
         observer.advance(stack.frames as u64);
     }
     observer.end();
+    let gain = |i: usize| plan.stacks[i].condition.em_gain;
+    let serial_at: Vec<Option<f64>> = todo
+        .iter()
+        .zip(&fits)
+        .filter(|(_, (_, f))| f.as_ref().is_ok_and(|f| serial_present(&f.1)))
+        .map(|(&i, _)| gain(i))
+        .collect();
+    for (&i, (opts, fit)) in todo.iter().zip(fits) {
+        let name = plan.stacks[i].files[0].display();
+        let fit = fit.map(|(h, mut f)| {
+            if serial_at.contains(&gain(i)) && !serial_present(&f) {
+                let on = EmGainOptions {
+                    serial_cic: SerialCic::On,
+                    ..opts
+                };
+                match fit_emgain(&h, &on) {
+                    Ok(with) if with.serial_cic_e.is_some_and(|r| r >= 0.0) => f = with,
+                    Ok(with) => observer.warn(&format!(
+                        "{name}: the fit with the serial CIC found at its EM gain gives a rate of {:.4} e-; kept the fit without",
+                        with.serial_cic_e.unwrap_or(f64::NAN)
+                    )),
+                    Err(why) => observer.warn(&format!(
+                        "{name}: no fit with the serial CIC found at its EM gain ({why}); kept the fit without"
+                    )),
+                }
+            }
+            match zero_peak_lambda(&h, &f) {
+                Ok(z) => f.zero_peak = Some(z),
+                Err(why) => observer.warn(&format!(
+                    "{name}: no zero-peak estimate of the mean charge ({why})"
+                )),
+            }
+            f
+        });
+        if let Err(why) = &fit {
+            observer.warn(&format!(
+                "{name}: EM-gain histogram fit failed ({why}); its gain and CIC are left empty"
+            ));
+        }
+        stacks[i].em_fit = Some(fit.map_err(|e| e.to_string()));
+    }
     Ok(())
+}
+
+/// Whether a fit kept serial CIC in its model.
+fn serial_present(fit: &EmGainFit) -> bool {
+    fit.serial_cic_test.as_ref().is_some_and(|t| t.present)
+}
+
+/// The kept pixels' spread of mean charge in one stack: their mean signals above `bias`
+/// (adu), whose sampling noise (the mean variance / frames) is drawn in.
+fn charge_mixture(stats: &ConditionStats, bias: &Map, keep: &[bool]) -> Option<LambdaMixture> {
+    let kept = || (0..keep.len()).filter(|&i| keep[i] && stats.mean_adu[i].is_finite());
+    let signal: Vec<f64> = kept().map(|i| stats.mean_adu[i] - bias.data[i]).collect();
+    let var: Vec<f64> = kept().map(|i| stats.var_adu2[i]).collect();
+    let noise = var.iter().sum::<f64>() / var.len().max(1) as f64 / stats.frames as f64;
+    LambdaMixture::from_estimates(&signal, noise, DEFAULT_MIXTURE_GROUPS)
 }
 
 /// Each pixel's offset (adu) as a map: `offset_adu`, or the stack's own mean where that is

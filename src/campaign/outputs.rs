@@ -1,6 +1,7 @@
 //! The outputs of `detnoise campaign`: `conditions.csv` (one row per stack, units in every
 //! column name) and `campaign.json` (the design, every stack's condition, noise split, EM fit
-//! and input checksums).
+//! and input checksums, and each EM gain's CIC from the histogram fits: the intercept of the
+//! mean charge against exposure time, from the fits' lambdas and from the zero peaks').
 
 use std::path::Path;
 
@@ -78,6 +79,19 @@ pub struct ConditionRow {
     pub em_fit_cic_se_e_per_pixel: Option<f64>,
     /// The fit's read noise (adu).
     pub em_fit_read_noise_adu: Option<f64>,
+    /// Input electrons per pixel per frame from the zero-electron peak alone (e-).
+    pub em_fit_zero_peak_lambda_e_per_pixel: Option<f64>,
+    /// Its SE (e-; binomial, an upper bound).
+    pub em_fit_zero_peak_lambda_se_e_per_pixel: Option<f64>,
+    /// CIC at this stack's EM gain: intercept at t = 0 of the fits' lambda against exposure
+    /// time over the gain's darks (e- per pixel per frame).
+    pub em_cic_from_fit_e_per_frame: Option<f64>,
+    /// Its SE (e-).
+    pub em_cic_from_fit_se_e_per_frame: Option<f64>,
+    /// The same from the zero-peak lambdas (e- per pixel per frame).
+    pub em_cic_from_zero_peak_e_per_frame: Option<f64>,
+    /// Its SE (e-).
+    pub em_cic_from_zero_peak_se_e_per_frame: Option<f64>,
     /// Why the EM fit failed, empty when it did not.
     pub em_fit_error: Option<String>,
 }
@@ -89,6 +103,7 @@ impl ConditionRow {
         let c = &s.condition;
         let t = &s.temporal;
         let fit = m.em_fit.as_ref().and_then(|f| f.as_ref().ok());
+        let zero = fit.and_then(|f| f.zero_peak.as_ref());
         let n = s.mean_adu.iter().filter(|v| v.is_finite()).count().max(1);
         ConditionRow {
             file: s.file.display().to_string(),
@@ -114,6 +129,12 @@ impl ConditionRow {
             em_fit_cic_e_per_pixel: fit.map(|f| f.lambda_e),
             em_fit_cic_se_e_per_pixel: fit.map(|f| f.lambda_e_se),
             em_fit_read_noise_adu: fit.map(|f| f.read_noise_adu),
+            em_fit_zero_peak_lambda_e_per_pixel: zero.map(|z| z.lambda_e),
+            em_fit_zero_peak_lambda_se_e_per_pixel: zero.map(|z| z.lambda_e_se),
+            em_cic_from_fit_e_per_frame: None,
+            em_cic_from_fit_se_e_per_frame: None,
+            em_cic_from_zero_peak_e_per_frame: None,
+            em_cic_from_zero_peak_se_e_per_frame: None,
             em_fit_error: m.em_fit.as_ref().and_then(|f| f.as_ref().err().cloned()),
         }
     }
@@ -180,16 +201,169 @@ impl StackSummary {
     }
 }
 
+/// Mean charge against exposure time at one EM gain: lambda = CIC + t D, a weighted straight
+/// line through its darks' lambdas (e- per pixel per frame, the mean of the kept pixels).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct ChargeLine {
+    /// Intercept: clock-induced charge (e- per pixel per frame).
+    pub cic_e_per_frame: f64,
+    /// Its SE (e-).
+    pub cic_se_e_per_frame: f64,
+    /// Slope: dark current (e-/s).
+    pub dark_current_e_per_s: f64,
+    /// Its SE (e-/s).
+    pub dark_current_se_e_per_s: f64,
+    /// Chi-square of the line about the lambdas (their SEs).
+    pub chi2: f64,
+    /// Its degrees of freedom (darks - 2).
+    pub degrees_of_freedom: usize,
+}
+
+impl ChargeLine {
+    /// The weighted least-squares line through (t s, lambda e-, SE e-); None with fewer than
+    /// two distinct times or a SE that is not positive.
+    pub fn fit(points: &[(f64, f64, f64)]) -> Option<ChargeLine> {
+        if points.iter().any(|p| !(p.2 > 0.0 && p.2.is_finite())) {
+            return None;
+        }
+        let (mut s, mut sx, mut sxx, mut sy, mut sxy) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (t, y, se) in points {
+            let w = se.powi(-2);
+            s += w;
+            sx += w * t;
+            sxx += w * t * t;
+            sy += w * y;
+            sxy += w * t * y;
+        }
+        let det = s * sxx - sx * sx;
+        if points.len() < 2 || det <= 1e-12 * s * sxx {
+            return None;
+        }
+        let a = (sxx * sy - sx * sxy) / det;
+        let b = (s * sxy - sx * sy) / det;
+        let chi2 = points
+            .iter()
+            .map(|(t, y, se)| ((y - a - b * t) / se).powi(2))
+            .sum();
+        Some(ChargeLine {
+            cic_e_per_frame: a,
+            cic_se_e_per_frame: (sxx / det).sqrt(),
+            dark_current_e_per_s: b,
+            dark_current_se_e_per_s: (s / det).sqrt(),
+            chi2,
+            degrees_of_freedom: points.len() - 2,
+        })
+    }
+}
+
+/// The CIC of one EM gain from its darks' histogram fits, by two routes, beside the
+/// decomposition's CIC map.
+#[derive(Clone, Debug, Serialize)]
+pub struct EmGainCic {
+    /// Commanded EM gain (e-/e-).
+    pub em_gain: f64,
+    /// Dark stacks at this gain with a histogram fit.
+    pub stacks: usize,
+    /// From the fits' lambdas (the EM tail and zero peak together).
+    pub from_fit: Option<ChargeLine>,
+    /// From the zero-electron peak's lambdas alone.
+    pub from_zero_peak: Option<ChargeLine>,
+    /// Median of the decomposition's CIC map (e- per pixel per frame), for comparison.
+    pub decomposition_cic_median_e_per_frame: Option<f64>,
+}
+
+/// The CIC of each EM gain of the darks (in the order first met) from their histogram fits;
+/// `cic_median` the decomposition's CIC median.
+pub fn em_gain_cic(measurements: &[StackMeasurement], cic_median: Option<f64>) -> Vec<EmGainCic> {
+    let mut gains: Vec<f64> = Vec::new();
+    for m in measurements {
+        let c = &m.stats.condition;
+        if let (StackKind::Dark, Some(g), Some(Ok(_))) = (c.kind, c.em_gain, &m.em_fit) {
+            if !gains.contains(&g) {
+                gains.push(g);
+            }
+        }
+    }
+    gains
+        .into_iter()
+        .map(|g| {
+            let fits: Vec<(f64, &EmGainFit)> = measurements
+                .iter()
+                .filter(|m| {
+                    m.stats.condition.kind == StackKind::Dark
+                        && m.stats.condition.em_gain == Some(g)
+                })
+                .filter_map(|m| match &m.em_fit {
+                    Some(Ok(f)) => Some((m.stats.condition.exposure_s, f)),
+                    _ => None,
+                })
+                .collect();
+            let tail: Vec<_> = fits
+                .iter()
+                .map(|(t, f)| (*t, f.lambda_e, f.lambda_e_se))
+                .collect();
+            let zero: Option<Vec<_>> = fits
+                .iter()
+                .map(|(t, f)| {
+                    f.zero_peak
+                        .as_ref()
+                        .map(|z| (*t, z.lambda_e, z.lambda_e_se))
+                })
+                .collect();
+            EmGainCic {
+                em_gain: g,
+                stacks: fits.len(),
+                from_fit: ChargeLine::fit(&tail),
+                from_zero_peak: zero.and_then(|z| ChargeLine::fit(&z)),
+                decomposition_cic_median_e_per_frame: cic_median,
+            }
+        })
+        .collect()
+}
+
+/// campaign.json: the summary and the CIC of each EM gain (absent without EM fits).
+#[derive(Serialize)]
+struct CampaignJson<'a> {
+    #[serde(flatten)]
+    summary: &'a CampaignSummary,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    em_gain_cic: Vec<EmGainCic>,
+}
+
 /// Write conditions.csv and campaign.json into `dir`, each atomically.
 pub fn write_campaign_outputs(
     dir: &Path,
     measurements: &[StackMeasurement],
     summary: &CampaignSummary,
 ) -> Result<()> {
-    let rows: Vec<ConditionRow> = measurements.iter().map(ConditionRow::of).collect();
+    let cic_median = summary
+        .decomposition
+        .as_ref()
+        .and_then(|d| d["cic_e_per_frame"]["median"].as_f64());
+    let cic = em_gain_cic(measurements, cic_median);
+    let rows: Vec<ConditionRow> = measurements
+        .iter()
+        .map(|m| {
+            let mut row = ConditionRow::of(m);
+            let c = &m.stats.condition;
+            let line = cic.iter().find(|l| Some(l.em_gain) == c.em_gain);
+            if let (StackKind::Dark, Some(l)) = (c.kind, line) {
+                row.em_cic_from_fit_e_per_frame = l.from_fit.map(|f| f.cic_e_per_frame);
+                row.em_cic_from_fit_se_e_per_frame = l.from_fit.map(|f| f.cic_se_e_per_frame);
+                row.em_cic_from_zero_peak_e_per_frame = l.from_zero_peak.map(|f| f.cic_e_per_frame);
+                row.em_cic_from_zero_peak_se_e_per_frame =
+                    l.from_zero_peak.map(|f| f.cic_se_e_per_frame);
+            }
+            row
+        })
+        .collect();
     write_atomic(
         &dir.join(CAMPAIGN_OUTPUTS[0]),
         render(&rows, TableFormat::Csv)?.as_bytes(),
     )?;
-    write_json(&dir.join(CAMPAIGN_OUTPUTS[1]), summary)
+    let json = CampaignJson {
+        summary,
+        em_gain_cic: cic,
+    };
+    write_json(&dir.join(CAMPAIGN_OUTPUTS[1]), &json)
 }

@@ -108,7 +108,8 @@ fn with_serial_cic(
                 .collect::<Vec<_>>(),
         ),
     };
-    let mut problem = grid.problem(h, shape, conv, (10.0 * q.sq).max(75.0 * from[2]))?;
+    let mix = opts.lambda_mixture.as_ref();
+    let mut problem = grid.problem(h, shape, conv, mix, (10.0 * q.sq).max(75.0 * from[2]))?;
     if mode == SerialCic::Auto && problem.model.m > MAX_AUTO_SERIAL_CELLS {
         return Err(Error::Numeric(format!(
             "not tried on auto: the model grid of {} cells is wider than real EMCCD histograms need (at most {MAX_AUTO_SERIAL_CELLS}); `serial_cic` on fits it anyway",
@@ -274,7 +275,8 @@ fn set_up(
     let g0 = st.gain_adu_per_e;
     let g_max = cands.iter().map(|c| c[2]).fold(0.0, f64::max).min(4.0 * g0);
     let grid = Layout::new(h, s_min, q.sq, q.q4, fit_top(h, opts, st, far));
-    let trial = grid.problem(h, shape, conv, (10.0 * q.sq).max(25.0 * g_max))?;
+    let mix = opts.lambda_mixture.as_ref();
+    let trial = grid.problem(h, shape, conv, mix, (10.0 * q.sq).max(25.0 * g_max))?;
     let best = cands
         .iter()
         .map(|p| (trial.nll(&trial.internal(p)), *p))
@@ -287,7 +289,7 @@ fn set_up(
     }
     // The period must hold the EM tail of any gain the optimiser may try (25 scale
     // lengths: wrapped mass < 1e-10): up to 3x the best start.
-    let mut problem = grid.problem(h, shape, conv, (10.0 * q.sq).max(75.0 * best.1[2]))?;
+    let mut problem = grid.problem(h, shape, conv, mix, (10.0 * q.sq).max(75.0 * best.1[2]))?;
     problem.start_at(&best.1, fixed, false);
     Ok((grid, problem))
 }
@@ -462,6 +464,8 @@ fn result(
         max_value_adu: grid.cut,
         bin_width_adu: grid.w,
         correlations: Some(correlations(&s.cov)),
+        lambda_mixture: opts.lambda_mixture.clone(),
+        zero_peak: None,
         start: st,
         cross_checks: EmCrossChecks {
             excess_noise_factor_sq: f2,

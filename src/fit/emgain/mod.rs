@@ -18,11 +18,14 @@
 //! seconds that frames show an EM register at all, `start` finds start values, `model`
 //! computes the bin probabilities, `problem` bins the data on the model's grid and gives the
 //! likelihood, `fit` maximises it, `chart` draws the result,
-//! and `run` is the whole `emgain` command as one call.
+//! and `run` is the whole `emgain` command as one call. `mixture` describes pixels of
+//! different mean charge pooled in one histogram (the light term a mixture of Poisson laws),
+//! and `zero_peak` estimates the mean charge from the zero-electron peak alone.
 
 mod chart;
 mod fit;
 mod histogram;
+mod mixture;
 mod model;
 mod options;
 mod problem;
@@ -33,10 +36,12 @@ mod stack;
 mod start;
 #[cfg(test)]
 mod tests;
+mod zero_peak;
 
 pub use chart::chart;
 pub use fit::{fit_emgain, fit_emgain_of_stack};
 pub use histogram::ValueHistogram;
+pub use mixture::{LambdaMixture, DEFAULT_MIXTURE_GROUPS};
 pub use model::{
     excess_noise_factor_sq, law_gain, model_curve, CurveBin, UNKNOWN_CONVERSION_MIN_GAIN,
 };
@@ -46,3 +51,4 @@ pub use run::{fit_report, run, EmgainReport, EmgainRun, EmgainRunResult, RatioCh
 pub use signature::{require_em_signature, EmSignature, Verdict};
 pub use stack::{accumulate, accumulate_kept};
 pub use start::{start_values, MIN_SAMPLES, MIN_SIGNAL_SAMPLES};
+pub use zero_peak::{zero_peak_lambda, ZeroPeak};

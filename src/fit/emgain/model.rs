@@ -7,6 +7,7 @@ use std::sync::Arc;
 use rustfft::{num_complex::Complex64, Fft, FftPlanner};
 
 use super::histogram::ValueHistogram;
+use super::mixture::LambdaMixture;
 use super::options::EmShape;
 use super::result::EmGainFit;
 
@@ -28,6 +29,8 @@ pub(super) struct Model {
     pub(super) h: f64,
     pub(super) fft: Arc<dyn Fft<f64>>,
     pub(super) m: usize,
+    /// The pixels' spread of mean charge (None: one lambda for all).
+    pub(super) mix: Option<LambdaMixture>,
 }
 
 impl Model {
@@ -47,12 +50,23 @@ impl Model {
             let x = t * (self.h * 0.5);
             let sinc = if x == 0.0 { 1.0 } else { x.sin() / x };
             let mut log_phi =
-                Complex64::new(-0.5 * s * s * t * t, t * (b - self.x0 - 0.5 * self.h))
-                    + lambda * (laws.one[k] - 1.0);
+                Complex64::new(-0.5 * s * s * t * t, t * (b - self.x0 - 0.5 * self.h));
+            let light = lambda * (laws.one[k] - 1.0);
+            if self.mix.is_none() {
+                log_phi += light;
+            }
             if let Some(serial) = &laws.serial {
                 log_phi += cic * (serial[k] - 1.0);
             }
-            let v = log_phi.exp() * sinc;
+            let mut v = log_phi.exp() * sinc;
+            if let Some(mix) = &self.mix {
+                v *= mix
+                    .weights
+                    .iter()
+                    .zip(&mix.relative)
+                    .map(|(w, r)| w * (light * r).exp())
+                    .sum::<Complex64>();
+            }
             a[k] = v;
             if k > 0 {
                 a[m - k] = v.conj();
@@ -264,6 +278,7 @@ pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<
         h: hfine,
         fft: FftPlanner::new().plan_fft_forward(m),
         m,
+        mix: fit.lambda_mixture.clone(),
     };
     let zeros = vec![0.0; m];
     let cic = fit.serial_cic_e.unwrap_or(0.0);
@@ -273,6 +288,11 @@ pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<
     // No input and no serial-CIC electron: the bias peak alone.
     let gauss = model.cells(b, s, g, 0.0, 0.0).unwrap_or(zeros);
     let n = fit.n_samples;
+    // Probability of no input and no serial-CIC electron.
+    let none = match &fit.lambda_mixture {
+        None => (-l - cic).exp(),
+        Some(mix) => mix.p_zero(l) * (-cic).exp(),
+    };
     let sum = |v: &[f64], i0: usize, i1: usize| -> f64 {
         v.get(i0 * per_bin..(i1 * per_bin).min(v.len()))
             .map_or(0.0, |c| c.iter().sum())
@@ -286,7 +306,7 @@ pub fn model_curve(h: &ValueHistogram, fit: &EmGainFit, max_bins: usize) -> Vec<
                 width_adu: (i1 - i0) as f64 * w,
                 data: counts[i0..i1].iter().sum(),
                 model: n * sum(&total, i0, i1),
-                zero_electron: n * (-l - cic).exp() * sum(&gauss, i0, i1),
+                zero_electron: n * none * sum(&gauss, i0, i1),
             }
         })
         .collect()

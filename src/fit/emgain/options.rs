@@ -118,4 +118,8 @@ pub struct EmGainOptions {
     /// Serial clock-induced charge (electrons born inside the register, with partial gain):
     /// auto (default), on or off. Parallel CIC is part of lambda.
     pub serial_cic: SerialCic,
+    /// The pixels' spread of mean charge (a histogram pooling pixels of different dark
+    /// charge): the light term becomes that mixture of Poisson laws, lambda its mean. None:
+    /// one lambda for all pixels.
+    pub lambda_mixture: Option<super::LambdaMixture>,
 }

@@ -2,6 +2,7 @@
 //! likelihood of the natural parameters in internal coordinates (`Problem`).
 
 use super::histogram::ValueHistogram;
+use super::mixture::LambdaMixture;
 use super::model::{Model, MAX_FFT};
 use super::options::EmShape;
 use crate::error::{Error, Result};
@@ -149,12 +150,13 @@ impl Layout {
     }
 
     /// The fit problem with a model period reaching `pad` adu beyond the cut; `conv` the
-    /// conversion gain (e-/adu) if known.
+    /// conversion gain (e-/adu) if known, `mix` the pixels' spread of mean charge.
     pub(super) fn problem(
         &self,
         h: &ValueHistogram,
         shape: EmShape,
         conv: Option<f64>,
+        mix: Option<&LambdaMixture>,
         pad: f64,
     ) -> Result<Problem> {
         // Sizes are checked before anything is allocated from them.
@@ -188,6 +190,7 @@ impl Layout {
                 h: self.hfine,
                 fft: FftPlanner::new().plan_fft_forward(m),
                 m,
+                mix: mix.cloned(),
             },
             per_bin: self.per_bin,
             counts,

@@ -91,6 +91,14 @@ pub struct EmGainFit {
     /// Correlations of the free parameters among (bias, ln read noise, ln G, ln lambda,
     /// ln serial CIC), in that order.
     pub correlations: Option<Vec<Vec<f64>>>,
+    /// The pixels' spread of mean charge the light term was fitted with (absent: one lambda
+    /// for all pixels).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lambda_mixture: Option<super::LambdaMixture>,
+    /// The mean charge from the zero-electron peak alone, beside the fit's (absent unless
+    /// asked for, see [`super::zero_peak_lambda`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub zero_peak: Option<super::ZeroPeak>,
     /// Start values.
     pub start: EmStart,
     /// Other routes to the gain.

@@ -250,6 +250,7 @@ pub fn fit_report(job: &EmgainRun) -> Result<(EmgainReport, ValueHistogram)> {
             (_, true) => SerialCic::Off,
             _ => SerialCic::Auto,
         },
+        lambda_mixture: None,
     };
     let fit = fit_emgain_of_stack(&stack, &hist, &opts)?;
     let ratio_check = if job.reference_stack.is_empty() {
