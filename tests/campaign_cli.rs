@@ -136,7 +136,7 @@ fn class_thresholds_and_the_bad_fit_p_value_reach_the_decomposition() {
 
 #[test]
 fn values_out_of_range_are_refused_naming_the_option() {
-    let cases: [(&[&str], &str); 9] = [
+    let cases: [(&[&str], &str); 10] = [
         (&["--warm-sigma", "0"], "--warm-sigma"),
         (&["--hot-sigma", "2000"], "--hot-sigma"),
         (&["--warm-sigma", "30"], "--hot-sigma"),
@@ -149,6 +149,11 @@ fn values_out_of_range_are_refused_naming_the_option() {
         (&["--sigma-clip", "1e4"], "--sigma-clip"),
         (&["--clip", "3", "--sigma-clip", "3"], "--sigma-clip"),
         (&["--clip", "100"], "--clip"),
+        // Checked against every stack's frames before the first is read.
+        (
+            &["--clip", "75"],
+            "leaves fewer than 2 of the 150 frames of",
+        ),
     ];
     for (extra, option) in cases {
         let tmp = tempfile::tempdir().unwrap();

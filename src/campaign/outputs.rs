@@ -74,9 +74,9 @@ pub struct ConditionRow {
     /// Its SE (e-/e-).
     pub em_fit_gain_se_e_per_e: Option<f64>,
     /// Input electrons per pixel per frame in the fit (e-; CIC and dark current of a dark).
-    pub em_fit_cic_e_per_pixel: Option<f64>,
+    pub em_fit_lambda_e_per_pixel: Option<f64>,
     /// Its SE (e-).
-    pub em_fit_cic_se_e_per_pixel: Option<f64>,
+    pub em_fit_lambda_se_e_per_pixel: Option<f64>,
     /// The fit's read noise (adu).
     pub em_fit_read_noise_adu: Option<f64>,
     /// Input electrons per pixel per frame from the zero-electron peak alone (e-).
@@ -126,8 +126,8 @@ impl ConditionRow {
             frame_rms_se_adu: t.frame_rms_se_adu,
             em_fit_gain_e_per_e: fit.map(|f| f.em_gain),
             em_fit_gain_se_e_per_e: fit.map(|f| f.em_gain_se),
-            em_fit_cic_e_per_pixel: fit.map(|f| f.lambda_e),
-            em_fit_cic_se_e_per_pixel: fit.map(|f| f.lambda_e_se),
+            em_fit_lambda_e_per_pixel: fit.map(|f| f.lambda_e),
+            em_fit_lambda_se_e_per_pixel: fit.map(|f| f.lambda_e_se),
             em_fit_read_noise_adu: fit.map(|f| f.read_noise_adu),
             em_fit_zero_peak_lambda_e_per_pixel: zero.map(|z| z.lambda_e),
             em_fit_zero_peak_lambda_se_e_per_pixel: zero.map(|z| z.lambda_e_se),

@@ -92,6 +92,22 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         },
     )?;
     let plan = check_campaign(listing)?;
+    // Every stack must hold the frames the clipping needs, before the first is read.
+    if let crate::calib::darks::Clip::Extremes(n) = job.measure.clip {
+        for (entry, stack) in plan.stacks.iter().zip(&plan.opened) {
+            if 2 * n + 2 > stack.frames {
+                return Err(Error::invalid(
+                    "clip",
+                    format!(
+                        "rejecting {n} high and {n} low samples leaves fewer than 2 of the {} \
+                         frames of {}",
+                        stack.frames,
+                        entry.files[0].display()
+                    ),
+                ));
+            }
+        }
+    }
     for note in &plan.design.notes {
         observer.warn(note);
     }

@@ -244,11 +244,11 @@ fn every_amplitude_has_a_physical_upper_bound() {
             s.field
         );
     }
-    // Whatever else is read in e- is bounded too, or is no amplitude (a precision target).
+    // Whatever else is read in e- is bounded too.
     for s in all() {
         if let Kind::Real(_, Unbounded) = s.kind {
             assert!(
-                !s.unit.starts_with("e-") || s.field == "target_se_e",
+                !s.unit.starts_with("e-"),
                 "{} ({}) is unbounded",
                 s.field,
                 s.unit

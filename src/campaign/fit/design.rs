@@ -340,13 +340,11 @@ fn check_options(opts: &DecomposeOptions) -> Result<()> {
             ));
         }
     }
-    if !(opts.bad_fit_p_value > 0.0 && opts.bad_fit_p_value < 1.0) {
-        return Err(Error::invalid(
-            "bad_fit_p_value",
-            format!("{} must be in (0, 1)", opts.bad_fit_p_value),
-        ));
+    super::FitThresholds {
+        hot: opts.hot,
+        bad_fit_p_value: opts.bad_fit_p_value,
     }
-    opts.hot.check()
+    .check()
 }
 
 fn check_stack(
