@@ -4,7 +4,7 @@
 use super::range::OperatingRange;
 use crate::calib::{Map, Unit};
 use crate::detector::register::{MAX_EM_GAIN, MAX_STAGES};
-use crate::detector::scmos_rts::TelegraphPixels;
+use crate::detector::telegraph::TelegraphPixels;
 use crate::detector::EmRegister;
 use crate::settings::{MAX_GAIN_E_PER_ADU, MAX_NOISE_E};
 use crate::{Error, Result};

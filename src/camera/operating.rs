@@ -4,25 +4,13 @@
 use std::sync::Arc;
 
 use super::model::CameraModel;
+use super::point::OperatingPoint;
 use crate::calib::Map;
 use crate::detector::register::{excess_noise_factor_sq, serial_cic_moments};
-use crate::detector::scmos_rts::TelegraphPixels;
+use crate::detector::telegraph::TelegraphPixels;
 use crate::{Error, Result};
 
 pub use crate::settings::MAX_EXPOSURE_S;
-
-/// How the camera is run: the exposure of each frame, the EM gain commanded (None: no EM
-/// gain, or a camera without a register) and the sensor temperature (None: the temperature
-/// the dark current was measured at).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct OperatingPoint {
-    /// Exposure (integration) time of each frame, s (> 0).
-    pub exposure_s: f64,
-    /// Commanded EM gain, e-/e-; None: no multiplication (gain 1).
-    pub em_gain: Option<f64>,
-    /// Sensor temperature, degrees C; None: the dark current's reference temperature.
-    pub temperature_c: Option<f64>,
-}
 
 /// The camera at an operating point. Electrons are input-referred (an EM register's mean gain
 /// divided out), as the readout models output them; per-pixel vectors are row-major.
@@ -182,10 +170,10 @@ impl CameraAt {
 
     /// The kind of camera at this point: an EMCCD when its register multiplies, else a camera
     /// read directly (sCMOS, or a CCD without EM gain).
-    pub fn sensor(&self) -> crate::detector::Sensor {
+    pub fn sensor(&self) -> crate::detector::sensor::Sensor {
         match self.stages {
-            Some(_) => crate::detector::Sensor::Emccd,
-            None => crate::detector::Sensor::Scmos,
+            Some(_) => crate::detector::sensor::Sensor::Emccd,
+            None => crate::detector::sensor::Sensor::Scmos,
         }
     }
 
@@ -217,7 +205,7 @@ impl CameraAt {
     }
 
     /// The telegraph of pixel `i`, if it is a telegraph pixel.
-    pub(crate) fn telegraph_at(&self, i: usize) -> Option<&crate::detector::scmos_rts::Telegraph> {
+    pub(crate) fn telegraph_at(&self, i: usize) -> Option<&crate::detector::telegraph::Telegraph> {
         let cols = self.shape.1;
         self.telegraph.as_ref()?.at(i / cols, i % cols)
     }
@@ -359,7 +347,7 @@ mod tests {
         let q = 4.0 / 12.0;
         assert!((at.total_variance_e2(0) - (9.0 + 2.1 + q + common)).abs() < 1e-12);
         assert_eq!(at.mean_adu(1), 100.0 + 6.1 / 2.0);
-        assert_eq!(at.sensor(), crate::detector::Sensor::Scmos);
+        assert_eq!(at.sensor(), crate::detector::sensor::Sensor::Scmos);
         // Behind a register of gain 100: read and common noise divided by it, shot noise
         // times F^2 (1.976 for 604 stages at this gain, not 2).
         let op = OperatingPoint {
@@ -377,7 +365,7 @@ mod tests {
         let v = 0.03f64.powi(2) + at.excess_noise_f2 * 1.1 + common / 1e4 + q / 1e4;
         assert!((at.total_variance_e2(0) - v).abs() < 1e-12);
         assert_eq!(at.mean_adu(0), 100.0 + 1.1 * 50.0);
-        assert_eq!(at.sensor(), crate::detector::Sensor::Emccd);
+        assert_eq!(at.sensor(), crate::detector::sensor::Sensor::Emccd);
         // With serial CIC (0.1 events per pixel): its mean output and variance, divided by
         // the gain, join the dark signal and the variance.
         let mut cam = camera(true, false);

@@ -16,7 +16,8 @@
 //! The other files: `readout` (the trait), `spec` (specs and entries), `params`,
 //! `register` (the exact EM register), `pp` (Poisson-probability thresholds of `emccd-pp`),
 //! `registry` (names, help and parsing over the table), `rts_table` (the telegraph pixels
-//! `darks` measured, for `scmos-rts`) and `dark_frames` (the reservoir of dark frames of
+//! `darks` measured, for `scmos-rts`), `telegraph` (those pixels as a readout draws them),
+//! `sensor` (the camera kinds) and `dark_frames` (the reservoir of dark frames of
 //! `scmos-frames`).
 
 pub mod dark_frames;
@@ -26,7 +27,9 @@ mod readout;
 pub mod register;
 mod registry;
 pub mod rts_table;
+pub(crate) mod sensor;
 mod spec;
+pub(crate) mod telegraph;
 
 pub use camera_model::CameraReadout;
 pub use dark_frames::DarkFrames;

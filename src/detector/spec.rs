@@ -93,14 +93,7 @@ impl ModelSpec {
     }
 }
 
-/// The kind of camera a readout model simulates.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Sensor {
-    /// Electron-multiplying CCD: register gain, read noise divided by the gain.
-    Emccd,
-    /// sCMOS: photo-electrons plus per-pixel Gaussian read noise.
-    Scmos,
-}
+pub use super::sensor::Sensor;
 
 /// One readout model of the registry.
 #[derive(Debug, Clone, Copy)]

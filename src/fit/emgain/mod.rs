@@ -46,9 +46,11 @@ pub use model::{
     excess_noise_factor_sq, law_gain, model_curve, CurveBin, UNKNOWN_CONVERSION_MIN_GAIN,
 };
 pub use options::{EmGainOptions, EmLaw, EmShape, SerialCic, DEFAULT_STAGES};
-pub use result::{gain_from_mean_ratio, EmCrossChecks, EmGainFit, EmStart, SerialCicTest};
+pub use result::{
+    gain_from_mean_ratio, EmCrossChecks, EmGainFit, EmStart, SerialCicTest, ZeroPeak,
+};
 pub use run::{fit_report, run, EmgainReport, EmgainRun, EmgainRunResult, RatioCheck};
 pub use signature::{require_em_signature, EmSignature, Verdict};
 pub use stack::{accumulate, accumulate_kept};
 pub use start::{start_values, MIN_SAMPLES, MIN_SIGNAL_SAMPLES};
-pub use zero_peak::{zero_peak_lambda, ZeroPeak};
+pub use zero_peak::zero_peak_lambda;

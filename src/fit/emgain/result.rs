@@ -3,6 +3,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::mixture::LambdaMixture;
 use super::options::{EmShape, SerialCic};
 
 /// Start values of the fit (notes 6.2).
@@ -94,11 +95,11 @@ pub struct EmGainFit {
     /// The pixels' spread of mean charge the light term was fitted with (absent: one lambda
     /// for all pixels).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lambda_mixture: Option<super::LambdaMixture>,
+    pub lambda_mixture: Option<LambdaMixture>,
     /// The mean charge from the zero-electron peak alone, beside the fit's (absent unless
     /// asked for, see [`super::zero_peak_lambda`]).
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub zero_peak: Option<super::ZeroPeak>,
+    pub zero_peak: Option<ZeroPeak>,
     /// Start values.
     pub start: EmStart,
     /// Other routes to the gain.
@@ -139,4 +140,24 @@ pub struct SerialCicTest {
 /// at unity EM gain under the same light (both adu).
 pub fn gain_from_mean_ratio(signal_adu: f64, reference_signal_adu: f64) -> f64 {
     signal_adu / reference_signal_adu
+}
+
+/// The zero-electron peak's estimate of the mean input charge.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ZeroPeak {
+    /// Fraction of the pixel-samples below the fitted bias.
+    pub fraction_below_bias: f64,
+    /// Fraction of the pixel-samples the fitted model puts below the bias from one or more
+    /// (input or serial-CIC) electrons.
+    pub events_below_bias: f64,
+    /// Probability of a pixel-sample without any electron: 2 (fraction - events).
+    pub p_zero: f64,
+    /// Its binomial SE, 2 sqrt(F (1 - F) / n): an upper bound, because the bias is fitted to
+    /// the same values (for a Gaussian peak alone the SE is 0.6 of it).
+    pub p_zero_se: f64,
+    /// Mean input electrons per pixel-sample (e-): p_zero = P(no input electron) x
+    /// exp(-serial CIC), with the fit's serial CIC and pixels' spread of charge.
+    pub lambda_e: f64,
+    /// Its SE (e-), from `p_zero_se`.
+    pub lambda_e_se: f64,
 }

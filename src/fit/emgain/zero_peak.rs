@@ -7,33 +7,11 @@
 //! electrons (EM events below the bias, a large share at low gain). Only E(b) depends on the
 //! register law, and at high gain it is small.
 
-use serde::{Deserialize, Serialize};
-
 use super::histogram::ValueHistogram;
 use super::model::{Model, MAX_FFT};
-use super::result::EmGainFit;
+use super::result::{EmGainFit, ZeroPeak};
 use crate::error::{Error, Result};
 use rustfft::FftPlanner;
-
-/// The zero-electron peak's estimate of the mean input charge.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ZeroPeak {
-    /// Fraction of the pixel-samples below the fitted bias.
-    pub fraction_below_bias: f64,
-    /// Fraction of the pixel-samples the fitted model puts below the bias from one or more
-    /// (input or serial-CIC) electrons.
-    pub events_below_bias: f64,
-    /// Probability of a pixel-sample without any electron: 2 (fraction - events).
-    pub p_zero: f64,
-    /// Its binomial SE, 2 sqrt(F (1 - F) / n): an upper bound, because the bias is fitted to
-    /// the same values (for a Gaussian peak alone the SE is 0.6 of it).
-    pub p_zero_se: f64,
-    /// Mean input electrons per pixel-sample (e-): p_zero = P(no input electron) x
-    /// exp(-serial CIC), with the fit's serial CIC and pixels' spread of charge.
-    pub lambda_e: f64,
-    /// Its SE (e-), from `p_zero_se`.
-    pub lambda_e_se: f64,
-}
 
 /// Cells per read noise on the model's grid.
 const CELLS_PER_SIGMA: f64 = 8.0;
