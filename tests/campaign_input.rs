@@ -90,6 +90,7 @@ fn a_manifest_gives_one_row_per_stack_with_units_in_the_header() {
         "frame_rms_se_adu",
         "em_fit_gain_e_per_e",
         "em_fit_lambda_e_per_pixel",
+        "em_fit_serial_cic_e_per_pixel",
     ] {
         assert!(head.split(',').any(|h| h == col), "{col} in {head}");
     }

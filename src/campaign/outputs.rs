@@ -77,6 +77,11 @@ pub struct ConditionRow {
     pub em_fit_lambda_e_per_pixel: Option<f64>,
     /// Its SE (e-).
     pub em_fit_lambda_se_e_per_pixel: Option<f64>,
+    /// Serial (in-register) CIC of the fit, events per pixel; empty when the model
+    /// comparison found none.
+    pub em_fit_serial_cic_e_per_pixel: Option<f64>,
+    /// Its SE (events per pixel).
+    pub em_fit_serial_cic_se_e_per_pixel: Option<f64>,
     /// The fit's read noise (adu).
     pub em_fit_read_noise_adu: Option<f64>,
     /// Input electrons per pixel per frame from the zero-electron peak alone (e-).
@@ -128,6 +133,8 @@ impl ConditionRow {
             em_fit_gain_se_e_per_e: fit.map(|f| f.em_gain_se),
             em_fit_lambda_e_per_pixel: fit.map(|f| f.lambda_e),
             em_fit_lambda_se_e_per_pixel: fit.map(|f| f.lambda_e_se),
+            em_fit_serial_cic_e_per_pixel: fit.and_then(|f| f.serial_cic_e),
+            em_fit_serial_cic_se_e_per_pixel: fit.and_then(|f| f.serial_cic_e_se),
             em_fit_read_noise_adu: fit.map(|f| f.read_noise_adu),
             em_fit_zero_peak_lambda_e_per_pixel: zero.map(|z| z.lambda_e),
             em_fit_zero_peak_lambda_se_e_per_pixel: zero.map(|z| z.lambda_e_se),
