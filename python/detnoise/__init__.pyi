@@ -239,12 +239,19 @@ def dark_maps(
     rts_sigma: float = 5.0,
     checksum: Optional[str] = "blake3",
     accept_illuminated: bool = False,
+    camera: Optional[_Path] = None,
+    exposure_s: Optional[float] = None,
+    em_gain: Optional[float] = None,
+    temperature_c: Optional[float] = None,
     progress: _Progress = None,
 ) -> DarkMaps:
     """Offset, read-noise (adu; e- with gain_e_per_adu, e- per adu) and flag maps of a dark
     stack, as `detnoise darks` computes them. clip: reject the N highest and lowest samples
     per pixel; sigma_clip: reject samples beyond K standard deviations; hot_sigma (robust
-    sigmas), dead_fraction (of the median rms), rts_sigma (standard errors): flag thresholds."""
+    sigmas), dead_fraction (of the median rms), rts_sigma (standard errors): flag thresholds.
+    camera: a camera model folder whose dark current and CIC the frames hold at exposure_s
+    (s, required with it), em_gain (e-/e-) and temperature_c (degrees C): the check for light
+    takes that expected dark signal and its shot noise off first (`darks --camera`)."""
 
 class Campaign:
     """A campaign measured and decomposed as `detnoise campaign` does, its outputs in `out`."""

@@ -5,8 +5,8 @@ use crate::convert::{array2, map_array, to_py};
 use crate::errors::IntoPy;
 use crate::observer::observed;
 use detnoise::calib::darks::{
-    dark_maps, dark_maps_hashed, require_dark, summarise, Clip, DarkMaps as Maps, DarkOptions,
-    DarkSummary,
+    dark_maps, dark_maps_hashed, require_dark_expecting, summarise, Clip, DarkMaps as Maps,
+    DarkOptions, DarkSummary, ExpectedDark,
 };
 use detnoise::calib::summary::unhashed;
 use detnoise::io::{Checksum, FrameStack, StackReader};
@@ -135,7 +135,7 @@ impl PyDarkMaps {
 /// Offset, read-noise and flag maps of a dark stack, as `detnoise darks` computes them.
 #[pyfunction]
 #[pyo3(name = "dark_maps")]
-#[pyo3(signature = (paths, *, gain_e_per_adu = None, clip = 0, sigma_clip = None, common_mode = false, hot_sigma = 5.0, dead_fraction = 0.1, rts_sigma = 5.0, checksum = Some("blake3"), accept_illuminated = false, progress = None))]
+#[pyo3(signature = (paths, *, gain_e_per_adu = None, clip = 0, sigma_clip = None, common_mode = false, hot_sigma = 5.0, dead_fraction = 0.1, rts_sigma = 5.0, checksum = Some("blake3"), accept_illuminated = false, camera = None, exposure_s = None, em_gain = None, temperature_c = None, progress = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn dark_maps_py(
     py: Python<'_>,
@@ -149,8 +149,13 @@ pub fn dark_maps_py(
     rts_sigma: f64,
     checksum: Option<&str>,
     accept_illuminated: bool,
+    camera: Option<PathBuf>,
+    exposure_s: Option<f64>,
+    em_gain: Option<f64>,
+    temperature_c: Option<f64>,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<PyDarkMaps> {
+    let expected = expected_dark(camera, exposure_s, em_gain, temperature_c)?;
     if let Some(g) = gain_e_per_adu {
         if !(g > 0.0 && g.is_finite()) {
             return Err(crate::errors::invalid(
@@ -191,11 +196,16 @@ pub fn dark_maps_py(
     observed(py, progress, |observer| {
         options.check()?;
         let stack = FrameStack::open(&paths)?;
+        if let Some(e) = &expected {
+            e.check_shape(&stack)?;
+        }
         let (maps, inputs) = match checksum {
             Some(algorithm) => dark_maps_hashed(&stack, &options, algorithm)?,
             None => (dark_maps(&stack, &options)?, unhashed(&stack)),
         };
-        if let Some(warning) = require_dark(&stack, &maps, accept_illuminated)? {
+        if let Some(warning) =
+            require_dark_expecting(&stack, &maps, accept_illuminated, expected.as_ref())?
+        {
             detnoise::progress::Observer::warn(observer, &warning);
         }
         let mut summary = summarise(&stack, &maps, &options, gain_e_per_adu, inputs, "");
@@ -207,4 +217,48 @@ pub fn dark_maps_py(
             summary,
         })
     })
+}
+
+/// The dark signal the frames hold by the camera model `camera` at its operating point
+/// (`exposure_s` required with it); None without a camera.
+fn expected_dark(
+    camera: Option<PathBuf>,
+    exposure_s: Option<f64>,
+    em_gain: Option<f64>,
+    temperature_c: Option<f64>,
+) -> PyResult<Option<ExpectedDark>> {
+    let Some(dir) = camera else {
+        for (name, given) in [
+            ("exposure_s", exposure_s.is_some()),
+            ("em_gain", em_gain.is_some()),
+            ("temperature_c", temperature_c.is_some()),
+        ] {
+            if given {
+                return Err(crate::errors::invalid(
+                    name,
+                    "applies to the dark frames of a camera model: give `camera` too",
+                ));
+            }
+        }
+        return Ok(None);
+    };
+    let Some(exposure_s) = exposure_s else {
+        return Err(crate::errors::invalid(
+            "exposure_s",
+            "the dark frames' exposure time (s) is needed with `camera`",
+        ));
+    };
+    let at = detnoise::camera::CameraModel::read(&dir)
+        .and_then(|m| {
+            m.at(detnoise::camera::OperatingPoint {
+                exposure_s,
+                em_gain,
+                temperature_c,
+            })
+        })
+        .py()?;
+    Ok(Some(ExpectedDark::of_camera(
+        &at,
+        dir.display().to_string(),
+    )))
 }

@@ -91,3 +91,16 @@ def test_progress_is_reported_per_stage(tmp_path):
     stages = []
     run(tmp_path, progress=lambda stage, done, total, unit: stages.append(stage))
     assert "campaign" in stages
+
+
+def test_dark_maps_take_the_camera_models_dark_signal_off_before_the_light_check(tmp_path):
+    c = run(tmp_path)
+    long_dark = FIXTURE / "scmos-t5.000s.fits"  # ~10 e- of dark charge per pixel
+    with pytest.raises(OSError, match="look illuminated"):
+        detnoise.dark_maps(long_dark, checksum=None)
+    maps = detnoise.dark_maps(long_dark, checksum=None, camera=c.camera, exposure_s=5.0)
+    assert maps.offset_adu.shape == (32, 32)
+    with pytest.raises(ValueError, match="exposure_s"):
+        detnoise.dark_maps(long_dark, camera=c.camera)
+    with pytest.raises(ValueError, match="camera"):
+        detnoise.dark_maps(long_dark, exposure_s=5.0)

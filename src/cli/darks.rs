@@ -154,11 +154,8 @@ fn expected_dark(args: &DarksArgs) -> Result<Option<ExpectedDark>> {
         em_gain: args.em_gain,
         temperature_c: args.temperature_c,
     })?;
-    let adu_per_e: Vec<f64> = (0..at.pixels()).map(|i| at.adu_per_e(i)).collect();
-    Ok(Some(ExpectedDark::new(
-        &at.dark_e,
-        &adu_per_e,
-        at.excess_noise_f2,
+    Ok(Some(ExpectedDark::of_camera(
+        &at,
         dir.display().to_string(),
     )))
 }

@@ -4,6 +4,7 @@
 use serde::Serialize;
 
 use super::maps::DarkMaps;
+use crate::camera::CameraAt;
 use crate::error::{Error, Result};
 use crate::io::FrameStack;
 use crate::stats::{median, percentile, robust_slope};
@@ -63,6 +64,31 @@ impl ExpectedDark {
             median_e: median(dark_e),
             source: source.into(),
         }
+    }
+
+    /// The dark signal of the camera `at` its operating point (its dark charge per pixel,
+    /// through its per-pixel gain and register); `source` names the camera for messages.
+    pub fn of_camera(at: &CameraAt, source: impl Into<String>) -> ExpectedDark {
+        let adu_per_e: Vec<f64> = (0..at.pixels()).map(|i| at.adu_per_e(i)).collect();
+        ExpectedDark::new(&at.dark_e, &adu_per_e, at.excess_noise_f2, source)
+    }
+
+    /// Fail unless it has one value per pixel of `stack` (checked before the stack is read).
+    pub fn check_shape(&self, stack: &FrameStack) -> Result<()> {
+        if self.mean_adu.len() == stack.pixels() {
+            return Ok(());
+        }
+        Err(Error::invalid(
+            "camera",
+            format!(
+                "{}: the camera model has {} pixels, the dark stack {} ({}x{})",
+                self.source,
+                self.mean_adu.len(),
+                stack.pixels(),
+                stack.shape.0,
+                stack.shape.1
+            ),
+        ))
     }
 }
 

@@ -9,7 +9,7 @@ use super::maps::{dark_maps, dark_maps_hashed};
 use super::options::DarkOptions;
 use super::outputs::{write_outputs, DarkSummary, OUTPUT_NAMES};
 use crate::calib::summary::{unhashed, Checksum};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::io::FrameStack;
 use crate::output::{DirPlan, OutputDir};
 use crate::progress::Observer;
@@ -66,19 +66,7 @@ pub fn run(job: &DarksRun, observer: &dyn Observer) -> Result<DarksRunResult> {
     )?;
     let stack = FrameStack::open(&job.stack)?;
     if let Some(e) = &job.expected_dark {
-        if e.mean_adu.len() != stack.pixels() {
-            return Err(Error::invalid(
-                "camera",
-                format!(
-                    "{}: the camera model has {} pixels, the dark stack {} ({}x{})",
-                    e.source,
-                    e.mean_adu.len(),
-                    stack.pixels(),
-                    stack.shape.0,
-                    stack.shape.1
-                ),
-            ));
-        }
+        e.check_shape(&stack)?;
     }
     let t = Instant::now();
     let (maps, inputs) = match job.checksum {
