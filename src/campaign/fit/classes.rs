@@ -3,7 +3,6 @@
 
 use serde::Serialize;
 
-use crate::error::{Error, Result};
 use crate::stats::median_and_robust_sigma;
 
 /// The thresholds of the warm and hot classes.
@@ -32,30 +31,6 @@ impl Default for HotRule {
         HotRule::Robust {
             warm_sigmas: 5.0,
             hot_sigmas: 25.0,
-        }
-    }
-}
-
-impl HotRule {
-    /// Both thresholds finite and warm < hot.
-    pub(super) fn check(&self) -> Result<()> {
-        let (w, h) = match *self {
-            HotRule::Robust {
-                warm_sigmas,
-                hot_sigmas,
-            } => (warm_sigmas, hot_sigmas),
-            HotRule::Absolute {
-                warm_e_per_s,
-                hot_e_per_s,
-            } => (warm_e_per_s, hot_e_per_s),
-        };
-        if w.is_finite() && h.is_finite() && w < h {
-            Ok(())
-        } else {
-            Err(Error::invalid(
-                "hot",
-                format!("warm threshold {w} and hot threshold {h} must be finite, warm < hot"),
-            ))
         }
     }
 }
