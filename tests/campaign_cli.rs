@@ -15,19 +15,24 @@ fn manifest() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/campaign/scmos/manifest.csv")
 }
 
+/// `detnoise campaign` on the fixture (K = 0.5 e-/adu, no checksums) into `out`, with `extra`.
+fn campaign(out: &Path, extra: &[&str]) -> assert_cmd::assert::Assert {
+    detnoise()
+        .arg("campaign")
+        .arg("--manifest")
+        .arg(manifest())
+        .args(["--gain-e-per-adu", "0.5", "--no-checksums", "--out"])
+        .arg(out)
+        .args(extra)
+        .assert()
+}
+
 /// `campaign` on the fixture with `extra`: its conditions.csv rows (header, then one per
 /// stack) and decomposition.json.
 fn run(extra: &[&str]) -> (Vec<Vec<String>>, serde_json::Value) {
     let tmp = tempfile::tempdir().unwrap();
     let out = tmp.path().join("c");
-    let a = detnoise()
-        .arg("campaign")
-        .arg("--manifest")
-        .arg(manifest())
-        .args(["--gain-e-per-adu", "0.5", "--no-checksums", "--out"])
-        .arg(&out)
-        .args(extra)
-        .assert();
+    let a = campaign(&out, extra);
     let o = a.get_output();
     assert!(
         o.status.success(),
@@ -158,15 +163,7 @@ fn values_out_of_range_are_refused_naming_the_option() {
     for (extra, option) in cases {
         let tmp = tempfile::tempdir().unwrap();
         let out = tmp.path().join("c");
-        let a = detnoise()
-            .arg("campaign")
-            .arg("--manifest")
-            .arg(manifest())
-            .args(["--gain-e-per-adu", "0.5", "--out"])
-            .arg(&out)
-            .args(extra)
-            .assert()
-            .failure();
+        let a = campaign(&out, extra).failure();
         let err = String::from_utf8_lossy(&a.get_output().stderr).to_string();
         assert!(err.contains(option), "{extra:?}: {err}");
         assert!(!out.exists(), "{extra:?} wrote {}", out.display());
