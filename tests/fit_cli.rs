@@ -178,16 +178,18 @@ fn emgain_states_its_law_and_serial_cic_verdict_and_the_flags_force_them() {
     // (bare: on) and `--serial-cic off` force it; contradictions are usage errors.
     let dir = tempfile::tempdir().unwrap();
     let stack = synth_emccd(dir.path(), 0.1, 0.005);
-    let run = |name: &str, args: &[&str]| {
-        let out = dir.path().join(name);
-        let a = detnoise()
+    let emgain = |out: &Path, args: &[&str]| {
+        detnoise()
             .arg("emgain")
             .arg(&stack)
             .args(args)
             .arg("--out")
-            .arg(&out)
+            .arg(out)
             .assert()
-            .success();
+    };
+    let run = |name: &str, args: &[&str]| {
+        let out = dir.path().join(name);
+        let a = emgain(&out, args).success();
         let text = String::from_utf8_lossy(&a.get_output().stdout).to_string();
         (json(&out.join("emgain.json")), text)
     };
@@ -234,14 +236,7 @@ fn emgain_states_its_law_and_serial_cic_verdict_and_the_flags_force_them() {
         ),
     ] {
         let out = dir.path().join("refused");
-        let a = detnoise()
-            .arg("emgain")
-            .arg(&stack)
-            .args(args)
-            .arg("--out")
-            .arg(&out)
-            .assert()
-            .code(2);
+        let a = emgain(&out, args).code(2);
         let err = String::from_utf8_lossy(&a.get_output().stderr).to_string();
         assert!(err.contains(flag), "{args:?}: {err}");
         assert!(!out.exists());
