@@ -3,6 +3,7 @@
 //! line and frame noise pooled over the darks, and the EM register's gain curve.
 
 use super::checks::CampaignPlan;
+use super::fit::wls::Normal;
 use super::fit::{Decomposition, HotClass};
 use super::measure::StackMeasurement;
 use super::StackKind;
@@ -148,50 +149,14 @@ fn without_serial_cic(d: &Decomposition, c: f64, k_e_per_adu: f64) -> Decomposit
 }
 
 /// Unweighted least squares of `rows` ((design row, observation)) in its first `p` (<= 3)
-/// parameters, by the normal equations; None when they are singular (too few conditions).
-#[allow(clippy::needless_range_loop)] // elimination on a small matrix reads best as indices
+/// parameters (the decomposition's solver, unit weights); None when the normal equations are
+/// singular (too few conditions).
 fn least_squares(rows: &[([f64; 3], f64)], p: usize) -> Option<[f64; 3]> {
-    let mut a = [[0.0; 4]; 3];
+    let mut normal = Normal::<3>::new(p);
     for (x, y) in rows {
-        for i in 0..p {
-            for j in 0..p {
-                a[i][j] += x[i] * x[j];
-            }
-            a[i][3] += x[i] * y;
-        }
+        normal.add(x, *y, 1.0);
     }
-    // Gauss-Jordan with partial pivoting on the augmented matrix, columns scaled to a unit
-    // diagonal first (1 against G t differ by orders of magnitude).
-    let scale: Vec<f64> = (0..p).map(|i| a[i][i].sqrt()).collect();
-    if scale.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
-        return None;
-    }
-    for i in 0..p {
-        for j in 0..p {
-            a[i][j] /= scale[i] * scale[j];
-        }
-        a[i][3] /= scale[i];
-    }
-    for col in 0..p {
-        let pivot = (col..p).max_by(|&r, &s| a[r][col].abs().total_cmp(&a[s][col].abs()))?;
-        if a[pivot][col].abs() < 1e-10 {
-            return None;
-        }
-        a.swap(col, pivot);
-        for r in 0..p {
-            if r != col {
-                let f = a[r][col] / a[col][col];
-                for j in col..4 {
-                    a[r][j] -= f * a[col][j];
-                }
-            }
-        }
-    }
-    let mut x = [0.0; 3];
-    for i in 0..p {
-        x[i] = a[i][3] / a[i][i] / scale[i];
-    }
-    Some(x)
+    normal.solve().map(|s| s.x)
 }
 
 /// Fitted values clipped at 0 (a pixel's dark current or CIC fitted below 0 within its SE);

@@ -24,7 +24,7 @@ mod summary;
 mod temperature;
 #[cfg(test)]
 mod tests;
-mod wls;
+pub(super) mod wls;
 
 use super::ConditionStats;
 use crate::error::Result;
