@@ -264,6 +264,8 @@ pub(crate) mod tests {
         let e = Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             r_px: 0.3,
             r_se_px: 0.003,
             b_opt_e: 0.0,

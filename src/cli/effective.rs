@@ -178,6 +178,8 @@ mod tests {
         let e = |sigma: f64, se: f64, target: Option<f64>, status| Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             target_se_e: target,
             iters: 80_000,
             r_px: 0.5,

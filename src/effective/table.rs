@@ -2,7 +2,7 @@
 //! configuration, written as `effective_noise.csv` and `effective_noise.json`.
 
 use super::precision::Precision;
-use super::solve::{effective_sigma_with, planned_work, Effective};
+use super::solve::{effective_sigma_with, planned_work_with, Effective};
 use crate::centroid::CentroiderSpec;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::montecarlo::{config_columns, SimConfig};
@@ -52,7 +52,7 @@ impl EffectiveRecord {
 impl Serialize for EffectiveRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let e = &self.effective;
-        let mut s = serializer.serialize_struct("EffectiveRecord", 18)?;
+        let mut s = serializer.serialize_struct("EffectiveRecord", 20)?;
         s.serialize_field("model", &self.model)?;
         s.serialize_field("centroider", &self.centroider)?;
         let used = SimConfig {
@@ -65,6 +65,8 @@ impl Serialize for EffectiveRecord {
         s.serialize_field("sigma_eff_e", &finite(e.sigma_eff_e))?;
         s.serialize_field("sigma_eff_se_e", &finite(e.sigma_eff_se_e))?;
         s.serialize_field("target_se_e", &e.target_se_e)?;
+        s.serialize_field("sigma_cog_equiv_e", &finite(e.sigma_cog_equiv_e))?;
+        s.serialize_field("sigma_cog_equiv_se_e", &finite(e.sigma_cog_equiv_se_e))?;
         s.serialize_field("r_px", &e.r_px)?;
         s.serialize_field("r_se_px", &e.r_se_px)?;
         s.serialize_field("b_opt_e", &e.b_opt_e)?;
@@ -109,8 +111,11 @@ pub fn effective_table_with(
     for c in centroiders {
         c.validate()?;
     }
-    let runs = (specs.len() * centroiders.len()) as u64;
-    let work: u64 = configs.iter().map(planned_work).sum::<u64>() * runs;
+    let per_model: u64 = centroiders
+        .iter()
+        .flat_map(|c| configs.iter().map(move |cfg| planned_work_with(cfg, c)))
+        .sum();
+    let work = per_model * specs.len() as u64;
     observer.begin("effective", work, work);
     observer.unit("pixel-frames");
     let records = solve_all(configs, specs, centroiders, params, precision, observer);
@@ -226,6 +231,8 @@ mod tests {
         Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             target_se_e: target,
             iters: 40_000,
             r_px: 0.5,

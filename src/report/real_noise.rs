@@ -268,6 +268,8 @@ mod tests {
         Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             target_se_e: None,
             iters: 1000,
             r_px: 0.1,
