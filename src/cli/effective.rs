@@ -47,9 +47,10 @@ pub struct EffectiveArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
-    /// The centroiders the detector is read through (the constant-sigma references always use
-    /// cog): sigma_eff is then the uniform camera that, centroided plainly, matches this camera
-    /// under that centroider. Heatmaps of a centroider other than cog carry its name, e.g.
+    /// The centroiders the detector is read through: sigma_eff is then the uniform camera that,
+    /// read through the same centroider (its parameter re-optimised), matches this camera's R
+    /// (the number for a simulator running that centroider); sigma_cog_equiv_e is the uniform
+    /// camera that matches it under plain cog. Heatmaps of a centroider other than cog carry its name, e.g.
     /// effective_noise_S50_masked-cog.png.
     #[command(flatten)]
     pub centroiders: CentroiderArgs,

@@ -18,10 +18,13 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 ///
 /// Serialised (CSV, JSON) as the columns `model`, `centroider`; the configuration (`subap_px`, `spot`,
 /// `sampling`, `signal_photons`, `qe`, then `iters`: the iterations the value rests on, from
-/// the starting count up to the cap, and `seed`); `sigma_eff_e` and `sigma_eff_se_e` (e-;
-/// empty/null for `unreachable` and `no_eligible_level`); `target_se_e` (e-, the standard error
-/// the value had to reach: the larger of the absolute target and the relative one times the
-/// value; empty/null without a target or a value); `r_px`, `r_se_px` (the detector's R and its
+/// the starting count up to the cap, and `seed`); `sigma_eff_e` and `sigma_eff_se_e` (e-, the
+/// uniform camera with the same R under the same centroider; empty/null for `unreachable` and
+/// `no_eligible_level`); `target_se_e` (e-, the standard error the value had to reach: the
+/// larger of the absolute target and the relative one times the value; empty/null without a
+/// target or a value); `sigma_cog_equiv_e` and `sigma_cog_equiv_se_e` (e-, the uniform camera
+/// with the same R under plain `cog`: sigma_eff itself for `cog`; empty/null without a value);
+/// `r_px`, `r_se_px` (the detector's R and its
 /// SE), `b_opt_e` (its best background level), `centroider_param` and `centroider_param_opt`
 /// (the centroider's parameter at the optimum; empty for `cog`); and `status` (`ok`, `imprecise`, `lower_bound`,
 /// `unreachable`, `no_eligible_level`: see [`crate::effective::Status::meaning`]).
@@ -29,7 +32,7 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 pub struct EffectiveRecord {
     /// The detector model (its name, or a caller's label).
     pub model: String,
-    /// The detector's centroider (`--centroider` text; the references use `cog`).
+    /// The detector's centroider (`--centroider` text; the references use the same one).
     pub centroider: String,
     /// The configuration solved.
     pub config: SimConfig,
@@ -94,7 +97,7 @@ pub fn effective_table(
 }
 
 /// [`effective_table`] with every detector read through each of `centroiders` (the
-/// references always through `cog`): records in model, then centroider, then configuration
+/// references through the same centroider, and through `cog` for the cog-equivalent): records in model, then centroider, then configuration
 /// order.
 pub fn effective_table_with(
     configs: &[SimConfig],
@@ -259,16 +262,17 @@ mod tests {
         assert_eq!(
             csv,
             "model,centroider,subap_px,spot,sampling,signal_photons,qe,iters,seed,sigma_eff_e,\
-             sigma_eff_se_e,target_se_e,r_px,r_se_px,b_opt_e,centroider_param,\
-             centroider_param_opt,status\n\
-             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,0.5,0.25,2,,,unreachable\n"
+             sigma_eff_se_e,target_se_e,sigma_cog_equiv_e,sigma_cog_equiv_se_e,r_px,r_se_px,\
+             b_opt_e,centroider_param,centroider_param_opt,status\n\
+             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,,,0.5,0.25,2,,,unreachable\n"
         );
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&written[1]).unwrap()).unwrap();
         assert!(json[0]["sigma_eff_e"].is_null() && json[0]["target_se_e"].is_null());
         assert_eq!(json[0]["status"], "unreachable");
         assert_eq!(json[0]["iters"], 40_000);
-        assert_eq!(json[0].as_object().unwrap().len(), 18);
+        assert!(json[0]["sigma_cog_equiv_e"].is_null());
+        assert_eq!(json[0].as_object().unwrap().len(), 20);
     }
 
     #[test]
