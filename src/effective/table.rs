@@ -215,6 +215,33 @@ mod tests {
     }
 
     #[test]
+    fn another_centroider_plans_and_advances_its_cog_equivalent_arms() {
+        // wcog adds the cog-equivalent: the pilot's 8 references read through cog as well, and
+        // a final grid of 6 through cog; the stage plans them and ends exactly advanced.
+        let mut cfg = SimConfig::paper(4);
+        cfg.iters = 600;
+        let wcog = CentroiderSpec::parse("wcog").unwrap();
+        let recorder = Recorder::default();
+        let table = effective_table_with(
+            std::slice::from_ref(&cfg),
+            &[ModelSpec::parse("scmos-constant:0.8").unwrap()],
+            &[wcog],
+            &ModelParams::default(),
+            &Precision::fixed(600),
+            &recorder,
+        )
+        .unwrap();
+        let planned = (500 * (1 + 8 + 8) + 600 * (1 + 4 + 6)) * 16;
+        assert_eq!(planned_work_with(&cfg, &wcog), planned);
+        let stages = recorder.stages.lock().unwrap().clone();
+        assert_eq!(stages, [("effective".to_string(), planned, planned)]);
+        let grown = recorder.grown.load(Relaxed);
+        assert_eq!(recorder.advanced.load(Relaxed), planned + grown);
+        let e = &table[0].effective;
+        assert!(e.sigma_cog_equiv_e.is_finite() && e.sigma_cog_equiv_se_e > 0.0, "{e:?}");
+    }
+
+    #[test]
     fn a_bad_precision_is_refused_before_any_work() {
         let cfg = SimConfig::paper(4);
         let recorder = Recorder::default();
