@@ -223,6 +223,39 @@ mod tests {
     }
 
     #[test]
+    fn the_cog_equivalent_column_appears_only_beside_another_centroider() {
+        let cfg = SimConfig::paper(8);
+        let e = Effective {
+            sigma_eff_e: 1.397,
+            sigma_eff_se_e: 0.02,
+            sigma_cog_equiv_e: 0.2196,
+            sigma_cog_equiv_se_e: 0.046,
+            target_se_e: Some(0.05),
+            iters: 10_000,
+            r_px: 0.095,
+            r_se_px: 0.0005,
+            b_opt_e: 0.45,
+            param_name: None,
+            param_opt: None,
+            sigma_grid_e: vec![],
+            r_const_px: vec![],
+            status: Status::Ok,
+        };
+        let mut record = EffectiveRecord::new("scmos-map".into(), &cfg, &e);
+        let cog_only = terminal_table(std::slice::from_ref(&record));
+        assert!(!cog_only.contains("cog_equiv"), "{cog_only}");
+        record.centroider = "wcog".into();
+        let text = terminal_table(&[record]);
+        let lines: Vec<&str> = text.lines().collect();
+        assert!(lines[1].contains(" cog_equiv  status"), "{text}");
+        assert!(
+            lines[2].contains("1.397") && lines[2].contains(" 0.220  ok"),
+            "{text}"
+        );
+        assert!(text.lines().all(|l| l.chars().count() <= 100), "{text}");
+    }
+
+    #[test]
     fn help_states_the_precision_rule_and_every_status() {
         let mut cmd = super::super::command();
         let sub = cmd.find_subcommand_mut("effective").expect("subcommand");

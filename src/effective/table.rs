@@ -238,7 +238,10 @@ mod tests {
         let grown = recorder.grown.load(Relaxed);
         assert_eq!(recorder.advanced.load(Relaxed), planned + grown);
         let e = &table[0].effective;
-        assert!(e.sigma_cog_equiv_e.is_finite() && e.sigma_cog_equiv_se_e > 0.0, "{e:?}");
+        assert!(
+            e.sigma_cog_equiv_e.is_finite() && e.sigma_cog_equiv_se_e > 0.0,
+            "{e:?}"
+        );
     }
 
     #[test]
