@@ -68,6 +68,7 @@ fn frames_of_a_gaussian_camera_give_the_effective_noise_of_its_map() {
     let precision = Precision::fixed(cfg.iters);
     let solve = |m: &dyn Readout| effective_sigma(&cfg, m, &precision, &Silent).unwrap();
     let (m, f) = (solve(&by_map), solve(&by_frames));
+    // Two separate solves (separate experiments): their SEs add in quadrature.
     let se = m.sigma_eff_se_e.hypot(f.sigma_eff_se_e);
     assert!(
         (m.sigma_eff_e - f.sigma_eff_e).abs() < 4.0 * se,

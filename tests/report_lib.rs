@@ -105,9 +105,10 @@ fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
     assert_eq!(written["median_rms_e"].as_f64(), Some(s.median_rms_e));
 
     // The centroider section: every centroider for the map and the pdf at the operating point,
-    // then the map at the grid's other sizes; cog is the gap's reference; on this camera
-    // (noisy tail) tcog recovers a resolved part of the gap to the median, and the comparison
-    // with the EMCCD has one row per signal.
+    // then the map at the grid's other sizes; cog is the reference of the R comparison and its
+    // cog-equivalent is its sigma_eff; on this camera (noisy tail) tcog's R is lower than
+    // cog's by more than 2 paired SE on shared frames, and the comparison with the EMCCD has
+    // one row per signal, told with plain cog and with each side's best centroider.
     let c = &s.centroiders;
     let kinds = detnoise::centroid::CENTROIDERS.len();
     assert_eq!(c.rows.len(), kinds * (2 + QUICK_SUBAPS_PX.len() - 1));
@@ -118,11 +119,14 @@ fn scmos_report_recovers_the_bundled_cameras_median_read_noise() {
             .find(|r| r.model == model && r.centroider == name && r.subap_px == 8)
             .unwrap()
     };
-    assert_eq!(at_op("scmos-map", "cog").gap_status, "reference");
+    let cog = at_op("scmos-map", "cog");
+    assert_eq!((cog.vs_cog.as_str(), cog.r_vs_cog), ("reference", None));
+    assert_eq!(cog.sigma_cog_equiv_e, cog.sigma_eff_e);
     let tcog = at_op("scmos-map", "tcog");
-    assert_eq!(tcog.gap_status, "ok", "{tcog:?}");
-    let (g, g_se) = (tcog.gap_recovered.unwrap(), tcog.gap_recovered_se.unwrap());
-    assert!(g > 2.0 * g_se, "{tcog:?}");
+    assert_eq!(tcog.vs_cog, "lower", "{tcog:?}");
+    let (g, g_se) = (tcog.r_vs_cog.unwrap(), tcog.r_vs_cog_se.unwrap());
+    assert!(-g > 2.0 * g_se && g_se > 0.0, "{tcog:?}");
+    assert!(page.contains("With plain cog:") && page.contains("With each side's best centroider:"));
     assert!(c.best_for_map.is_some());
     assert_eq!(c.versus_emccd.len(), QUICK_SIGNALS_PHOTONS.len());
     assert_files_exist(

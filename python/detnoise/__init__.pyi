@@ -419,8 +419,11 @@ def effective(
     **params: Unpack[ModelParams],
 ) -> List[_Record]:
     """Effective Gaussian read noise (`detnoise effective`): one record per configuration and
-    centroider with sigma_eff_e, sigma_eff_se_e (e-; None without a value) and a status word.
-    Defaults: the paper's Fig. 12 grid and `cog`."""
+    centroider with sigma_eff_e, sigma_eff_se_e (e-: the uniform camera with the same R under
+    the same centroider, its parameter re-optimised; None without a value),
+    sigma_cog_equiv_e, sigma_cog_equiv_se_e (e-: the uniform camera with the same R under plain
+    cog; equal to sigma_eff_e for cog) and a status word. Defaults: the paper's Fig. 12 grid and
+    `cog`."""
 
 class Report:
     """A report's results; its files are in `out_dir`."""

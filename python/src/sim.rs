@@ -220,7 +220,9 @@ pub fn simulate<'py>(
 
 /// The effective Gaussian read noise of detector `model` over the grid sub-aperture (px) x
 /// spot x signal (photons), as `detnoise effective` solves it: one record per configuration
-/// with `sigma_eff_e` and its SE `sigma_eff_se_e` (e-), and a `status` word. Iterations start
+/// with `sigma_eff_e` and its SE `sigma_eff_se_e` (e-: the uniform camera with the same R under
+/// the same centroider), the cog-equivalent `sigma_cog_equiv_e` and its SE
+/// `sigma_cog_equiv_se_e` (e-: the same under plain `cog`), and a `status` word. Iterations start
 /// at `iters` and are added, up to `max_iters`, until the SE is at most `target_se_e` (e-) or
 /// `target_rel` times the value.
 #[pyfunction]

@@ -33,6 +33,29 @@ def test_effective_noise_of_a_constant_sigma_camera_is_its_sigma():
         assert r["model"] == f"scmos-constant:{sigma}" and r["spot"] == "airy:2"
 
 
+def test_effective_noise_of_a_centroider_is_referred_to_the_same_centroider():
+    # A uniform camera read through wcog is matched against uniform cameras read through wcog:
+    # it comes back at its own sigma; the cog-equivalent is a value of its own, and for cog it
+    # is sigma_eff itself.
+    sigma = 1.2
+    records = detnoise.effective(
+        f"scmos-constant:{sigma}",
+        subap_px=6,
+        spot="airy:2",
+        signal_photons=50,
+        iters=3000,
+        max_iters=40_000,
+        centroider=["cog", "wcog"],
+    )
+    assert [r["centroider"] for r in records] == ["cog", "wcog"]
+    for r in records:
+        assert r["status"] == "ok", r
+        assert abs(r["sigma_eff_e"] - sigma) <= 3 * r["sigma_eff_se_e"], r
+        assert r["sigma_cog_equiv_e"] is not None and r["sigma_cog_equiv_se_e"] > 0, r
+    cog = records[0]
+    assert cog["sigma_cog_equiv_e"] == cog["sigma_eff_e"]
+
+
 def test_simulate_returns_the_records_the_cli_writes(cli):
     kwargs = dict(subap_px=[4, 6], spot="airy:2", signal_photons=[20, 200], iters=500, seed=3)
     records = detnoise.simulate("scmos-mean,emccd-simple", **kwargs)

@@ -204,8 +204,8 @@ pub fn save_heatmaps(
 }
 
 /// One heatmap per signal level (PNG and SVG, `effective_noise_S<signal>`): sub-aperture size x
-/// spot, colour = sigma_eff_e on one scale for every signal ([`NoiseScale::from_ok`]), cells that
-/// are not `ok` grey with their status. The records must be of one model.
+/// spot, colour = sigma_eff_e (the same-centroider value) on one scale for every signal
+/// ([`NoiseScale::from_ok`]), cells that are not `ok` grey with their status. The records must be of one model.
 pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Result<Vec<PathBuf>> {
     let model = records.first().map_or("", |r| r.model.as_str());
     let scale = NoiseScale::from_ok(records);
@@ -217,10 +217,14 @@ pub fn effective_heatmaps(records: &[EffectiveRecord], dir: &OutputDir) -> Resul
     }
     let mut paths = Vec::new();
     for c in centroiders {
-        // The paper's centroider keeps the plain names; the others are named in the file.
+        // The paper's centroider keeps the plain names; the others are named in the file, and
+        // the title says their uniform cameras are read through the same centroider.
         let (suffix, named) = match c {
             "cog" => (String::new(), String::new()),
-            c => (format!("_{}", c.replace(':', "_")), format!(", {c}")),
+            c => (
+                format!("_{}", c.replace(':', "_")),
+                format!(", {c} (same-centroider)"),
+            ),
         };
         let mine: Vec<EffectiveRecord> = records
             .iter()
@@ -264,6 +268,8 @@ pub(crate) mod tests {
         let e = Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             r_px: 0.3,
             r_se_px: 0.003,
             b_opt_e: 0.0,

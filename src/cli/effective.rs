@@ -47,9 +47,10 @@ pub struct EffectiveArgs {
     /// Readout-model parameters: EM gain (e-/e-), read noise (e- rms), sCMOS pdf and map.
     #[command(flatten)]
     pub detector: DetectorArgs,
-    /// The centroiders the detector is read through (the constant-sigma references always use
-    /// cog): sigma_eff is then the uniform camera that, centroided plainly, matches this camera
-    /// under that centroider. Heatmaps of a centroider other than cog carry its name, e.g.
+    /// The centroiders the detector is read through: sigma_eff is then the uniform camera that,
+    /// read through the same centroider (its parameter re-optimised), matches this camera's R
+    /// (the number for a simulator running that centroider); sigma_cog_equiv_e is the uniform
+    /// camera that matches it under plain cog. Heatmaps of a centroider other than cog carry its name, e.g.
     /// effective_noise_S50_masked-cog.png.
     #[command(flatten)]
     pub centroiders: CentroiderArgs,
@@ -178,6 +179,8 @@ mod tests {
         let e = |sigma: f64, se: f64, target: Option<f64>, status| Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             target_se_e: target,
             iters: 80_000,
             r_px: 0.5,
@@ -217,6 +220,39 @@ mod tests {
             lines[5].contains("        -        -        -  unreachable"),
             "{text}"
         );
+    }
+
+    #[test]
+    fn the_cog_equivalent_column_appears_only_beside_another_centroider() {
+        let cfg = SimConfig::paper(8);
+        let e = Effective {
+            sigma_eff_e: 1.397,
+            sigma_eff_se_e: 0.02,
+            sigma_cog_equiv_e: 0.2196,
+            sigma_cog_equiv_se_e: 0.046,
+            target_se_e: Some(0.05),
+            iters: 10_000,
+            r_px: 0.095,
+            r_se_px: 0.0005,
+            b_opt_e: 0.45,
+            param_name: None,
+            param_opt: None,
+            sigma_grid_e: vec![],
+            r_const_px: vec![],
+            status: Status::Ok,
+        };
+        let mut record = EffectiveRecord::new("scmos-map".into(), &cfg, &e);
+        let cog_only = terminal_table(std::slice::from_ref(&record));
+        assert!(!cog_only.contains("cog_equiv"), "{cog_only}");
+        record.centroider = "wcog".into();
+        let text = terminal_table(&[record]);
+        let lines: Vec<&str> = text.lines().collect();
+        assert!(lines[1].contains(" cog_equiv  status"), "{text}");
+        assert!(
+            lines[2].contains("1.397") && lines[2].contains(" 0.220  ok"),
+            "{text}"
+        );
+        assert!(text.lines().all(|l| l.chars().count() <= 100), "{text}");
     }
 
     #[test]

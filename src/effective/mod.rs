@@ -17,7 +17,9 @@ mod table;
 pub use precision::Precision;
 pub use qe::{effective_qe, QeFactor, QePrecision, QeStatus};
 pub use qe_table::{effective_qe_table, write_qe_tables, QeRecord, QE_TABLE_NAMES};
-pub use solve::{effective_sigma, effective_sigma_with, planned_work, Effective};
+pub use solve::{
+    effective_sigma, effective_sigma_with, planned_work, planned_work_with, Effective,
+};
 pub use status::Status;
 pub use table::{
     effective_table, effective_table_with, write_tables, EffectiveRecord, TABLE_NAMES,

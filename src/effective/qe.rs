@@ -8,7 +8,7 @@
 
 use super::family::SimpleQe;
 use super::precision::Precision;
-use super::solve::{solve, Outcome};
+use super::solve::{solve, Outcome, References};
 use crate::centroid::CentroiderSpec;
 use crate::detector::{EmccdSimple, Readout};
 use crate::montecarlo::SimConfig;
@@ -202,6 +202,7 @@ pub fn effective_qe(
     let s = solve(
         cfg,
         (detector, CentroiderSpec::default()),
+        References::cog(),
         &family,
         &precision.as_precision(),
         observer,

@@ -2,7 +2,7 @@
 //! configuration, written as `effective_noise.csv` and `effective_noise.json`.
 
 use super::precision::Precision;
-use super::solve::{effective_sigma_with, planned_work, Effective};
+use super::solve::{effective_sigma_with, planned_work_with, Effective};
 use crate::centroid::CentroiderSpec;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::montecarlo::{config_columns, SimConfig};
@@ -18,10 +18,13 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 ///
 /// Serialised (CSV, JSON) as the columns `model`, `centroider`; the configuration (`subap_px`, `spot`,
 /// `sampling`, `signal_photons`, `qe`, then `iters`: the iterations the value rests on, from
-/// the starting count up to the cap, and `seed`); `sigma_eff_e` and `sigma_eff_se_e` (e-;
-/// empty/null for `unreachable` and `no_eligible_level`); `target_se_e` (e-, the standard error
-/// the value had to reach: the larger of the absolute target and the relative one times the
-/// value; empty/null without a target or a value); `r_px`, `r_se_px` (the detector's R and its
+/// the starting count up to the cap, and `seed`); `sigma_eff_e` and `sigma_eff_se_e` (e-, the
+/// uniform camera with the same R under the same centroider; empty/null for `unreachable` and
+/// `no_eligible_level`); `target_se_e` (e-, the standard error the value had to reach: the
+/// larger of the absolute target and the relative one times the value; empty/null without a
+/// target or a value); `sigma_cog_equiv_e` and `sigma_cog_equiv_se_e` (e-, the uniform camera
+/// with the same R under plain `cog`: sigma_eff itself for `cog`; empty/null without a value);
+/// `r_px`, `r_se_px` (the detector's R and its
 /// SE), `b_opt_e` (its best background level), `centroider_param` and `centroider_param_opt`
 /// (the centroider's parameter at the optimum; empty for `cog`); and `status` (`ok`, `imprecise`, `lower_bound`,
 /// `unreachable`, `no_eligible_level`: see [`crate::effective::Status::meaning`]).
@@ -29,7 +32,7 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 pub struct EffectiveRecord {
     /// The detector model (its name, or a caller's label).
     pub model: String,
-    /// The detector's centroider (`--centroider` text; the references use `cog`).
+    /// The detector's centroider (`--centroider` text; the references use the same one).
     pub centroider: String,
     /// The configuration solved.
     pub config: SimConfig,
@@ -52,7 +55,7 @@ impl EffectiveRecord {
 impl Serialize for EffectiveRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let e = &self.effective;
-        let mut s = serializer.serialize_struct("EffectiveRecord", 18)?;
+        let mut s = serializer.serialize_struct("EffectiveRecord", 20)?;
         s.serialize_field("model", &self.model)?;
         s.serialize_field("centroider", &self.centroider)?;
         let used = SimConfig {
@@ -65,6 +68,8 @@ impl Serialize for EffectiveRecord {
         s.serialize_field("sigma_eff_e", &finite(e.sigma_eff_e))?;
         s.serialize_field("sigma_eff_se_e", &finite(e.sigma_eff_se_e))?;
         s.serialize_field("target_se_e", &e.target_se_e)?;
+        s.serialize_field("sigma_cog_equiv_e", &finite(e.sigma_cog_equiv_e))?;
+        s.serialize_field("sigma_cog_equiv_se_e", &finite(e.sigma_cog_equiv_se_e))?;
         s.serialize_field("r_px", &e.r_px)?;
         s.serialize_field("r_se_px", &e.r_se_px)?;
         s.serialize_field("b_opt_e", &e.b_opt_e)?;
@@ -92,7 +97,7 @@ pub fn effective_table(
 }
 
 /// [`effective_table`] with every detector read through each of `centroiders` (the
-/// references always through `cog`): records in model, then centroider, then configuration
+/// references through the same centroider, and through `cog` for the cog-equivalent): records in model, then centroider, then configuration
 /// order.
 pub fn effective_table_with(
     configs: &[SimConfig],
@@ -109,8 +114,11 @@ pub fn effective_table_with(
     for c in centroiders {
         c.validate()?;
     }
-    let runs = (specs.len() * centroiders.len()) as u64;
-    let work: u64 = configs.iter().map(planned_work).sum::<u64>() * runs;
+    let per_model: u64 = centroiders
+        .iter()
+        .flat_map(|c| configs.iter().map(move |cfg| planned_work_with(cfg, c)))
+        .sum();
+    let work = per_model * specs.len() as u64;
     observer.begin("effective", work, work);
     observer.unit("pixel-frames");
     let records = solve_all(configs, specs, centroiders, params, precision, observer);
@@ -207,6 +215,36 @@ mod tests {
     }
 
     #[test]
+    fn another_centroider_plans_and_advances_its_cog_equivalent_arms() {
+        // wcog adds the cog-equivalent: the pilot's 8 references read through cog as well, and
+        // a final grid of 6 through cog; the stage plans them and ends exactly advanced.
+        let mut cfg = SimConfig::paper(4);
+        cfg.iters = 600;
+        let wcog = CentroiderSpec::parse("wcog").unwrap();
+        let recorder = Recorder::default();
+        let table = effective_table_with(
+            std::slice::from_ref(&cfg),
+            &[ModelSpec::parse("scmos-constant:0.8").unwrap()],
+            &[wcog],
+            &ModelParams::default(),
+            &Precision::fixed(600),
+            &recorder,
+        )
+        .unwrap();
+        let planned = (500 * (1 + 8 + 8) + 600 * (1 + 4 + 6)) * 16;
+        assert_eq!(planned_work_with(&cfg, &wcog), planned);
+        let stages = recorder.stages.lock().unwrap().clone();
+        assert_eq!(stages, [("effective".to_string(), planned, planned)]);
+        let grown = recorder.grown.load(Relaxed);
+        assert_eq!(recorder.advanced.load(Relaxed), planned + grown);
+        let e = &table[0].effective;
+        assert!(
+            e.sigma_cog_equiv_e.is_finite() && e.sigma_cog_equiv_se_e > 0.0,
+            "{e:?}"
+        );
+    }
+
+    #[test]
     fn a_bad_precision_is_refused_before_any_work() {
         let cfg = SimConfig::paper(4);
         let recorder = Recorder::default();
@@ -226,6 +264,8 @@ mod tests {
         Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             target_se_e: target,
             iters: 40_000,
             r_px: 0.5,
@@ -252,16 +292,17 @@ mod tests {
         assert_eq!(
             csv,
             "model,centroider,subap_px,spot,sampling,signal_photons,qe,iters,seed,sigma_eff_e,\
-             sigma_eff_se_e,target_se_e,r_px,r_se_px,b_opt_e,centroider_param,\
-             centroider_param_opt,status\n\
-             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,0.5,0.25,2,,,unreachable\n"
+             sigma_eff_se_e,target_se_e,sigma_cog_equiv_e,sigma_cog_equiv_se_e,r_px,r_se_px,\
+             b_opt_e,centroider_param,centroider_param_opt,status\n\
+             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,,,0.5,0.25,2,,,unreachable\n"
         );
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&written[1]).unwrap()).unwrap();
         assert!(json[0]["sigma_eff_e"].is_null() && json[0]["target_se_e"].is_null());
         assert_eq!(json[0]["status"], "unreachable");
         assert_eq!(json[0]["iters"], 40_000);
-        assert_eq!(json[0].as_object().unwrap().len(), 18);
+        assert!(json[0]["sigma_cog_equiv_e"].is_null());
+        assert_eq!(json[0].as_object().unwrap().len(), 20);
     }
 
     #[test]

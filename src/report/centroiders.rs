@@ -1,17 +1,20 @@
-//! What the wavefront sensor can do about its camera's noise: the effective read noise of the
-//! measured map and of the fitted pdf read through each centroider (at the operating point, and
-//! over the grid's sub-aperture sizes for the map), how much of the gap to the median each
-//! recovers, and the paper's sCMOS-against-EMCCD comparison redone with each side's best
-//! centroider.
+//! What the wavefront sensor can do about its camera's noise: the measured map and the fitted
+//! pdf read through each centroider (at the operating point, and over the grid's sub-aperture
+//! sizes for the map). Methods are compared by R itself: each one's R relative to `cog`'s on
+//! the same frames, with the paired SE of that one experiment. Each method's effective read
+//! noise is the uniform camera with the same R under the same method (the number for a
+//! simulator running it), its cog-equivalent beside it; and the paper's sCMOS-against-EMCCD
+//! comparison is redone with plain `cog` and with each side's best centroider.
 
 use serde::Serialize;
 
 use super::grid::Grid;
 use super::point::OperatingPoint;
 use crate::centroid::CentroiderSpec;
+use crate::detector::Readout;
 use crate::detector::{ModelParams, ModelSpec};
 use crate::effective::{effective_table_with, EffectiveRecord, Precision, Status};
-use crate::montecarlo::{sweep_with, SimConfig, SimRecord};
+use crate::montecarlo::{sweep_with, Arm, Experiment, SimConfig, SimRecord, SimResult, Term};
 use crate::plot::{LineChart, Series};
 use crate::progress::{Observer, Silent};
 use crate::spot::Spot;
@@ -49,20 +52,26 @@ pub struct CentroiderRow {
     pub r_px: f64,
     /// Standard error of R (px).
     pub r_se_px: f64,
-    /// The uniform camera (plain `cog`) with the same R (e-); None without a value.
+    /// The uniform camera with the same R under this same centroider (its parameter
+    /// re-optimised) (e-): the read noise for a simulator running it; None without a value.
     pub sigma_eff_e: Option<f64>,
     /// Its standard error (e-).
     pub sigma_eff_se_e: Option<f64>,
+    /// The uniform camera with the same R under plain `cog` (e-); None without a value.
+    pub sigma_cog_equiv_e: Option<f64>,
+    /// Its standard error (e-).
+    pub sigma_cog_equiv_se_e: Option<f64>,
     /// How sigma_eff was settled.
     pub status: Status,
-    /// Fraction of the gap between `cog`'s sigma_eff and the camera's median read noise that
-    /// this centroider recovers (1 = down to the median; negative = worse than `cog`).
-    pub gap_recovered: Option<f64>,
-    /// Its standard error (quadrature of the two sigma_eff SEs over the gap).
-    pub gap_recovered_se: Option<f64>,
-    /// `ok`; `not_resolved` (the gap itself is under 2 SE, or a value is missing); or
-    /// `reference` (`cog`).
-    pub gap_status: String,
+    /// R under this centroider relative to R under `cog`, R / R(cog) - 1, on the same frames
+    /// (one run of the configuration with every centroider; negative = lower R than `cog`);
+    /// None for `cog`.
+    pub r_vs_cog: Option<f64>,
+    /// Its standard error, paired: from the block means of that one run, which carry the
+    /// correlation of the two methods' errors on shared frames.
+    pub r_vs_cog_se: Option<f64>,
+    /// `lower` or `higher` (than `cog`'s R, by more than 2 SE), `tie`, or `reference` (`cog`).
+    pub vs_cog: String,
 }
 
 /// The best centroider of each side at one signal, the two compared.
@@ -92,10 +101,17 @@ pub struct VersusRow {
     pub emccd_cog_r_px: f64,
     /// sCMOS R over EMCCD R with both at their best, and its SE.
     pub ratio: f64,
-    /// Standard error of the ratio.
+    /// Standard error of the ratio (the two sides are separate runs, at their own QE: the
+    /// relative SEs add in quadrature).
     pub ratio_se: f64,
     /// `scmos` or `emccd` (the lower R, by more than 2 SE of the ratio), or `tie`.
     pub better: String,
+    /// sCMOS R over EMCCD R with both through plain `cog` (the paper's comparison).
+    pub ratio_cog: f64,
+    /// Standard error of the `cog` ratio (quadrature, as for `ratio`).
+    pub ratio_cog_se: f64,
+    /// `scmos`, `emccd` or `tie` with plain `cog`, as for `better`.
+    pub better_cog: String,
 }
 
 /// The section's numbers, as summary.json's `centroiders` records them.
@@ -103,8 +119,7 @@ pub struct VersusRow {
 pub struct Centroiders {
     /// The camera's median per-pixel read noise (e-): what a perfect method would reach.
     pub median_rms_e: f64,
-    /// The best centroider (lowest sigma_eff among `ok` values) of the measured map at the
-    /// operating point.
+    /// The best centroider (lowest R) of the measured map at the operating point.
     pub best_for_map: Option<String>,
     /// Rows: the map and the fitted pdf at the operating point, then the map at the grid's
     /// other sub-aperture sizes.
@@ -175,7 +190,7 @@ pub(crate) fn centroider_section(
             .collect()
     };
     records.extend(group(ModelSpec::ScmosMap, &others, &specs, i, observer)?);
-    let rows = with_gaps(&records, i.median_rms_e);
+    let rows = with_comparisons(&records, &specs, i.params)?;
     // The operating point's spot and signal (the first row is the map there).
     let records_op = rows[0].clone();
     let best_for_map = rows
@@ -184,13 +199,9 @@ pub(crate) fn centroider_section(
             r.model == "scmos-map"
                 && r.subap_px == op.subap_px
                 && same_spot_signal(r, &records_op)
-                && r.status == Status::Ok
+                && r.status != Status::NoEligibleLevel
         })
-        .min_by(|a, b| {
-            a.sigma_eff_e
-                .unwrap_or(f64::INFINITY)
-                .total_cmp(&b.sigma_eff_e.unwrap_or(f64::INFINITY))
-        })
+        .min_by(|a, b| a.r_px.total_cmp(&b.r_px))
         .map(|r| r.centroider.clone());
     let versus_emccd = versus(i, &specs)?;
     let section = Centroiders {
@@ -254,51 +265,117 @@ fn group(
     Ok(out)
 }
 
-/// Rows with the gap each centroider recovers against `cog` of the same model and size.
-fn with_gaps(records: &[EffectiveRecord], median: f64) -> Vec<CentroiderRow> {
-    let value = |r: &EffectiveRecord| {
-        let e = &r.effective;
-        (e.status == Status::Ok || e.status == Status::Imprecise)
-            .then_some((e.sigma_eff_e, e.sigma_eff_se_e))
-    };
-    let reference = CentroiderSpec::default().label();
-    records
+/// Each centroider's R relative to `cog`'s, for one model on the same frames.
+struct SharedFrames {
+    /// R / R(cog) - 1 and its paired SE, per centroider in the order of `specs` (`cog`'s 0).
+    vs_cog: Vec<(f64, f64)>,
+}
+
+/// Run `model` in `cfg` once through every one of `specs` (`cog` first): each arm centroids
+/// the same frames, so R / R(cog) - 1 has a paired SE (linearised: the SE of
+/// R - ratio x R(cog) over R(cog), from the block means of this one experiment).
+fn shared_frames(
+    cfg: &SimConfig,
+    model: &dyn Readout,
+    specs: &[CentroiderSpec],
+) -> Result<SharedFrames> {
+    let arms: Vec<Arm> = specs
         .iter()
-        .map(|r| {
-            let e = &r.effective;
-            let cog = records.iter().find(|c| {
-                c.centroider == reference && c.model == r.model && key(&c.config) == key(&r.config)
-            });
-            let (gap, gap_se, gap_status) =
-                match (r.centroider == reference, cog.and_then(value), value(r)) {
-                    (true, _, _) => (None, None, "reference"),
-                    (_, Some((sc, sc_se)), Some((s, s_se))) if sc - median > 2.0 * sc_se => {
-                        let g = sc - median;
-                        (Some((sc - s) / g), Some(sc_se.hypot(s_se) / g), "ok")
-                    }
-                    _ => (None, None, "not_resolved"),
-                };
-            let valued = !matches!(e.status, Status::Unreachable | Status::NoEligibleLevel);
-            let finite = |v: f64| (valued && v.is_finite()).then_some(v);
-            CentroiderRow {
-                model: r.model.split(':').next().unwrap_or(&r.model).to_string(),
-                subap_px: r.config.subap_px,
-                spot: r.config.spot.label(),
-                signal_photons: r.config.signal_photons,
-                centroider: r.centroider.clone(),
-                centroider_param: e.param_name,
-                centroider_param_opt: e.param_opt,
-                r_px: e.r_px,
-                r_se_px: e.r_se_px,
-                sigma_eff_e: finite(e.sigma_eff_e),
-                sigma_eff_se_e: finite(e.sigma_eff_se_e),
-                status: e.status,
-                gap_recovered: gap,
-                gap_recovered_se: gap_se,
-                gap_status: gap_status.into(),
-            }
+        .map(|&centroider| Arm {
+            model: 0,
+            centroider,
         })
-        .collect()
+        .collect();
+    let mut exp = Experiment::with_arms(cfg, &[model], &arms)?.with_blocks();
+    exp.extend_to(cfg.iters, &Silent, 1)?;
+    let results = exp.results()?;
+    let cog = &results[0];
+    let vs_cog = results
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let ratio = r.r_px / cog.r_px;
+            let terms = [
+                Term {
+                    model: k,
+                    level: r.best,
+                    coef: 1.0 / cog.r_px,
+                },
+                Term {
+                    model: 0,
+                    level: cog.best,
+                    coef: -ratio / cog.r_px,
+                },
+            ];
+            let se = if k == 0 { 0.0 } else { exp.paired_se(&terms) };
+            (ratio - 1.0, se)
+        })
+        .collect();
+    Ok(SharedFrames { vs_cog })
+}
+
+/// Rows of `records` (each model and configuration through every one of `specs`), each with
+/// its R compared with `cog`'s on shared frames (one run per model and configuration).
+fn with_comparisons(
+    records: &[EffectiveRecord],
+    specs: &[CentroiderSpec],
+    params: &ModelParams,
+) -> Result<Vec<CentroiderRow>> {
+    let reference = CentroiderSpec::default().label();
+    let mut runs: Vec<(String, (usize, Spot, f64), SharedFrames)> = Vec::new();
+    let mut rows = Vec::with_capacity(records.len());
+    for r in records {
+        let model = r.model.split(':').next().unwrap_or(&r.model).to_string();
+        let here = key(&r.config);
+        if !runs.iter().any(|(m, k, _)| *m == model && *k == here) {
+            let readout = ModelSpec::parse(&model)?.build(params, r.config.subap_px)?;
+            let shared = shared_frames(&r.config, readout.as_ref(), specs)?;
+            runs.push((model.clone(), here, shared));
+        }
+        let shared = &runs
+            .iter()
+            .find(|(m, k, _)| *m == model && *k == here)
+            .expect("run above")
+            .2;
+        let k = specs
+            .iter()
+            .position(|c| c.label() == r.centroider)
+            .expect("a record per centroider");
+        let (ratio, se) = shared.vs_cog[k];
+        let vs_cog = if r.centroider == reference {
+            "reference"
+        } else if ratio.abs() <= 2.0 * se || !ratio.is_finite() {
+            "tie"
+        } else if ratio < 0.0 {
+            "lower"
+        } else {
+            "higher"
+        };
+        let e = &r.effective;
+        let valued = !matches!(e.status, Status::Unreachable | Status::NoEligibleLevel);
+        let finite = |v: f64| (valued && v.is_finite()).then_some(v);
+        let compared = r.centroider != reference;
+        rows.push(CentroiderRow {
+            model,
+            subap_px: r.config.subap_px,
+            spot: r.config.spot.label(),
+            signal_photons: r.config.signal_photons,
+            centroider: r.centroider.clone(),
+            centroider_param: e.param_name,
+            centroider_param_opt: e.param_opt,
+            r_px: e.r_px,
+            r_se_px: e.r_se_px,
+            sigma_eff_e: finite(e.sigma_eff_e),
+            sigma_eff_se_e: finite(e.sigma_eff_se_e),
+            sigma_cog_equiv_e: finite(e.sigma_cog_equiv_e),
+            sigma_cog_equiv_se_e: finite(e.sigma_cog_equiv_se_e),
+            status: e.status,
+            r_vs_cog: compared.then_some(ratio),
+            r_vs_cog_se: compared.then_some(se),
+            vs_cog: vs_cog.into(),
+        });
+    }
+    Ok(rows)
 }
 
 /// True when `r` is at `other`'s spot and signal.
@@ -334,15 +411,8 @@ fn versus(i: &Inputs, specs: &[CentroiderSpec]) -> Result<Vec<VersusRow>> {
                     .clone()
             };
             let (bs, be) = (best(s), best(e));
-            let ratio = bs.r_px / be.r_px;
-            let ratio_se = ratio * (bs.r_se_px / bs.r_px).hypot(be.r_se_px / be.r_px);
-            let better = if (ratio - 1.0).abs() <= 2.0 * ratio_se {
-                "tie"
-            } else if ratio < 1.0 {
-                "scmos"
-            } else {
-                "emccd"
-            };
+            let (ratio, ratio_se, better) = compare(&bs, &be);
+            let (ratio_cog, ratio_cog_se, better_cog) = compare(&s[0].result, &e[0].result);
             VersusRow {
                 signal_photons: s[0].config.signal_photons,
                 scmos_centroider: bs.centroider.clone(),
@@ -358,9 +428,28 @@ fn versus(i: &Inputs, specs: &[CentroiderSpec]) -> Result<Vec<VersusRow>> {
                 ratio,
                 ratio_se,
                 better: better.into(),
+                ratio_cog,
+                ratio_cog_se,
+                better_cog: better_cog.into(),
             }
         })
         .collect())
+}
+
+/// The sCMOS side's R over the EMCCD side's, its SE, and the better side (`tie` within 2 SE).
+/// The two sides are separate runs (each at its own QE), so their relative SEs add in
+/// quadrature.
+fn compare(scmos: &SimResult, emccd: &SimResult) -> (f64, f64, &'static str) {
+    let ratio = scmos.r_px / emccd.r_px;
+    let se = ratio * (scmos.r_se_px / scmos.r_px).hypot(emccd.r_se_px / emccd.r_px);
+    let better = if (ratio - 1.0).abs() <= 2.0 * se {
+        "tie"
+    } else if ratio < 1.0 {
+        "scmos"
+    } else {
+        "emccd"
+    };
+    (ratio, se, better)
 }
 
 /// The tables (CSV, JSON) and the two charts.
@@ -381,7 +470,7 @@ fn sigma_chart(c: &Centroiders) -> LineChart {
     let mut chart = LineChart::new(
         "Effective read noise of the measured map per centroider",
         "sub-aperture size (px per side)",
-        "sigma_eff (e-): the uniform camera with the same R under plain cog",
+        "sigma_eff (e-): the uniform camera with the same R under the same centroider",
     );
     let mut names: Vec<&str> = Vec::new();
     // The first row is the map at the operating point (none in an empty section).
@@ -476,12 +565,15 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         "<h2>What the wavefront sensor can do about it: centroiders</h2><p>A controller knows \
          its camera's noise map: it can threshold each pixel by its own noise (tcog), mask the \
          noisiest pixels (masked-cog), weight by inverse variance (ivw-cog), weight by the \
-         spot's shape (wcog), or keep the brightest pixels (brightest-n). Each is run at its \
-         best parameter on the same frames; σ<sub>eff</sub> is the uniform camera that, \
-         centroided plainly (cog), has the same error, so it is comparable across methods. The \
-         camera's median read noise is {} e⁻: a method reaching it would make this camera \
-         behave like a uniform one of its median. Gap recovered = (σ<sub>eff</sub>(cog) − \
-         σ<sub>eff</sub>) / (σ<sub>eff</sub>(cog) − median). At {}×{} px, {}, {} photons:</p>",
+         spot's shape (wcog), or keep the brightest pixels (brightest-n). Methods are compared \
+         by R itself: each is run at its best parameter on the same frames as plain cog, and \
+         “R vs cog” is R / R(cog) − 1 with the paired SE of that one run (lower by more than \
+         2 SE, higher, or a tie). σ<sub>eff</sub> is the uniform camera that has the same R \
+         under the <em>same</em> method (its parameter re-optimised): the read noise to give a \
+         simulator that runs that method. The cog-equivalent is the uniform camera with the \
+         same R under plain cog (it compares a method with the paper's cog in units of noise; \
+         0 when the method does better than a noiseless camera read with cog). The camera's \
+         median read noise is {} e⁻. At {}×{} px, {}, {} photons:</p>",
         num(c.median_rms_e, 2),
         at.subap_px,
         at.subap_px,
@@ -490,7 +582,8 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
     );
     h.push_str(
         "<table><tr><th>camera</th><th>centroider</th><th>best parameter</th><th>R (px)</th>\
-         <th>σ<sub>eff</sub> (e⁻)</th><th>status</th><th>gap recovered</th></tr>",
+         <th>R vs cog</th><th>σ<sub>eff</sub>, same method (e⁻)</th><th>status</th>\
+         <th>cog-equivalent (e⁻)</th></tr>",
     );
     let op = c.rows.first();
     for r in c
@@ -502,16 +595,16 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
             (Some(n), Some(v)) => format!("{n} = {}", num(v, 2)),
             _ => "–".into(),
         };
-        let gap = match r.gap_status.as_str() {
-            "ok" => format!(
-                "{} %",
+        let vs_cog = match r.vs_cog.as_str() {
+            "reference" => "–".to_string(),
+            word => format!(
+                "{} % <span class=\"status\">{word}</span>",
                 pm(
-                    r.gap_recovered.map(|g| 100.0 * g),
-                    r.gap_recovered_se.map(|g| 100.0 * g),
-                    0
+                    r.r_vs_cog.map(|g| 100.0 * g),
+                    r.r_vs_cog_se.map(|g| 100.0 * g),
+                    1
                 )
             ),
-            other => format!("<span class=\"status\">{other}</span>"),
         };
         let camera = if r.model == "scmos-map" {
             "measured map"
@@ -520,12 +613,13 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         };
         let _ = write!(
             h,
-            "<tr><td>{camera}</td><td>{}</td><td>{param}</td><td>{}</td><td>{}</td>\
-             <td><span class=\"status\">{}</span></td><td>{gap}</td></tr>",
+            "<tr><td>{camera}</td><td>{}</td><td>{param}</td><td>{}</td><td>{vs_cog}</td>\
+             <td>{}</td><td><span class=\"status\">{}</span></td><td>{}</td></tr>",
             r.centroider,
             pm(Some(r.r_px), Some(r.r_se_px), 4),
             pm(r.sigma_eff_e, r.sigma_eff_se_e, 2),
-            r.status.label()
+            r.status.label(),
+            pm(r.sigma_cog_equiv_e, r.sigma_cog_equiv_se_e, 2)
         );
     }
     h.push_str("</table>");
@@ -533,32 +627,42 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         Some(best) => {
             let _ = write!(
                 h,
-                "<p><b>Best centroider for this camera</b> (measured map, lowest σ<sub>eff</sub> \
-                 among <span class=\"status\">ok</span> values): <b>{best}</b>.</p>"
+                "<p><b>Best centroider for this camera</b> (measured map, lowest R): \
+                 <b>{best}</b>.</p>"
             );
         }
-        None => h.push_str("<p>No centroider's σ<sub>eff</sub> is <span class=\"status\">ok</span> at this point.</p>"),
+        None => h.push_str("<p>No centroider has an eligible background level at this point.</p>"),
     }
     figure(
         h,
         "centroiders.png",
         "Effective read noise of the measured map per centroider against sub-aperture size",
-        "σ<sub>eff</sub> of the measured map per centroider (± 1 SE; only ok values) at the \
-         operating point's spot and signal, against sub-aperture size; the flat line is the \
-         camera's median.",
+        "σ<sub>eff</sub> of the measured map per centroider, each referred to the same \
+         centroider (± 1 SE; only ok values), at the operating point's spot and signal, against \
+         sub-aperture size; the flat line is the camera's median.",
     );
     h.push_str(
-        "<p><b>sCMOS against EMCCD, each with its best centroider</b> (the paper's comparison \
-         redone; ratio = R<sub>sCMOS</sub> / R<sub>EMCCD</sub>, better by more than 2 SE, else a \
-         tie):</p><table><tr><th>photons</th><th>sCMOS best</th><th>R sCMOS (px)</th>\
-         <th>EMCCD best</th><th>R EMCCD (px)</th><th>ratio</th><th>better</th></tr>",
+        "<p><b>sCMOS against EMCCD</b>: the paper's comparison (both through plain cog, as in \
+         the comparison above) and the same redone with each side's best centroider; ratio = \
+         R<sub>sCMOS</sub> / R<sub>EMCCD</sub>, better by more than 2 SE, else a tie. Which \
+         camera wins can depend on the centroider: the two columns answer two questions (with \
+         the paper's cog; with each camera's best method).</p>",
+    );
+    versus_story(h, &c.versus_emccd);
+    h.push_str(
+        "<table><tr><th>photons</th><th>ratio, cog</th><th>better, cog</th>\
+         <th>sCMOS best</th><th>R sCMOS (px)</th><th>EMCCD best</th><th>R EMCCD (px)</th>\
+         <th>ratio, best</th><th>better, best</th></tr>",
     );
     for v in &c.versus_emccd {
         let _ = write!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
+            "<tr><td>{}</td><td>{}</td><td><span class=\"status\">{}</span></td><td>{}</td>\
+             <td>{}</td><td>{}</td><td>{}</td><td>{}</td>\
              <td><span class=\"status\">{}</span></td></tr>",
             v.signal_photons,
+            pm(Some(v.ratio_cog), Some(v.ratio_cog_se), 3),
+            v.better_cog,
             v.scmos_centroider,
             pm(Some(v.scmos_r_px), Some(v.scmos_r_se_px), 4),
             v.emccd_centroider,
@@ -577,8 +681,47 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
     );
     h.push_str(
         "<p class=\"note\">Files: centroiders.csv/.json (every camera, centroider and \
-         sub-aperture size: R, σ<sub>eff</sub> with SE and status, best parameter, gap \
-         recovered), centroiders_vs_emccd.csv/.json, centroiders.png, \
+         sub-aperture size: R, R vs cog with its paired SE, σ<sub>eff</sub> (same method) and \
+         the cog-equivalent with SE and status, best parameter), centroiders_vs_emccd.csv/.json \
+         (both ratios), centroiders.png, \
          centroiders_vs_emccd.png.</p>",
     );
+}
+
+/// One sentence per question of the comparison: at which signals each camera wins with plain
+/// `cog`, and at which with each side's best centroider.
+fn versus_story(h: &mut String, rows: &[VersusRow]) {
+    use std::fmt::Write as _;
+    if rows.is_empty() {
+        return;
+    }
+    let signals = |word: &str, pick: fn(&VersusRow) -> &str| -> String {
+        let s: Vec<String> = rows
+            .iter()
+            .filter(|r| pick(r) == word)
+            .map(|r| r.signal_photons.to_string())
+            .collect();
+        if s.is_empty() {
+            "none".into()
+        } else {
+            s.join(", ")
+        }
+    };
+    for (question, pick) in [
+        (
+            "With plain cog",
+            (|r: &VersusRow| r.better_cog.as_str()) as fn(&VersusRow) -> &str,
+        ),
+        ("With each side's best centroider", |r: &VersusRow| {
+            r.better.as_str()
+        }),
+    ] {
+        let _ = write!(
+            h,
+            "<p>{question}: sCMOS better at {} photons, EMCCD better at {}, tied at {}.</p>",
+            signals("scmos", pick),
+            signals("emccd", pick),
+            signals("tie", pick)
+        );
+    }
 }

@@ -250,6 +250,8 @@ pub(crate) fn verdicts(
             };
             let (c, e) = (get(mine)?, get(other)?);
             let ratio = c.r_px / e.r_px;
+            // The compared models are in different groups, each its own run (`run_models`, at
+            // the group's QE): two separate experiments, so the relative SEs add in quadrature.
             let se = ratio * ((c.r_se_px / c.r_px).powi(2) + (e.r_se_px / e.r_px).powi(2)).sqrt();
             let verdict = if (ratio - 1.0).abs() < 2.0 * se {
                 "no significant difference".to_string()

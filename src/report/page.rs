@@ -221,7 +221,7 @@ pub fn index_html(p: &ScmosPage) -> String {
     if unreachable {
         unreachable_advice(&mut h, p.out_dir);
     }
-    let _ = write!(h, "<p><b>Which detector wins</b> (this camera's measured map against an EMCCD, R at {} {}×{} px sub-aperture, {}):</p><ul>", article(at.subap_px as u64), at.subap_px, at.subap_px, esc(&at.spot));
+    let _ = write!(h, "<p><b>Which detector wins</b> with the paper's centroider, plain cog (this camera's measured map against an EMCCD, R at {} {}×{} px sub-aperture, {}; the centroiders section below asks the same with each camera's best centroider, and the answer can differ):</p><ul>", article(at.subap_px as u64), at.subap_px, at.subap_px, esc(&at.spot));
     verdict_list(
         &mut h,
         p.comparison,

@@ -155,6 +155,8 @@ fn value(e: &Effective) -> Option<(f64, f64)> {
 /// The row of `model` (a page label) solved as `e`, against the map's solution `map`.
 fn row(model: &str, e: &Effective, map: &Effective) -> RealNoiseRow {
     let (own, base) = (value(e), value(map));
+    // Each model's value is its own solve (a separate experiment on the same seed): with no
+    // joint block sums the SEs add in quadrature, which overstates the SE (the page says so).
     let adds = own
         .zip(base)
         .map(|((a, sa), (b, sb))| (a - b, sa.hypot(sb)));
@@ -268,6 +270,8 @@ mod tests {
         Effective {
             sigma_eff_e: sigma,
             sigma_eff_se_e: se,
+            sigma_cog_equiv_e: sigma,
+            sigma_cog_equiv_se_e: se,
             target_se_e: None,
             iters: 1000,
             r_px: 0.1,

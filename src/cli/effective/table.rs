@@ -7,7 +7,8 @@ use crate::effective::{EffectiveRecord, QeRecord, Status};
 use crate::montecarlo::SimConfig;
 use std::fmt::Write as _;
 
-/// The effective read noise of each record: its value and SE, and the SE it had to reach.
+/// The effective read noise of each record: its value and SE, and the SE it had to reach (and,
+/// when a centroider other than `cog` is in the table, the cog-equivalent).
 pub fn terminal_table(records: &[EffectiveRecord]) -> String {
     let mut out = String::new();
     if let Some(first) = records.first() {
@@ -21,7 +22,7 @@ pub fn terminal_table(records: &[EffectiveRecord]) -> String {
             c.seed
         );
     }
-    let columns = with_config_columns([
+    let mut columns = with_config_columns([
         right("iters", 9, |r: &EffectiveRecord| {
             r.effective.iters.to_string()
         }),
@@ -32,6 +33,19 @@ pub fn terminal_table(records: &[EffectiveRecord]) -> String {
         right("target", 8, |r| num(r.effective.target_se_e, 3)),
         status(|r| r.effective.status.label().to_string()),
     ]);
+    // Another centroider than cog has a cog-equivalent of its own (its SE is in the files):
+    // a column before the status, which plain-cog tables do not have.
+    let cog = crate::centroid::CentroiderSpec::default().label();
+    if records.iter().any(|r| r.centroider != cog) {
+        let at = columns.len() - 1;
+        columns.insert(
+            at,
+            right("cog_equiv", 9, |r: &EffectiveRecord| {
+                let v = r.effective.sigma_cog_equiv_e;
+                num(v.is_finite().then_some(v), 3)
+            }),
+        );
+    }
     // Records of several centroiders come in groups, each headed by its centroider.
     let several = records
         .iter()

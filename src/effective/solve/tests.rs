@@ -247,6 +247,7 @@ fn centroiders_of_a_uniform_camera_match_cog_and_masking_rescues_a_noisy_map() {
     let noisy = PerPixelSigma::new(sigma, "noisy".into());
     let (plain, masked) = (solve(&noisy, "cog"), solve(&noisy, "masked-cog:3"));
     assert_eq!(masked.param_opt, Some(3.0));
+    // Two separate solves (separate experiments): their SEs add in quadrature.
     assert!(
         masked.sigma_eff_e + 4.0 * masked.sigma_eff_se_e.hypot(plain.sigma_eff_se_e)
             < plain.sigma_eff_e,
