@@ -139,8 +139,8 @@ pub struct ReportSummary {
     /// the spread of sigma_eff; absent without one.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub subaps: Option<crate::subaps::SubapsSummary>,
-    /// The camera read through each centroider: sigma_eff per method, the best one, the gap
-    /// each recovers, and the comparison with an EMCCD with each side's best centroider.
+    /// The camera read through each centroider: R and the same-centroider sigma_eff per method
+    /// (with the cog-equivalent), the best one by R, and the comparison with an EMCCD.
     pub centroiders: super::centroiders::Centroiders,
     /// The camera model of `--camera` at its operating point; absent without one.
     #[serde(skip_serializing_if = "Option::is_none")]
