@@ -221,7 +221,8 @@ mod tests {
         let kept = second.select(&[(0, 1), (0, 0)]);
         let parts = [
             (&first, &[term(0, 1, 1.0)][..]),
-            (&kept, &[term(0, 1, -0.7), term(1, 0, -0.3)][..]),
+            // kept: arm 0 is the second model's level 1, arm 1 its level 0.
+            (&kept, &[term(1, 0, -0.7), term(0, 0, -0.3)][..]),
         ];
         let got = Blocks::standard_error_across(&parts);
         assert!((got / want - 1.0).abs() < 1e-12, "{got} vs {want}");
