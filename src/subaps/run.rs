@@ -158,9 +158,15 @@ fn solve_rounds(
             _ => ladder.checkpoints.len() - 1,
         };
         ladder.reach(top, inner, 0)?;
+        // Small jobs get smaller groups: every thread busy, and records written as they come
+        // (a killed run keeps more). The groups change the cost, never a result.
+        let size = pending
+            .len()
+            .div_ceil(4 * rayon::current_num_threads())
+            .clamp(1, GROUP);
         let groups: Vec<&[(usize, Subap)]> = pending
             .chunk_by(|a, b| a.0 == b.0)
-            .flat_map(|same| same.chunks(GROUP))
+            .flat_map(|same| same.chunks(size))
             .collect();
         let ladder = &ladder;
         let later = groups

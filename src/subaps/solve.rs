@@ -144,8 +144,8 @@ pub fn check_centroider(
     .map(|_| ())
 }
 
-/// Sub-apertures run together in one experiment: they share each frame's spot, photons and
-/// deviates (drawn once for all), and each reads them through its own window.
+/// Most sub-apertures run together in one experiment: they share each frame's spot, photons
+/// and deviates (drawn once for all), and each reads them through its own window.
 pub(super) const GROUP: usize = 16;
 
 /// A sub-aperture's value: the effective read noise through the job's centroider, and the

@@ -308,6 +308,19 @@ fn a_uniform_map_to_a_target_gives_its_sigma_whatever_the_threads() {
         .map(|l| l.split('\t').nth(7).unwrap())
         .collect();
     assert!(iters.len() >= 3, "{iters:?}");
+    // Each varied window's value agrees with `effective` solving that window alone.
+    let (_, records) = solve_all(&job, &Silent).unwrap();
+    let noise = NoiseMap::new(&map).unwrap();
+    let layout = geometry.layout(map.rows, map.cols).unwrap();
+    for r in records.iter().filter(|r| r.status == Status::Ok) {
+        let window = noise.readout(&layout.subaps[r.index], 4);
+        let direct = effective_sigma(&job.config, &window, &job.precision, &Silent).unwrap();
+        let combined = r.sigma_eff_se_e.hypot(direct.sigma_eff_se_e);
+        assert!(
+            (r.sigma_eff_e - direct.sigma_eff_e).abs() <= 3.0 * combined,
+            "{r:?} vs {direct:?}"
+        );
+    }
 }
 
 #[test]
