@@ -82,7 +82,7 @@ pub struct SubapsArgs {
     #[command(flatten)]
     pub precision: PrecisionArgs,
     /// The centroider every sub-aperture is read through (one; the constant-sigma references
-    /// use cog).
+    /// are read through it too, each at its own best setting).
     #[command(flatten)]
     pub centroiders: CentroiderArgs,
     /// Run only shard K of N (K/N, unitless whole numbers, 1 <= K <= N): the sub-apertures

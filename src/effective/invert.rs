@@ -13,7 +13,7 @@ use crate::special::bisect;
 
 /// Why a grid does not bracket the detector's R.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum Outside {
+pub(crate) enum Outside {
     /// The detector's R is below R at the smallest abscissa.
     Below,
     /// The detector's R is above R at the largest abscissa.
@@ -22,7 +22,7 @@ pub(super) enum Outside {
 
 /// The abscissa whose reference has the detector's R.
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct Inversion {
+pub(crate) struct Inversion {
     /// The interpolated abscissa (e- for a constant sigma).
     pub x: f64,
     /// Slope of the interpolated R in x there (px per unit of x; 0 where R is flat).
@@ -33,7 +33,7 @@ pub(super) struct Inversion {
 
 /// Invert R of the references (`r_const`, px, at the ascending abscissae `grid`) at the
 /// detector's `r_det` (px).
-pub(super) fn invert(r_det: f64, r_const: &[f64], grid: &[f64]) -> Result<Inversion, Outside> {
+pub(crate) fn invert(r_det: f64, r_const: &[f64], grid: &[f64]) -> Result<Inversion, Outside> {
     // Monte-Carlo noise can make neighbouring R values cross; a running maximum keeps the
     // curve monotone (as it is in expectation) before inversion, each point remembering which
     // constant gave it.

@@ -14,6 +14,7 @@ mod solve;
 mod status;
 mod table;
 
+pub(crate) use invert::{invert, Inversion, Outside};
 pub use precision::Precision;
 pub use qe::{effective_qe, QeFactor, QePrecision, QeStatus};
 pub use qe_table::{effective_qe_table, write_qe_tables, QeRecord, QE_TABLE_NAMES};

@@ -86,6 +86,25 @@ impl Blocks {
             .for_each(|(a, b)| *a += *b);
     }
 
+    /// The blocks of one setting per arm, `keep` being `(arm, setting)` pairs: the result has
+    /// an arm of one setting per pair (e.g. each reference at its best level, kept to be
+    /// combined with many other runs, at a fraction of the memory).
+    pub fn select(&self, keep: &[(usize, usize)]) -> Blocks {
+        let stride = self.stride();
+        let sums = (0..self.counts.len())
+            .flat_map(|j| {
+                keep.iter()
+                    .map(move |&(arm, level)| self.sums[j * stride + self.offsets[arm] + level])
+            })
+            .collect();
+        Blocks {
+            offsets: (0..=keep.len()).collect(),
+            size: self.size,
+            counts: self.counts.clone(),
+            sums,
+        }
+    }
+
     /// Merge blocks pairwise: the block size doubles and the count halves.
     fn double(&mut self) {
         let stride = self.stride();
@@ -113,24 +132,40 @@ impl Blocks {
     /// m = sum x_j / sum n_j and var(m) = J / (J - 1) sum (x_j - n_j m)^2 / (sum n_j)^2.
     /// Infinite with fewer than two blocks.
     pub fn standard_error(&self, terms: &[Term]) -> f64 {
-        let blocks = self.counts.len();
-        if blocks < 2 {
+        Self::standard_error_across(&[(self, terms)])
+    }
+
+    /// [`Blocks::standard_error`] of a combination whose terms lie in several runs of the same
+    /// iterations on common random numbers (`(run's blocks, its terms)`; e.g. a detector run
+    /// beside references run once for many detectors): every run over the same iterations has
+    /// the same blocks. Infinite when their blocks differ or with fewer than two blocks.
+    pub fn standard_error_across(parts: &[(&Blocks, &[Term])]) -> f64 {
+        let Some((first, _)) = parts.first() else {
+            return f64::INFINITY;
+        };
+        let blocks = first.counts.len();
+        if blocks < 2 || parts.iter().any(|(b, _)| b.counts != first.counts) {
             return f64::INFINITY;
         }
-        let stride = self.stride();
         let x: Vec<f64> = (0..blocks)
             .map(|j| {
-                terms
+                parts
                     .iter()
-                    .map(|t| t.coef * self.sums[j * stride + self.offsets[t.model] + t.level])
+                    .flat_map(|(b, terms)| {
+                        let at = j * b.stride();
+                        terms
+                            .iter()
+                            .map(move |t| t.coef * b.sums[at + b.offsets[t.model] + t.level])
+                    })
                     .sum()
             })
             .collect();
-        let n: f64 = self.counts.iter().sum::<u64>() as f64;
+        let counts = &first.counts;
+        let n: f64 = counts.iter().sum::<u64>() as f64;
         let mean = x.iter().sum::<f64>() / n;
         let ss: f64 = x
             .iter()
-            .zip(&self.counts)
+            .zip(counts)
             .map(|(xj, &nj)| (xj - nj as f64 * mean).powi(2))
             .sum();
         let j = blocks as f64;
@@ -165,6 +200,37 @@ mod tests {
         // Every block but the last is full.
         let full = b.counts[..len - 1].iter().all(|&c| c == b.size);
         assert!(full);
+    }
+
+    #[test]
+    fn a_combination_across_runs_of_the_same_iterations_is_the_one_of_a_joint_run() {
+        // Two models of two levels run together, or each alone over the same iterations (the
+        // second kept at one level only): the same SE of any combination; runs over other
+        // iterations have other blocks, so no SE.
+        let (mut joint, mut first, mut second) =
+            (Blocks::new(&[2, 2]), Blocks::new(&[2]), Blocks::new(&[2]));
+        let mut rng = stream(3, 0, 0);
+        for start in (0..64 * SUB_BLOCK).step_by(SUB_BLOCK as usize) {
+            let v: [f64; 4] = std::array::from_fn(|_| StandardNormal.sample(&mut rng));
+            joint.add(start, SUB_BLOCK, &v);
+            first.add(start, SUB_BLOCK, &v[..2]);
+            second.add(start, SUB_BLOCK, &v[2..]);
+        }
+        let term = |model, level, coef| Term { model, level, coef };
+        let want = joint.standard_error(&[term(0, 1, 1.0), term(1, 0, -0.7), term(1, 1, -0.3)]);
+        let kept = second.select(&[(0, 1), (0, 0)]);
+        let parts = [
+            (&first, &[term(0, 1, 1.0)][..]),
+            // kept: arm 0 is the second model's level 1, arm 1 its level 0.
+            (&kept, &[term(1, 0, -0.7), term(0, 0, -0.3)][..]),
+        ];
+        let got = Blocks::standard_error_across(&parts);
+        assert!((got / want - 1.0).abs() < 1e-12, "{got} vs {want}");
+        let mut shorter = Blocks::new(&[2]);
+        shorter.add(0, SUB_BLOCK, &[1.0, 2.0]);
+        shorter.add(SUB_BLOCK, SUB_BLOCK, &[1.0, 2.0]);
+        let mismatched = [(&first, parts[0].1), (&shorter, parts[0].1)];
+        assert_eq!(Blocks::standard_error_across(&mismatched), f64::INFINITY);
     }
 
     #[test]

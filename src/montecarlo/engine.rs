@@ -297,6 +297,12 @@ impl<'m> Experiment<'m> {
             .map_or(f64::INFINITY, |b| b.standard_error(terms))
     }
 
+    /// The per-block sums kept (with [`Experiment::with_blocks`]), for standard errors of
+    /// combinations across runs of the same iterations ([`Blocks::standard_error_across`]).
+    pub(crate) fn blocks(&self) -> Option<&Blocks> {
+        self.blocks.as_ref()
+    }
+
     /// Run iterations `iters` for every arm, in sub-blocks of `sub` iterations (aligned on
     /// multiples of `sub`).
     fn run_chunk(&self, iters: std::ops::Range<u64>, sub: u64) -> ChunkSums {

@@ -11,6 +11,7 @@ mod photons;
 mod record;
 mod sweep;
 
+pub(crate) use blocks::Blocks;
 pub use blocks::Term;
 pub use config::{BgGrid, SimConfig};
 pub use engine::{run, Arm, Experiment, LevelStats, SimResult, CHUNK};

@@ -1,8 +1,12 @@
 //! The effective read noise of every sub-aperture of a real detector: each sub-aperture reads
-//! through its own fixed window of the camera's measured noise map (e-), and is solved like
-//! `effective` (the constant sigma whose R equals its R, with SE and status) in one
+//! through its own fixed window of the camera's measured noise map (e-), and gets the constant
+//! sigma whose R (through the same centroider) equals its R, with SE and status, in one
 //! configuration, every sub-aperture on the same seed (common random numbers: differences
 //! between sub-apertures are the map's, not the Monte-Carlo's).
+//!
+//! Because every sub-aperture reads the same frames, the constant-sigma references are run
+//! once for the whole map (`ladder`), and each sub-aperture runs only its own window
+//! (`solve`), in groups that share each frame's spot, photons and deviates.
 //!
 //! The geometry (`geometry`) is a regular grid of sub-apertures (size, pitch, origin), or the
 //! valid cells of a mask. Sub-apertures are solved in parallel (`run`); a run into a directory
@@ -13,6 +17,7 @@
 
 mod chart;
 mod geometry;
+mod ladder;
 mod lock;
 mod merge;
 mod outputs;
@@ -34,4 +39,4 @@ pub use part::{
 };
 pub use resume::{merge_into_dir, run_into_dir, DirRun, DirTarget};
 pub use run::{solve_all, solve_each, Plan, SubapsJob};
-pub use solve::{check_centroider, solve_subap, NoiseMap, WindowStats};
+pub use solve::{check_centroider, solve_subap, NoiseMap, SubapValue, WindowStats};

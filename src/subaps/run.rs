@@ -2,11 +2,12 @@
 //! handed on at once (appended to the part file, or kept in memory for the report).
 
 use super::geometry::{Geometry, Layout, Subap};
+use super::ladder::{checkpoints, ladder_sigmas, references, Ladder};
 use super::part::{Binding, PartHeader, PartRecord, Shard};
-use super::solve::{check_centroider, solve_subap, NoiseMap, WindowStats};
+use super::solve::{check_centroider, solve_group, NoiseMap, Step, WindowStats, GROUP};
 use crate::calib::Map;
 use crate::centroid::CentroiderSpec;
-use crate::effective::{planned_work, Precision};
+use crate::effective::Precision;
 use crate::montecarlo::SimConfig;
 use crate::progress::Observer;
 use crate::{Error, Result};
@@ -27,7 +28,8 @@ pub struct SubapsJob<'a> {
     pub config: SimConfig,
     /// The precision of every value, and the iteration cap.
     pub precision: Precision,
-    /// The centroider every sub-aperture is read through (the references use `cog`).
+    /// The centroider every sub-aperture is read through (the constant-sigma references too,
+    /// each at its own best setting).
     pub centroider: CentroiderSpec,
 }
 
@@ -96,11 +98,16 @@ impl Plan<'_> {
     }
 }
 
-/// Solve `todo` (sub-apertures of `plan`) in parallel in configuration `cfg`, handing each
-/// record to `sink` as soon as it is finished (from worker threads, in no fixed order). The
-/// observer sees one stage, `subaps`, counting sub-apertures; each solve's warnings reach it
-/// once per distinct message, and it is polled between sub-apertures (and by each solve
-/// between batches) to stop the run.
+/// Solve `todo` (sub-apertures of `plan`) in configuration `cfg`, handing each record to
+/// `sink` as soon as it is finished (from worker threads, in no fixed order).
+///
+/// The constant-sigma ladder (`ladder`) is run once; the sub-apertures then run in groups of
+/// [`GROUP`] to the first checkpoint, in parallel, and those short of their target run again,
+/// regrouped, to the checkpoint they ask for, until every one is settled. A sub-aperture's
+/// result depends on its own window and the seed only (not on its group, the shard or the
+/// threads). The observer sees one stage, `subaps`, counting sub-apertures; each solve's
+/// warnings reach it once per distinct message, and it is polled between groups (and by each
+/// run between batches) to stop the run.
 pub fn solve_each(
     plan: &Plan,
     cfg: &SimConfig,
@@ -109,30 +116,85 @@ pub fn solve_each(
     observer: &dyn Observer,
     sink: &(dyn Fn(PartRecord) -> Result<()> + Sync),
 ) -> Result<()> {
-    let work = planned_work(cfg) * todo.len() as u64;
-    observer.begin("subaps", todo.len() as u64, work);
+    let pixels = (cfg.subap_px * cfg.subap_px) as u64;
+    observer.begin(
+        "subaps",
+        todo.len() as u64,
+        cfg.iters * pixels * todo.len() as u64,
+    );
     observer.unit("sub-apertures");
     let seen = Mutex::new(HashSet::new());
     let inner = PerSubap {
         outer: observer,
         seen: &seen,
     };
-    let result = todo.par_iter().try_for_each(|s| {
-        if observer.cancelled() {
-            return Err(Error::Interrupted);
-        }
-        let e = solve_subap(cfg, &plan.noise, s, plan.centroider, precision, &inner)?;
-        let window = WindowStats::of(&plan.noise.window(s, cfg.subap_px));
-        sink(PartRecord::new(
-            (s.index, s.grid_row, s.grid_col),
-            &e,
-            window,
-        ))?;
-        observer.advance(1);
-        Ok(())
-    });
+    let result = solve_rounds(plan, (cfg, precision), todo, (observer, &inner), sink);
     observer.end();
     result
+}
+
+/// The rounds of [`solve_each`]: the ladder, then groups to their checkpoints until every
+/// sub-aperture is settled.
+fn solve_rounds(
+    plan: &Plan,
+    (cfg, precision): (&SimConfig, &Precision),
+    todo: &[Subap],
+    (observer, inner): (&dyn Observer, &PerSubap),
+    sink: &(dyn Fn(PartRecord) -> Result<()> + Sync),
+) -> Result<()> {
+    let sigmas = ladder_sigmas(&plan.noise);
+    let references = references(&sigmas);
+    let checkpoints = checkpoints(cfg.iters, precision);
+    let mut ladder = Ladder::new(cfg, (sigmas, &references), plan.centroider, checkpoints)?;
+    let mut pending: Vec<(usize, Subap)> = todo.iter().map(|&s| (0, s)).collect();
+    while !pending.is_empty() {
+        // Groups of sub-apertures bound for the same checkpoint, in index order.
+        pending.sort_by_key(|(k, s)| (*k, s.index));
+        // The first round evaluates everyone at the first checkpoint; those short of their
+        // target then go on (a minority, most of them to the cap), so the ladder is run
+        // to the cap at once and groups continue as far as they need.
+        let top = match pending[pending.len() - 1].0 {
+            0 => 0,
+            _ => ladder.checkpoints.len() - 1,
+        };
+        ladder.reach(top, inner, 0)?;
+        // Small jobs get smaller groups: every thread busy, and records written as they come
+        // (a killed run keeps more). The groups change the cost, never a result.
+        let size = pending
+            .len()
+            .div_ceil(4 * rayon::current_num_threads())
+            .clamp(1, GROUP);
+        let groups: Vec<&[(usize, Subap)]> = pending
+            .chunk_by(|a, b| a.0 == b.0)
+            .flat_map(|same| same.chunks(size))
+            .collect();
+        let ladder = &ladder;
+        let later = groups
+            .par_iter()
+            .map(|group| {
+                if observer.cancelled() {
+                    return Err(Error::Interrupted);
+                }
+                let job = (cfg, &plan.noise, plan.centroider);
+                let steps = solve_group(job, ladder, group, precision, inner)?;
+                let mut later = Vec::new();
+                for (&(_, s), step) in group.iter().zip(steps) {
+                    match step {
+                        Step::Done(v) => {
+                            let window = WindowStats::of(&plan.noise.window(&s, cfg.subap_px));
+                            let at = (s.index, s.grid_row, s.grid_col);
+                            sink(PartRecord::new(at, &v.effective, window))?;
+                            observer.advance(1);
+                        }
+                        Step::More(next) => later.push((next, s)),
+                    }
+                }
+                Ok(later)
+            })
+            .collect::<Result<Vec<_>>>()?;
+        pending = later.concat();
+    }
+    Ok(())
 }
 
 /// The observer of one solve: its progress in pixel-frames stays inside (the stage counts
