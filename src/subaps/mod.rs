@@ -39,4 +39,4 @@ pub use part::{
 };
 pub use resume::{merge_into_dir, run_into_dir, DirRun, DirTarget};
 pub use run::{solve_all, solve_each, Plan, SubapsJob};
-pub use solve::{check_centroider, solve_subap, NoiseMap, SubapValue, WindowStats};
+pub use solve::{check_centroider, solve_subap, NoiseMap, WindowStats};

@@ -183,7 +183,7 @@ fn solve_rounds(
                         Step::Done(v) => {
                             let window = WindowStats::of(&plan.noise.window(&s, cfg.subap_px));
                             let at = (s.index, s.grid_row, s.grid_col);
-                            sink(PartRecord::new(at, &v.effective, window))?;
+                            sink(PartRecord::new(at, &v, window))?;
                             observer.advance(1);
                         }
                         Step::More(next) => later.push((next, s)),

@@ -148,26 +148,11 @@ pub fn check_centroider(
 /// and deviates (drawn once for all), and each reads them through its own window.
 pub(super) const GROUP: usize = 16;
 
-/// A sub-aperture's value: the effective read noise through the job's centroider, and the
-/// cog-equivalent sigma (the constant sigma whose plain-`cog` R equals the window's R under
-/// the centroider; the same as the value for `cog`).
-#[derive(Debug, Clone)]
-pub struct SubapValue {
-    /// The value, its SE and status, the window's R (the references through the same
-    /// centroider, each at its own best setting).
-    pub effective: Effective,
-    /// Cog-equivalent sigma (e-): 0 at or below the noiseless readout's R, NaN above the
-    /// ladder's top or without an eligible level.
-    pub sigma_cog_equiv_e: f64,
-    /// Its standard error (e-; NaN without a value).
-    pub sigma_cog_equiv_se_e: f64,
-}
-
 /// Where a sub-aperture stands after a checkpoint: settled, or to be run again to a later
 /// checkpoint (its index).
 pub(super) enum Step {
     /// Settled.
-    Done(Box<SubapValue>),
+    Done(Box<Effective>),
     /// Short of its target: run again to this checkpoint.
     More(usize),
 }
@@ -289,21 +274,19 @@ impl Checkpoint<'_> {
             }
         };
         let own = &self.ladder.at(self.k).results[self.ladder.own()];
-        Step::Done(Box::new(SubapValue {
-            effective: Effective {
-                sigma_eff_e: value,
-                sigma_eff_se_e: se,
-                target_se_e: precision.target_for(value).filter(|_| has_value),
-                iters,
-                r_px: det.r_px,
-                r_se_px: det.r_se_px,
-                b_opt_e: det.b_opt_e,
-                param_name: det.param_name,
-                param_opt: det.param_opt,
-                sigma_grid_e: self.ladder.sigmas.clone(),
-                r_const_px: own.iter().map(|r| r.r_px).collect(),
-                status,
-            },
+        Step::Done(Box::new(Effective {
+            sigma_eff_e: value,
+            sigma_eff_se_e: se,
+            target_se_e: precision.target_for(value).filter(|_| has_value),
+            iters,
+            r_px: det.r_px,
+            r_se_px: det.r_se_px,
+            b_opt_e: det.b_opt_e,
+            param_name: det.param_name,
+            param_opt: det.param_opt,
+            sigma_grid_e: self.ladder.sigmas.clone(),
+            r_const_px: own.iter().map(|r| r.r_px).collect(),
+            status,
             sigma_cog_equiv_e: cog_e,
             sigma_cog_equiv_se_e: cog_se_e,
         }))
