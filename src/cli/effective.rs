@@ -188,6 +188,7 @@ mod tests {
             sigma_grid_e: vec![],
             r_const_px: vec![],
             status,
+            parts: Default::default(),
         };
         let records: Vec<EffectiveRecord> = [
             e(1.234, 0.021, Some(0.05), Status::Ok),

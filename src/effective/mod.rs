@@ -10,6 +10,7 @@ mod invert;
 mod precision;
 mod qe;
 mod qe_table;
+mod random;
 mod solve;
 mod status;
 mod table;
@@ -17,6 +18,7 @@ mod table;
 pub use precision::Precision;
 pub use qe::{effective_qe, QeFactor, QePrecision, QeStatus};
 pub use qe_table::{effective_qe_table, write_qe_tables, QeRecord, QE_TABLE_NAMES};
+pub use random::{random_sigma, EffectiveParts, RandomSigma};
 pub use solve::{effective_sigma, effective_sigma_with, planned_work, Effective};
 pub use status::Status;
 pub use table::{

@@ -58,6 +58,10 @@ pub struct Effective {
     pub r_const_px: Vec<f64>,
     /// How the value was settled (ok, imprecise, lower_bound, unreachable, no_eligible_level).
     pub status: Status,
+    /// The detector's static offset and the constant sigma of its random part (flattened in
+    /// tables: `sigma_random_e`, `static_px`, ...).
+    #[serde(flatten)]
+    pub parts: super::random::EffectiveParts,
 }
 
 /// How a solve over a family ended.
@@ -94,6 +98,8 @@ pub(super) struct Solved {
     pub r_ref_px: Vec<f64>,
     /// How it ended.
     pub outcome: Outcome,
+    /// The detector's static offset and random sigma against the final grid's references.
+    pub parts: super::random::EffectiveParts,
 }
 
 /// Pixels of one frame of `cfg`: a model-frame costs about this many pixel operations.
@@ -170,6 +176,7 @@ pub fn effective_sigma_with(
             Outcome::Beyond => Status::Unreachable,
             Outcome::NoEligibleLevel => Status::NoEligibleLevel,
         },
+        parts: s.parts,
     })
 }
 
@@ -400,6 +407,8 @@ impl Solver<'_> {
         outcome: Outcome,
     ) -> Solved {
         let has_value = !matches!(outcome, Outcome::Beyond | Outcome::NoEligibleLevel);
+        let grid_values: Vec<f64> = grid.iter().map(|&x| self.family.value(x)).collect();
+        let random = super::random::random_sigma(exp, det, refs, &grid_values);
         Solved {
             value,
             se,
@@ -409,6 +418,7 @@ impl Solver<'_> {
             grid: grid.iter().map(|&x| self.family.value(x)).collect(),
             r_ref_px: refs.iter().map(|c| c.r_px).collect(),
             outcome,
+            parts: super::random::EffectiveParts::new(det, random),
         }
     }
 }

@@ -1,0 +1,186 @@
+//! The random part's effective read noise: the constant sigma whose rms error sqrt(E|e|^2)
+//! equals the rms of a detector's error about its mean (its frame-to-frame slope noise).
+//!
+//! A uniform camera has no static part (by symmetry its mean error is 0), so its whole rms
+//! error is random: the constant sigma that reproduces the detector's random rms is the noise
+//! a simulator should put on the slopes when the static part is removed by reference slopes
+//! taken with the camera at the operating flux. It is solved from the final run of the
+//! effective-noise solver (detector and constant-sigma references on common random numbers),
+//! by interpolating the references' mean squared error linearly in sigma^2 (for a Gaussian
+//! camera the centroid's variance is a photon term plus a read term in sigma^2) between the
+//! two references that bracket the detector's random mean square, or extrapolating from the
+//! nearest two when none does (flagged). Its standard error is that of the paired difference
+//! D = random_ms_det - [(1 - t) ms_lo + t ms_hi] over the slope, from the experiment's block
+//! sums: D's per-frame influence is |e|^2 - 2 mean(e) . e for the detector and |e|^2 for the
+//! references.
+
+use crate::montecarlo::{Experiment, Moment, MomentTerm, SimResult};
+
+/// The constant sigma that reproduces a detector's random error.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RandomSigma {
+    /// Constant sigma whose rms error equals the detector's random rms (e-); NaN when the
+    /// references' errors do not grow with sigma.
+    pub sigma_e: f64,
+    /// Its standard error (e-), paired over common random numbers.
+    pub se_e: f64,
+    /// True when no two references bracket the detector's random mean square: the value is
+    /// extrapolated from the nearest two.
+    pub extrapolated: bool,
+}
+
+/// The static and random parts of a detector's error in an [`super::Effective`] (its last
+/// field, serialised flat): the static offset at the detector's optimum and the constant sigma
+/// that reproduces its random part. NaN (false) where no run gave them.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct EffectiveParts {
+    /// Constant sigma whose rms error equals the detector's random rms (e-).
+    pub sigma_random_e: f64,
+    /// Standard error of `sigma_random_e` (e-), paired over common random numbers.
+    pub sigma_random_se_e: f64,
+    /// True when `sigma_random_e` is extrapolated (no two references of the final grid bracket
+    /// the detector's random mean square).
+    pub sigma_random_extrapolated: bool,
+    /// The detector's random rms, the rms of its error about its mean (px).
+    pub random_rms_px: f64,
+    /// Static part: the detector's mean error along x (px).
+    pub static_x_px: f64,
+    /// Static part along y (px).
+    pub static_y_px: f64,
+    /// Length of the static offset (px).
+    pub static_px: f64,
+    /// Standard error of `static_px` (px).
+    pub static_se_px: f64,
+    /// True when `static_px` is at least twice its SE (a static part is resolved).
+    pub static_resolved: bool,
+}
+
+impl Default for EffectiveParts {
+    fn default() -> Self {
+        EffectiveParts {
+            sigma_random_e: f64::NAN,
+            sigma_random_se_e: f64::NAN,
+            sigma_random_extrapolated: false,
+            random_rms_px: f64::NAN,
+            static_x_px: f64::NAN,
+            static_y_px: f64::NAN,
+            static_px: f64::NAN,
+            static_se_px: f64::NAN,
+            static_resolved: false,
+        }
+    }
+}
+
+impl EffectiveParts {
+    /// The parts of the detector's result `det` with its random sigma `random`.
+    pub fn new(det: &SimResult, random: RandomSigma) -> Self {
+        let p = &det.parts;
+        EffectiveParts {
+            sigma_random_e: random.sigma_e,
+            sigma_random_se_e: random.se_e,
+            sigma_random_extrapolated: random.extrapolated,
+            random_rms_px: p.random_rms_px,
+            static_x_px: p.static_x_px,
+            static_y_px: p.static_y_px,
+            static_px: p.static_px,
+            static_se_px: p.static_se_px,
+            static_resolved: p.static_resolved,
+        }
+    }
+}
+
+/// The random sigma of `det` (arm 0 of `exp`) against the constant-sigma references `refs`
+/// (arms 1.., at the ascending sigmas `grid_e`, e-), each at its own optimum setting.
+pub fn random_sigma(
+    exp: &Experiment,
+    det: &SimResult,
+    refs: &[SimResult],
+    grid_e: &[f64],
+) -> RandomSigma {
+    let none = RandomSigma {
+        sigma_e: f64::NAN,
+        se_e: f64::NAN,
+        extrapolated: false,
+    };
+    if refs.len() < 2 || refs.len() != grid_e.len() {
+        return none;
+    }
+    let p = &det.parts;
+    let target = p.random_rms_px.powi(2);
+    let ms: Vec<f64> = refs.iter().map(|r| r.parts.rms_px.powi(2)).collect();
+    // The bracket: the first reference at or above the target and the one before it, else the
+    // nearest two at either end.
+    let hi = (1..ms.len())
+        .find(|&k| ms[k] >= target)
+        .unwrap_or(ms.len() - 1);
+    let lo = hi - 1;
+    let extrapolated = !(ms[lo] <= target && target <= ms[hi]);
+    let (s0, s1) = (grid_e[lo].powi(2), grid_e[hi].powi(2));
+    let slope = (ms[hi] - ms[lo]) / (s1 - s0);
+    if !(slope > 0.0 && target.is_finite()) {
+        return none;
+    }
+    let t = (target - ms[lo]) / (ms[hi] - ms[lo]);
+    let var = (s0 + t * (s1 - s0)).max(0.0);
+    let term = |moment, arm, r: &SimResult, coef| MomentTerm {
+        moment,
+        arm,
+        setting: r.best,
+        coef,
+    };
+    let terms = [
+        term(Moment::SquaredError, 0, det, 1.0),
+        term(Moment::ErrorX, 0, det, -2.0 * p.static_x_px),
+        term(Moment::ErrorY, 0, det, -2.0 * p.static_y_px),
+        term(Moment::SquaredError, lo + 1, &refs[lo], -(1.0 - t)),
+        term(Moment::SquaredError, hi + 1, &refs[hi], -t),
+    ];
+    let se_var = exp.paired_se_moments(&terms) / slope;
+    let sigma = var.sqrt();
+    RandomSigma {
+        sigma_e: sigma,
+        se_e: se_var / (2.0 * sigma),
+        extrapolated,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::detector::{Readout, ScmosConstant};
+    use crate::montecarlo::SimConfig;
+    use crate::progress::Silent;
+
+    #[test]
+    fn a_uniform_camera_s_random_sigma_is_its_sigma() {
+        // A uniform 1 e- camera beside references at 0.85-1.18 e- on common random numbers:
+        // no static part, so its random rms is its rms, and the random sigma is 1 e- within
+        // 3 SE (fixed seed). A noiseless "detector" lies below the grid: extrapolated, small.
+        let mut cfg = SimConfig::paper(8);
+        cfg.iters = 4000;
+        let grid = [0.85, 0.95, 1.05, 1.18];
+        let det = ScmosConstant::new(1.0, "uniform".into());
+        let quiet = ScmosConstant::new(0.0, "noiseless".into());
+        let refs: Vec<ScmosConstant> = grid
+            .iter()
+            .map(|&s| ScmosConstant::new(s, format!("{s}")))
+            .collect();
+        for (d, want) in [(&det, Some(1.0)), (&quiet, None)] {
+            let models: Vec<&dyn Readout> = std::iter::once(d as &dyn Readout)
+                .chain(refs.iter().map(|r| r as &dyn Readout))
+                .collect();
+            let mut exp = Experiment::new(&cfg, &models).unwrap().with_blocks();
+            exp.extend_to(cfg.iters, &Silent, 1).unwrap();
+            let mut results = exp.results().unwrap();
+            let det = results.remove(0);
+            let r = random_sigma(&exp, &det, &results, &grid);
+            match want {
+                Some(w) => {
+                    assert!(!r.extrapolated && r.se_e > 0.0 && r.se_e < 0.1, "{r:?}");
+                    assert!((r.sigma_e - w).abs() < 3.0 * r.se_e, "{r:?}");
+                }
+                None => assert!(r.extrapolated && r.sigma_e < 0.85, "{r:?}"),
+            }
+        }
+    }
+}
