@@ -152,7 +152,6 @@ impl CentroidWorker for BrightestWorker<'_> {
         );
         self.keys.sort_unstable();
         let order = |k: usize| self.keys[k].1 as usize;
-        let centre_error = f.truth_px.0.hypot(f.truth_px.1);
         let sums = acc.part_mut(0);
         // Running sums over the brightest pixels: value, value x X, value x Y, X, Y.
         let mut run = [0.0f64; 5];
@@ -171,17 +170,15 @@ impl CentroidWorker for BrightestWorker<'_> {
             }
             let t = img[order(want)];
             let mass = run[0] - want as f64 * t;
-            let d = if mass > 0.0 {
+            if mass > 0.0 {
                 let (mx, my) = (run[1] - t * run[3], run[2] - t * run[4]);
-                (mx * mx + my * my).sqrt() / mass
+                let d = (mx * mx + my * my).sqrt() / mass;
+                sums.add_error(k, d, (mx / mass, my / mass));
             } else {
                 // All N equal to the (N+1)-th: nothing above the threshold, the centre is
                 // the estimate.
-                sums.empty[k] += 1;
-                centre_error
-            };
-            sums.sum[k] += d;
-            sums.sum_sq[k] += d * d;
+                sums.add_empty(k, f.truth_px);
+            }
         }
     }
 }

@@ -1,7 +1,7 @@
 //! The centroider interface: what a centroider sees of a frame, the settings of its swept
 //! parameters, and the per-setting sums of its position error over frames.
 
-use super::sums::{LevelSums, LevelTotals};
+use super::sums::{ErrorMoments, LevelSums, LevelTotals};
 
 /// What a centroider sees of one frame.
 #[derive(Debug, Clone, Copy)]
@@ -66,6 +66,12 @@ impl SettingSums {
     /// Per-setting totals, parts one after the other (the order of [`Centroider::settings`]).
     pub fn finish(&self) -> LevelTotals {
         self.parts.iter().flat_map(LevelSums::finish).collect()
+    }
+
+    /// Per-setting sums of the error vector's terms beyond R's, in the order of
+    /// [`Self::finish`].
+    pub fn moments(&self) -> Vec<ErrorMoments> {
+        self.parts.iter().flat_map(LevelSums::moments).collect()
     }
 }
 

@@ -30,7 +30,7 @@ pub use image::{cog, ImageSums};
 pub use spec::{
     BuildFn, CentroidContext, CentroiderEntry, CentroiderParam, CentroiderSpec, ParamRange,
 };
-pub use sums::{LevelSums, LevelTotals, LANES};
+pub use sums::{ErrorMoments, LevelSums, LevelTotals, LANES};
 pub use sweep::{BackgroundSweep, PixelTerms, Plain, Scaled, Weighted};
 
 /// Declares each centroider module and lists its entries, in order, in [`CENTROIDERS`].

@@ -141,9 +141,8 @@ mod tests {
             let sums = acc.part_mut(0);
             for (k, a) in self.0.factors.iter().enumerate() {
                 let (x, y) = estimate.map_or((0.0, 0.0), |(x, y)| (a * x, a * y));
-                let d = (x - f.truth_px.0).hypot(y - f.truth_px.1);
-                sums.sum[k] += d;
-                sums.sum_sq[k] += d * d;
+                let (ex, ey) = (x - f.truth_px.0, y - f.truth_px.1);
+                sums.add_error(k, ex.hypot(ey), (ex, ey));
                 sums.empty[k] += u64::from(estimate.is_none());
             }
         }

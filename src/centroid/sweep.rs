@@ -2,7 +2,7 @@
 
 use super::centroider::CentroidFrame;
 use super::levels::LevelIndex;
-use super::sums::{LaneSums, LevelSums, LANES};
+use super::sums::{centre_terms, error_terms, ErrorTerms, LaneSums, LevelSums, LANES, TERMS};
 
 /// Sums over the pixels of one bucket, positions relative to the truth: value, value x
 /// column offset, value x row offset, 0, then count, column offset, row offset, 0 (each
@@ -127,6 +127,9 @@ pub struct BackgroundSweep {
     /// Per level: the thresholded sum S(b) and squared first moment about the truth.
     mass: Vec<f32>,
     moment_sq: Vec<f32>,
+    /// Per level: the first moments (Sx, Sy), then the error vector (Sx, Sy) / S (px).
+    ex: Vec<f32>,
+    ey: Vec<f32>,
     /// Per level: the distance of the centre of gravity from the truth (px).
     dist: Vec<f32>,
     /// The same for a batch of frames (allocated on the first batch).
@@ -141,6 +144,8 @@ struct BatchScratch {
     bins: Vec<LaneBin>,
     mass: Vec<[f32; LANES]>,
     moment_sq: Vec<[f32; LANES]>,
+    ex: Vec<[f32; LANES]>,
+    ey: Vec<[f32; LANES]>,
     dist: Vec<[f32; LANES]>,
 }
 
@@ -158,6 +163,8 @@ impl BackgroundSweep {
             cells: vec![0; n * n],
             mass: vec![0.0; count],
             moment_sq: vec![0.0; count],
+            ex: vec![0.0; count],
+            ey: vec![0.0; count],
             dist: vec![0.0; count],
             batch: BatchScratch::default(),
             levels,
@@ -223,31 +230,38 @@ impl BackgroundSweep {
                 bins: vec![LaneBin::default(); count + 1],
                 mass: vec![[0.0; LANES]; count],
                 moment_sq: vec![[0.0; LANES]; count],
+                ex: vec![[0.0; LANES]; count],
+                ey: vec![[0.0; LANES]; count],
                 dist: vec![[0.0; LANES]; count],
             };
         }
-        let (mut top, mut centre) = (0, [0.0; LANES]);
+        // The empty frame's terms per lane, term-major (one vector per term).
+        let (mut top, mut centre) = (0, [[0.0; LANES]; TERMS]);
         for (lane, f) in frames.iter().enumerate() {
             let t = f.truth_px;
-            centre[lane] = (t.0 * t.0 + t.1 * t.1).sqrt();
+            let c = centre_terms(t);
+            for q in 0..TERMS {
+                centre[q][lane] = c[q];
+            }
             top = top.max(self.bin_pixels_lane(f.image_e, t, lane));
         }
         // Levels at and above the brightest pixel of the batch see empty frames (recorded once
         // per frame); below it, a frame above its own brightest pixel has every sum exactly 0:
         // not lit, so empty there too, as in `accumulate`.
-        for c in centre {
-            acc.tail_sum[top] += c;
-            acc.tail_sum_sq[top] += c * c;
-            acc.tail_count[top] += 1;
+        for lane in 0..LANES {
+            acc.add_tail(top, &centre.map(|t| t[lane]));
         }
         // Disjoint slices, so that the compiler keeps the running sums in registers.
         let BatchScratch {
             bins,
             mass,
             moment_sq,
+            ex,
+            ey,
             dist,
         } = &mut self.batch;
         let (bins, mass, moment_sq) = (&mut bins[..=top], &mut mass[..top], &mut moment_sq[..top]);
+        let (ex, ey) = (&mut ex[..top], &mut ey[..top]);
         let levels = &self.levels[..top];
         let mut run = [[0.0; LANES]; 6];
         for l in (0..top).rev() {
@@ -259,29 +273,45 @@ impl BackgroundSweep {
             }
             let lv = levels[l];
             let (mut m, mut q) = ([0.0f32; LANES], [0.0f32; LANES]);
+            let (mut mx, mut my) = ([0.0f32; LANES], [0.0f32; LANES]);
             for f in 0..LANES {
                 // As `level_sums` with gains 1: S, Sx, Sy = first half - level x second.
                 let x = run[1][f] - lv * run[4][f];
                 let y = run[2][f] - lv * run[5][f];
                 m[f] = (run[0][f] - lv * run[3][f]) as f32;
                 q[f] = (x * x + y * y) as f32;
+                mx[f] = x as f32;
+                my[f] = y as f32;
             }
             mass[l] = m;
             moment_sq[l] = q;
+            ex[l] = mx;
+            ey[l] = my;
         }
         let dist = &mut dist[..top];
-        for ((d, m), q) in dist.iter_mut().zip(&*mass).zip(&*moment_sq) {
+        for ((((d, m), q), x), y) in dist
+            .iter_mut()
+            .zip(&*mass)
+            .zip(&*moment_sq)
+            .zip(ex.iter_mut())
+            .zip(ey.iter_mut())
+        {
             for f in 0..LANES {
                 d[f] = q[f].sqrt() / m[f];
+                // One division for both components (the distance keeps its own, as before).
+                let inv = 1.0 / m[f];
+                x[f] *= inv;
+                y[f] *= inv;
             }
         }
         let lanes = &mut acc.lanes_mut()[..top];
+        let per_level = PerLevel { mass, dist, ex, ey };
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: `avx2` is set only when the CPU has AVX2 (checked in `new`).
-            return unsafe { add_lanes_avx2(lanes, mass, dist, centre) };
+            return unsafe { add_lanes_avx2(lanes, &per_level, &centre) };
         }
-        add_lanes(lanes, mass, dist, centre);
+        add_lanes(lanes, &per_level, &centre);
     }
 
     /// [`Self::bin_pixels`] for the plain centre of gravity into lane `lane` of the batch's
@@ -345,34 +375,40 @@ impl BackgroundSweep {
     ) {
         let g = terms.gain();
         let top = self.bin_pixels(img, terms, (truth.0 / g.0, truth.1 / g.1));
-        // Distances are O(1) px: plain sqrt is exact enough and much cheaper than hypot.
-        let centre_error = (truth.0 * truth.0 + truth.1 * truth.1).sqrt();
+        let centre = centre_terms(truth);
         // Levels at and above the brightest pixel see an empty frame (recorded once).
-        acc.tail_sum[top] += centre_error;
-        acc.tail_sum_sq[top] += centre_error * centre_error;
-        acc.tail_count[top] += 1;
+        acc.add_tail(top, &centre);
         self.level_sums(top, g);
-        // Two simple loops over equal-length slices, so that both vectorise: distances, then
-        // the sums (a level whose sum S(b) is not positive, left by round-off just below the
-        // brightest pixel, counts as an empty frame).
+        // Two simple loops over equal-length slices, so that both vectorise: distances and
+        // error vectors, then the sums (a level whose sum S(b) is not positive, left by
+        // round-off just below the brightest pixel, counts as an empty frame).
         let (mass, moment_sq) = (&self.mass[..top], &self.moment_sq[..top]);
-        let dist = &mut self.dist[..top];
+        let (dist, ex, ey) = (
+            &mut self.dist[..top],
+            &mut self.ex[..top],
+            &mut self.ey[..top],
+        );
         for k in 0..top {
             dist[k] = moment_sq[k].sqrt() / mass[k];
+            let inv = 1.0 / mass[k];
+            ex[k] *= inv;
+            ey[k] *= inv;
         }
-        let (sum, sum_sq, empty) = (
-            &mut acc.sum[..top],
-            &mut acc.sum_sq[..top],
-            &mut acc.empty[..top],
-        );
-        let centre_sq = centre_error * centre_error;
+        let [s_d, s_q, s_x, s_y, s_xx, s_d4] = &mut acc.sums;
+        let (s_d, s_q, s_x) = (&mut s_d[..top], &mut s_q[..top], &mut s_x[..top]);
+        let (s_y, s_xx, s_d4) = (&mut s_y[..top], &mut s_xx[..top], &mut s_d4[..top]);
+        let empty = &mut acc.empty[..top];
         for k in 0..top {
             let lit = mass[k] > 0.0;
-            let d = f64::from(dist[k]);
+            let t = error_terms(f64::from(dist[k]), f64::from(ex[k]), f64::from(ey[k]));
             // Selects by masks, not branches: left to itself the compiler turns each into a
             // pair of masked loads and stores, which are microcoded and ~10x slower on AMD Zen.
-            sum[k] += select(lit, d, centre_error);
-            sum_sq[k] += select(lit, d * d, centre_sq);
+            s_d[k] += select(lit, t[0], centre[0]);
+            s_q[k] += select(lit, t[1], centre[1]);
+            s_x[k] += select(lit, t[2], centre[2]);
+            s_y[k] += select(lit, t[3], centre[3]);
+            s_xx[k] += select(lit, t[4], centre[4]);
+            s_d4[k] += select(lit, t[5], centre[5]);
             empty[k] += u64::from(!lit);
         }
     }
@@ -441,8 +477,8 @@ impl BackgroundSweep {
         (kept, top)
     }
 
-    /// Fill `mass` and `moment_sq` for levels 0..top from the buckets (cleared), the first
-    /// moments multiplied by the gains.
+    /// Fill `mass`, `moment_sq` and the first moments (`ex`, `ey`) for levels 0..top from the
+    /// buckets (cleared), the first moments multiplied by the gains.
     #[inline(always)]
     fn level_sums(&mut self, top: usize, (gx, gy): (f64, f64)) {
         let mut run = [0.0; 8];
@@ -461,6 +497,8 @@ impl BackgroundSweep {
             }
             self.mass[l] = t[0] as f32;
             self.moment_sq[l] = (t[1] * t[1] + t[2] * t[2]) as f32;
+            self.ex[l] = t[1] as f32;
+            self.ey[l] = t[2] as f32;
         }
     }
 }
@@ -511,20 +549,26 @@ fn sum_lit<T: PixelTerms>(
     }
 }
 
-/// Add each level's error of every lane's frame to its lane sums: the distance where the
-/// level's sum is positive, else the centre's (an empty frame).
-fn add_lanes(
-    lanes: &mut [LaneSums],
-    mass: &[[f32; LANES]],
-    dist: &[[f32; LANES]],
-    centre: [f64; LANES],
-) {
-    for ((s, m), d) in lanes.iter_mut().zip(mass).zip(dist) {
+/// A batch's per-level values, one lane a frame: the sum S (not positive: an empty frame),
+/// the distance and the error vector (px).
+struct PerLevel<'a> {
+    mass: &'a [[f32; LANES]],
+    dist: &'a [[f32; LANES]],
+    ex: &'a [[f32; LANES]],
+    ey: &'a [[f32; LANES]],
+}
+
+/// Add each level's error terms of every lane's frame to its lane sums: those of the error
+/// where the level's sum is positive, else the centre's (`centre`, term-major: an empty
+/// frame).
+fn add_lanes(lanes: &mut [LaneSums], v: &PerLevel, centre: &[[f64; LANES]; TERMS]) {
+    for ((((s, m), d), x), y) in lanes.iter_mut().zip(v.mass).zip(v.dist).zip(v.ex).zip(v.ey) {
         for f in 0..LANES {
             let lit = m[f] > 0.0;
-            let d = f64::from(d[f]);
-            s.sum[f] += select(lit, d, centre[f]);
-            s.sum_sq[f] += select(lit, d * d, centre[f] * centre[f]);
+            let t: ErrorTerms = error_terms(f64::from(d[f]), f64::from(x[f]), f64::from(y[f]));
+            for q in 0..TERMS {
+                s.sums[q][f] += select(lit, t[q], centre[q][f]);
+            }
             s.empty[f] += u64::from(!lit);
         }
     }
@@ -534,31 +578,33 @@ fn add_lanes(
 /// scalar): the same values.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn add_lanes_avx2(
-    lanes: &mut [LaneSums],
-    mass: &[[f32; LANES]],
-    dist: &[[f32; LANES]],
-    centre: [f64; LANES],
-) {
+unsafe fn add_lanes_avx2(lanes: &mut [LaneSums], v: &PerLevel, centre: &[[f64; LANES]; TERMS]) {
     use std::arch::x86_64::*;
     const _: () = assert!(LANES == 4, "four f64 lanes per AVX2 vector");
     // SAFETY (every load and store): each pointer is to an array of four f32, f64 or u64.
     unsafe {
-        let c = _mm256_loadu_pd(centre.as_ptr());
-        let c_sq = _mm256_mul_pd(c, c);
+        let c: [__m256d; TERMS] = std::array::from_fn(|q| _mm256_loadu_pd(centre[q].as_ptr()));
         let one = _mm256_set1_epi64x(1);
-        for ((s, m), d) in lanes.iter_mut().zip(mass).zip(dist) {
+        let per_level = v.mass.iter().zip(v.dist).zip(v.ex).zip(v.ey);
+        for (s, (((m, d), x), y)) in lanes.iter_mut().zip(per_level) {
             // m > 0 (false for NaN), widened to 64-bit lane masks.
-            let lit32 = _mm_cmp_ps::<_CMP_GT_OQ>(_mm_loadu_ps(m.as_ptr()), _mm_setzero_ps());
+            let m = _mm_loadu_ps(m.as_ptr());
+            let lit32 = _mm_cmp_ps::<_CMP_GT_OQ>(m, _mm_setzero_ps());
             let lit = _mm256_cvtepi32_epi64(_mm_castps_si128(lit32));
             let lit_pd = _mm256_castsi256_pd(lit);
             let d = _mm256_cvtps_pd(_mm_loadu_ps(d.as_ptr()));
-            let add = _mm256_blendv_pd(c, d, lit_pd);
-            let add_sq = _mm256_blendv_pd(c_sq, _mm256_mul_pd(d, d), lit_pd);
-            let sum = _mm256_add_pd(_mm256_loadu_pd(s.sum.as_ptr()), add);
-            _mm256_storeu_pd(s.sum.as_mut_ptr(), sum);
-            let sum_sq = _mm256_add_pd(_mm256_loadu_pd(s.sum_sq.as_ptr()), add_sq);
-            _mm256_storeu_pd(s.sum_sq.as_mut_ptr(), sum_sq);
+            let x = _mm256_cvtps_pd(_mm_loadu_ps(x.as_ptr()));
+            let y = _mm256_cvtps_pd(_mm_loadu_ps(y.as_ptr()));
+            let q = _mm256_mul_pd(d, d);
+            // The terms of `error_terms`, in its order.
+            let t = [d, q, x, y, _mm256_mul_pd(x, x), _mm256_mul_pd(q, q)];
+            for (i, sum) in s.sums.iter_mut().enumerate() {
+                let add = _mm256_blendv_pd(c[i], t[i], lit_pd);
+                _mm256_storeu_pd(
+                    sum.as_mut_ptr(),
+                    _mm256_add_pd(_mm256_loadu_pd(sum.as_ptr()), add),
+                );
+            }
             let empty_ptr = s.empty.as_mut_ptr().cast::<__m256i>();
             let empty =
                 _mm256_add_epi64(_mm256_loadu_si256(empty_ptr), _mm256_andnot_si256(lit, one));
@@ -591,22 +637,34 @@ mod tests {
                 })
             })
             .collect();
-        let dist: Vec<[f32; LANES]> = (0..levels)
-            .map(|_| std::array::from_fn(|_| rng.random_range(0.0..2.0f32)))
-            .collect();
-        let centre = [0.1, 0.7, 0.0, 0.45];
+        let mut draw = |lo: f32| -> Vec<[f32; LANES]> {
+            (0..levels)
+                .map(|_| std::array::from_fn(|_| rng.random_range(lo..2.0f32)))
+                .collect()
+        };
+        let (dist, ex, ey) = (draw(0.0), draw(-2.0), draw(-2.0));
+        let truths = [(0.1, 0.0), (0.7, -0.2), (0.0, 0.0), (0.45, 0.3)];
+        let centre: [[f64; LANES]; TERMS] =
+            std::array::from_fn(|q| std::array::from_fn(|f| centre_terms(truths[f])[q]));
+        let v = PerLevel {
+            mass: &mass,
+            dist: &dist,
+            ex: &ex,
+            ey: &ey,
+        };
         let (mut a, mut b) = (
             vec![LaneSums::default(); levels],
             vec![LaneSums::default(); levels],
         );
         for _ in 0..3 {
-            add_lanes(&mut a, &mass, &dist, centre);
+            add_lanes(&mut a, &v, &centre);
             // SAFETY: the CPU has AVX2 (checked above).
-            unsafe { add_lanes_avx2(&mut b, &mass, &dist, centre) };
+            unsafe { add_lanes_avx2(&mut b, &v, &centre) };
         }
         for (x, y) in a.iter().zip(&b) {
-            assert_eq!(x.sum.map(f64::to_bits), y.sum.map(f64::to_bits));
-            assert_eq!(x.sum_sq.map(f64::to_bits), y.sum_sq.map(f64::to_bits));
+            for q in 0..TERMS {
+                assert_eq!(x.sums[q].map(f64::to_bits), y.sums[q].map(f64::to_bits));
+            }
             assert_eq!(x.empty, y.empty);
         }
         assert!(a.iter().any(|s| s.empty.iter().any(|&e| e > 0)));

@@ -280,6 +280,7 @@ pub(crate) mod tests {
             iters: cfg.iters,
             target_se_e: Some(0.05),
             status,
+            parts: Default::default(),
         };
         EffectiveRecord::new("scmos-random".into(), &cfg, &e)
     }

@@ -122,6 +122,7 @@ pub(crate) mod tests {
             r0_px: r_px,
             r0_se_px: r_se_px,
             zero_frames: 0,
+            parts: Default::default(),
             levels: vec![],
         };
         SimRecord::new(&cfg, Some(500.0), result)

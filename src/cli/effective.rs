@@ -191,6 +191,7 @@ mod tests {
             sigma_grid_e: vec![],
             r_const_px: vec![],
             status,
+            parts: Default::default(),
         };
         let records: Vec<EffectiveRecord> = [
             e(1.234, 0.021, Some(0.05), Status::Ok),
@@ -240,6 +241,7 @@ mod tests {
             sigma_grid_e: vec![],
             r_const_px: vec![],
             status: Status::Ok,
+            parts: Default::default(),
         };
         let mut record = EffectiveRecord::new("scmos-map".into(), &cfg, &e);
         let cog_only = terminal_table(std::slice::from_ref(&record));

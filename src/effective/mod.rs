@@ -10,6 +10,7 @@ mod invert;
 mod precision;
 mod qe;
 mod qe_table;
+mod random;
 mod solve;
 mod status;
 mod table;
@@ -18,6 +19,7 @@ pub(crate) use invert::{invert, Inversion, Outside};
 pub use precision::Precision;
 pub use qe::{effective_qe, QeFactor, QePrecision, QeStatus};
 pub use qe_table::{effective_qe_table, write_qe_tables, QeRecord, QE_TABLE_NAMES};
+pub use random::{random_sigma, random_sigma_unpaired, EffectiveParts, RandomSigma};
 pub use solve::{
     effective_sigma, effective_sigma_with, planned_work, planned_work_with, Effective,
 };

@@ -68,6 +68,10 @@ pub struct Effective {
     pub r_const_px: Vec<f64>,
     /// How the value was settled (ok, imprecise, lower_bound, unreachable, no_eligible_level).
     pub status: Status,
+    /// The detector's static offset and the constant sigma of its random part (flattened in
+    /// tables: `sigma_random_e`, `static_px`, ...).
+    #[serde(flatten)]
+    pub parts: super::random::EffectiveParts,
 }
 
 /// How a solve over a family ended.
@@ -107,6 +111,8 @@ pub(super) struct Solved {
     pub cog_equiv: Option<(f64, f64)>,
     /// How it ended.
     pub outcome: Outcome,
+    /// The detector's static offset and random sigma against the final grid's references.
+    pub parts: super::random::EffectiveParts,
 }
 
 /// Pixels of one frame of `cfg`: an arm-frame (a model's frame read through one centroider)
@@ -221,6 +227,7 @@ pub fn effective_sigma_with(
             Outcome::Beyond => Status::Unreachable,
             Outcome::NoEligibleLevel => Status::NoEligibleLevel,
         },
+        parts: s.parts,
     })
 }
 
@@ -567,16 +574,20 @@ impl Solver<'_> {
         outcome: Outcome,
     ) -> Solved {
         let has_value = !matches!(outcome, Outcome::Beyond | Outcome::NoEligibleLevel);
+        let grid_values: Vec<f64> = grids.main.iter().map(|&x| self.family.value(x)).collect();
+        // The main references are arms 1..; the cog arms (if any) follow them.
+        let random = super::random::random_sigma(exp, &runs.det, &runs.refs, &grid_values);
         Solved {
             value,
             se,
             target: self.precision.target_for(value).filter(|_| has_value),
             iters: exp.iters(),
             det: runs.det.clone(),
-            grid: grids.main.iter().map(|&x| self.family.value(x)).collect(),
+            grid: grid_values,
             r_ref_px: runs.refs.iter().map(|c| c.r_px).collect(),
             cog_equiv: self.cog_equivalent(exp, runs, grids),
             outcome,
+            parts: super::random::EffectiveParts::new(&runs.det, random),
         }
     }
 }

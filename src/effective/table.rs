@@ -27,7 +27,11 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 /// `r_px`, `r_se_px` (the detector's R and its
 /// SE), `b_opt_e` (its best background level), `centroider_param` and `centroider_param_opt`
 /// (the centroider's parameter at the optimum; empty for `cog`); and `status` (`ok`, `imprecise`, `lower_bound`,
-/// `unreachable`, `no_eligible_level`: see [`crate::effective::Status::meaning`]).
+/// `unreachable`, `no_eligible_level`: see [`crate::effective::Status::meaning`]); then the
+/// error's parts ([`crate::effective::EffectiveParts`]): `sigma_random_e`,
+/// `sigma_random_se_e` (e-, the constant sigma of the detector's random part), and
+/// `sigma_random_extrapolated`, `random_rms_px`, the static offset `static_x_px`,
+/// `static_y_px`, `static_px`, `static_se_px` and `static_resolved`.
 #[derive(Debug, Clone)]
 pub struct EffectiveRecord {
     /// The detector model (its name, or a caller's label).
@@ -55,7 +59,7 @@ impl EffectiveRecord {
 impl Serialize for EffectiveRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let e = &self.effective;
-        let mut s = serializer.serialize_struct("EffectiveRecord", 20)?;
+        let mut s = serializer.serialize_struct("EffectiveRecord", 29)?;
         s.serialize_field("model", &self.model)?;
         s.serialize_field("centroider", &self.centroider)?;
         let used = SimConfig {
@@ -76,6 +80,16 @@ impl Serialize for EffectiveRecord {
         s.serialize_field("centroider_param", &e.param_name)?;
         s.serialize_field("centroider_param_opt", &e.param_opt)?;
         s.serialize_field("status", &e.status)?;
+        let p = &e.parts;
+        s.serialize_field("sigma_random_e", &finite(p.sigma_random_e))?;
+        s.serialize_field("sigma_random_se_e", &finite(p.sigma_random_se_e))?;
+        s.serialize_field("sigma_random_extrapolated", &p.sigma_random_extrapolated)?;
+        s.serialize_field("random_rms_px", &finite(p.random_rms_px))?;
+        s.serialize_field("static_x_px", &finite(p.static_x_px))?;
+        s.serialize_field("static_y_px", &finite(p.static_y_px))?;
+        s.serialize_field("static_px", &finite(p.static_px))?;
+        s.serialize_field("static_se_px", &finite(p.static_se_px))?;
+        s.serialize_field("static_resolved", &p.static_resolved)?;
         s.end()
     }
 }
@@ -276,6 +290,7 @@ mod tests {
             sigma_grid_e: vec![0.0, 1.0],
             r_const_px: vec![0.1, 0.2],
             status,
+            parts: Default::default(),
         }
     }
 
@@ -293,8 +308,11 @@ mod tests {
             csv,
             "model,centroider,subap_px,spot,sampling,signal_photons,qe,iters,seed,sigma_eff_e,\
              sigma_eff_se_e,target_se_e,sigma_cog_equiv_e,sigma_cog_equiv_se_e,r_px,r_se_px,\
-             b_opt_e,centroider_param,centroider_param_opt,status\n\
-             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,,,0.5,0.25,2,,,unreachable\n"
+             b_opt_e,centroider_param,centroider_param_opt,status,sigma_random_e,sigma_random_se_e,\
+             sigma_random_extrapolated,random_rms_px,static_x_px,static_y_px,static_px,\
+             static_se_px,static_resolved\n\
+             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,,,0.5,0.25,2,,,unreachable,,,false,\
+             ,,,,,false\n"
         );
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&written[1]).unwrap()).unwrap();
@@ -302,7 +320,7 @@ mod tests {
         assert_eq!(json[0]["status"], "unreachable");
         assert_eq!(json[0]["iters"], 40_000);
         assert!(json[0]["sigma_cog_equiv_e"].is_null());
-        assert_eq!(json[0].as_object().unwrap().len(), 20);
+        assert_eq!(json[0].as_object().unwrap().len(), 29);
     }
 
     #[test]
@@ -327,8 +345,8 @@ mod tests {
         }
         let csv = std::fs::read_to_string(&written[0]).unwrap();
         let rows: Vec<&str> = csv.lines().skip(1).collect();
-        assert!(rows[0].contains(",1.25,0.02,0.05,") && rows[0].ends_with(",ok"));
-        assert!(rows[1].contains(",18.5,6.5,0.37,") && rows[1].ends_with(",imprecise"));
-        assert!(rows[2].contains(",0,,0.05,") && rows[2].ends_with(",lower_bound"));
+        assert!(rows[0].contains(",1.25,0.02,0.05,") && rows[0].contains(",ok,"));
+        assert!(rows[1].contains(",18.5,6.5,0.37,") && rows[1].contains(",imprecise,"));
+        assert!(rows[2].contains(",0,,0.05,") && rows[2].contains(",lower_bound,"));
     }
 }

@@ -11,15 +11,19 @@
 
 use super::blocks::{Blocks, Term, SUB_BLOCK};
 use super::config::SimConfig;
-use crate::centroid::{CentroidContext, Centroider, CentroiderSpec, Setting, SettingSums, LANES};
+use crate::centroid::{
+    CentroidContext, Centroider, CentroiderSpec, ErrorMoments, Setting, SettingSums, LANES,
+};
 use crate::detector::Readout;
 use crate::progress::Observer;
 use crate::spot::SpotRenderer;
 use crate::{Error, Result};
 use frames::{BatchFrames, Scene};
+pub use parts::ErrorParts;
 use rayon::prelude::*;
 
 mod frames;
+mod parts;
 
 /// Iterations per parallel work item: chunk c holds iterations [c CHUNK, (c + 1) CHUNK) of the
 /// run (fixed, so sums are added in the same order always, whatever the thread count).
@@ -77,11 +81,55 @@ pub struct SimResult {
     pub r0_se_px: f64,
     /// Frames with nothing above the optimum setting.
     pub zero_frames: u64,
+    /// The error's static part (mean error vector) and random part (spread about it) at the
+    /// optimum setting (px).
+    #[serde(flatten)]
+    pub parts: ErrorParts,
     /// Index of the optimum in `levels` (for [`Term`]s of paired standard errors).
     #[serde(skip)]
     pub best: usize,
     /// R at every setting.
     pub levels: Vec<LevelStats>,
+}
+
+/// A per-frame quantity whose sums per block an experiment with blocks keeps beside the radial
+/// error's ([`Experiment::paired_se_moments`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Moment {
+    /// The squared error |e|^2 (px^2).
+    SquaredError,
+    /// The error's x component (px).
+    ErrorX,
+    /// The error's y component (px).
+    ErrorY,
+}
+
+impl Moment {
+    /// Every moment kept, in the order of the block sums.
+    const ALL: [Moment; 3] = [Moment::SquaredError, Moment::ErrorX, Moment::ErrorY];
+
+    /// The moment's per-setting sums from finished totals and moments.
+    fn sums(self, totals: &[(f64, f64, u64)], moments: &[ErrorMoments]) -> Vec<f64> {
+        match self {
+            Moment::SquaredError => totals.iter().map(|t| t.1).collect(),
+            Moment::ErrorX => moments.iter().map(|m| m.sum_x).collect(),
+            Moment::ErrorY => moments.iter().map(|m| m.sum_y).collect(),
+        }
+    }
+}
+
+/// One term of a linear combination of means of [`Moment`]s: `coef` x the mean of `moment` of
+/// arm `arm` at setting `setting`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MomentTerm {
+    /// The per-frame quantity.
+    pub moment: Moment,
+    /// Index of the arm in the run.
+    pub arm: usize,
+    /// Index of the setting in the arm's settings.
+    pub setting: usize,
+    /// Coefficient (per unit of the moment).
+    pub coef: f64,
 }
 
 /// One arm of a run: a model of the run read through a centroider.
@@ -117,6 +165,9 @@ pub struct Experiment<'m> {
     mean_e: Vec<f64>,
     totals: Vec<SettingSums>,
     blocks: Option<Blocks>,
+    /// Block sums of the [`Moment`]s, kept with `blocks`: one pseudo-arm per moment and arm,
+    /// moment-major.
+    moment_blocks: Option<Blocks>,
     done: u64,
 }
 
@@ -129,10 +180,11 @@ struct BuiltArm {
 }
 
 /// What one chunk of iterations adds: per-arm sums, and the sums of its sub-blocks
-/// `(first iteration, iterations, arms x settings sums)` when blocks are kept.
+/// `(first iteration, iterations, arms x settings sums, moments x arms x settings sums)` when
+/// blocks are kept.
 struct ChunkSums {
     totals: Vec<SettingSums>,
-    blocks: Vec<(u64, u64, Vec<f64>)>,
+    blocks: Vec<(u64, u64, Vec<f64>, Vec<f64>)>,
 }
 
 impl<'m> Experiment<'m> {
@@ -194,6 +246,7 @@ impl<'m> Experiment<'m> {
             renderer,
             mean_e,
             blocks: None,
+            moment_blocks: None,
             done: 0,
         })
     }
@@ -202,6 +255,8 @@ impl<'m> Experiment<'m> {
     pub fn with_blocks(mut self) -> Self {
         let sizes: Vec<usize> = self.arms.iter().map(|a| a.settings.len()).collect();
         self.blocks = Some(Blocks::new(&sizes));
+        let moment_sizes: Vec<usize> = Moment::ALL.iter().flat_map(|_| sizes.clone()).collect();
+        self.moment_blocks = Some(Blocks::new(&moment_sizes));
         self
     }
 
@@ -254,9 +309,12 @@ impl<'m> Experiment<'m> {
                 for (t, p) in self.totals.iter_mut().zip(&part.totals) {
                     t.merge(p);
                 }
-                if let Some(blocks) = self.blocks.as_mut() {
-                    for (first, count, sums) in &part.blocks {
+                if let (Some(blocks), Some(moments)) =
+                    (self.blocks.as_mut(), self.moment_blocks.as_mut())
+                {
+                    for (first, count, sums, moment_sums) in &part.blocks {
                         blocks.add(*first, *count, sums);
+                        moments.add(*first, *count, moment_sums);
                     }
                 }
             }
@@ -303,6 +361,24 @@ impl<'m> Experiment<'m> {
         self.blocks.as_ref()
     }
 
+    /// Standard error of the linear combination sum(coef x mean moment) of `terms`, from the
+    /// scatter of block means as [`Experiment::paired_se`] (in the moments' units). Infinite
+    /// without blocks kept or with fewer than two blocks.
+    pub fn paired_se_moments(&self, terms: &[MomentTerm]) -> f64 {
+        let arms = self.arms.len();
+        let terms: Vec<Term> = terms
+            .iter()
+            .map(|t| Term {
+                model: t.moment as usize * arms + t.arm,
+                level: t.setting,
+                coef: t.coef,
+            })
+            .collect();
+        self.moment_blocks
+            .as_ref()
+            .map_or(f64::INFINITY, |b| b.standard_error(&terms))
+    }
+
     /// Run iterations `iters` for every arm, in sub-blocks of `sub` iterations (aligned on
     /// multiples of `sub`).
     fn run_chunk(&self, iters: std::ops::Range<u64>, sub: u64) -> ChunkSums {
@@ -335,11 +411,17 @@ impl<'m> Experiment<'m> {
                 // A sub-block ends: its sums join the chunk's (into zeros when it is the whole
                 // chunk, which leaves them exact) and, when kept, the block list.
                 if self.blocks.is_some() {
-                    let sums = accs
+                    let finished: Vec<_> = accs.iter().map(|a| (a.finish(), a.moments())).collect();
+                    let sums = finished
                         .iter()
-                        .flat_map(|a| a.finish().into_iter().map(|(s, _, _)| s))
+                        .flat_map(|(t, _)| t.iter().map(|&(s, _, _)| s))
                         .collect();
-                    out.blocks.push((block_start, end - block_start, sums));
+                    let moment_sums = Moment::ALL
+                        .iter()
+                        .flat_map(|m| finished.iter().flat_map(|(t, ms)| m.sums(t, ms)))
+                        .collect();
+                    out.blocks
+                        .push((block_start, end - block_start, sums, moment_sums));
                 }
                 for (t, a) in out.totals.iter_mut().zip(accs.iter_mut()) {
                     t.merge(a);
@@ -418,9 +500,10 @@ fn summarise(
     iters: u64,
 ) -> SimResult {
     let n = iters as f64;
+    let totals = acc.finish();
     let stats: Vec<LevelStats> = settings
         .iter()
-        .zip(acc.finish())
+        .zip(totals.iter().copied())
         .map(|(s, (sum, sum_sq, empty))| {
             let mean = sum / n;
             let var = ((sum_sq / n - mean * mean) * n / (n - 1.0)).max(0.0);
@@ -468,6 +551,7 @@ fn summarise(
         r0_px: stats[first].r_px,
         r0_se_px: stats[first].r_se_px,
         zero_frames: stats[best].empty_frames,
+        parts: ErrorParts::of(totals[best].1, &acc.moments()[best], n),
         best,
         levels: stats,
     }

@@ -14,7 +14,9 @@ mod sweep;
 pub(crate) use blocks::Blocks;
 pub use blocks::Term;
 pub use config::{BgGrid, SimConfig};
-pub use engine::{run, Arm, Experiment, LevelStats, SimResult, CHUNK};
+pub use engine::{
+    run, Arm, ErrorParts, Experiment, LevelStats, Moment, MomentTerm, SimResult, CHUNK,
+};
 pub(crate) use record::config_columns;
 pub use record::SimRecord;
 pub use sweep::{sweep, sweep_with, Grid};

@@ -9,7 +9,10 @@ use serde::ser::{Serialize, SerializeStruct, Serializer};
 /// Serialised (CSV, JSON) as the columns `model`, `centroider`, the configuration
 /// (`subap_px`, `spot`, `sampling`, `signal_photons`, `qe`, `em_gain` (empty for models without
 /// an EM register), `iters`, `seed`), the result (`r_px` ... `zero_frames`, then
-/// `centroider_param` and `centroider_param_opt`, empty for `cog`), then `bg_levels_e`,
+/// `centroider_param` and `centroider_param_opt`, empty for `cog`), the error's static and
+/// random parts at the optimum (`static_x_px`, `static_y_px`, `static_px`, `static_se_px`,
+/// `static_resolved`, `random_rms_px`, `random_rms_se_px`: see
+/// [`super::ErrorParts`]), then `bg_levels_e`,
 /// `param_by_level` and `r_by_level_px` (arrays: JSON only).
 #[derive(Debug, Clone)]
 pub struct SimRecord {
@@ -55,7 +58,7 @@ pub(crate) fn config_columns<S: SerializeStruct>(
 impl Serialize for SimRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let r = &self.result;
-        let mut s = serializer.serialize_struct("SimRecord", 23)?;
+        let mut s = serializer.serialize_struct("SimRecord", 30)?;
         s.serialize_field("model", &r.model)?;
         s.serialize_field("centroider", &r.centroider)?;
         config_columns(&mut s, &self.config, Some(self.em_gain))?;
@@ -69,6 +72,14 @@ impl Serialize for SimRecord {
         s.serialize_field("zero_frames", &r.zero_frames)?;
         s.serialize_field("centroider_param", &r.param_name)?;
         s.serialize_field("centroider_param_opt", &r.param_opt)?;
+        let p = &r.parts;
+        s.serialize_field("static_x_px", &p.static_x_px)?;
+        s.serialize_field("static_y_px", &p.static_y_px)?;
+        s.serialize_field("static_px", &p.static_px)?;
+        s.serialize_field("static_se_px", &p.static_se_px)?;
+        s.serialize_field("static_resolved", &p.static_resolved)?;
+        s.serialize_field("random_rms_px", &p.random_rms_px)?;
+        s.serialize_field("random_rms_se_px", &p.random_rms_se_px)?;
         let levels: Vec<f64> = r.levels.iter().map(|l| l.b_e).collect();
         s.serialize_field("bg_levels_e", &levels)?;
         let params: Vec<Option<f64>> = r.levels.iter().map(|l| l.param).collect();
@@ -113,6 +124,16 @@ mod tests {
             r0_px: 0.75,
             r0_se_px: 0.125,
             zero_frames: 3,
+            parts: crate::montecarlo::ErrorParts {
+                static_x_px: 0.125,
+                static_y_px: -0.25,
+                static_px: 0.5,
+                static_se_px: 0.0625,
+                static_resolved: true,
+                random_rms_px: 1.5,
+                random_rms_se_px: 0.25,
+                ..Default::default()
+            },
             levels: vec![level(0.0, 0.75), level(1.5, 0.25)],
         };
         let rec = SimRecord::new(&config, None, result);
@@ -120,14 +141,15 @@ mod tests {
             render(std::slice::from_ref(&rec), TableFormat::Csv).unwrap(),
             "model,centroider,subap_px,spot,sampling,signal_photons,qe,em_gain,iters,seed,r_px,\
              r_se_px,b_opt_e,b_at_grid_edge,no_eligible_level,r0_px,r0_se_px,zero_frames,\
-             centroider_param,centroider_param_opt\n\
+             centroider_param,centroider_param_opt,static_x_px,static_y_px,static_px,static_se_px,\
+             static_resolved,random_rms_px,random_rms_se_px\n\
              scmos-mean,cog,8,\"gauss:1,2.5\",integrated,50,1,,10000,1,0.25,0.5,1.5,false,true,\
-             0.75,0.125,3,,\n"
+             0.75,0.125,3,,,0.125,-0.25,0.5,0.0625,true,1.5,0.25\n"
         );
         let json = serde_json::to_value(&rec).unwrap();
         assert_eq!(json["bg_levels_e"], serde_json::json!([0.0, 1.5]));
         assert_eq!(json["r_by_level_px"], serde_json::json!([0.75, 0.25]));
         assert_eq!(json["param_by_level"], serde_json::json!([null, null]));
-        assert_eq!(json.as_object().unwrap().len(), 23);
+        assert_eq!(json.as_object().unwrap().len(), 30);
     }
 }

@@ -239,6 +239,7 @@ mod tests {
                 r0_px: 0.0,
                 r0_se_px: 0.0,
                 zero_frames: 0,
+                parts: Default::default(),
                 levels: Vec::<LevelStats>::new(),
             };
             SimRecord::new(&SimConfig::paper(4), Some(500.0), result)

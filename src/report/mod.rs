@@ -18,6 +18,7 @@ pub mod qe_factor;
 mod real_noise;
 mod result;
 mod scmos;
+mod static_part;
 mod subaps;
 
 #[cfg(test)]

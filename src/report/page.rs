@@ -239,6 +239,7 @@ pub fn index_html(p: &ScmosPage) -> String {
         super::subaps::section_html(&mut h, subaps);
     }
     effective_table(&mut h, p.effective);
+    h.push_str(&super::static_part::html_section(p.effective));
     fit_table(&mut h, p.fit);
     let _ = writeln!(h, "<h2>Files</h2><p class=\"note\">Maps (FITS, with BUNIT): offset_adu.fits, rms_adu.fits, rms_e.fits (usable with <code>detnoise simulate --model scmos-map --map</code>), flags.fits. Charts: rms_hist.png (the per-pixel read noise of every pixel, flagged ones included, log counts; the fit's chart above shows the unflagged ones), the heatmaps also as SVG, r_vs_signal.svg. Tables: effective_noise.csv/.json, r_vs_signal.csv, pdf_fit.json (usable with <code>detnoise simulate</code> or <code>detnoise effective --pdf</code>){}, summary.json (every number above with units, the operating point, every input with its BLAKE3 checksum), darks_summary.json.</p></body></html>",
         if p.has_ptc { ", ptc_points.csv/.json (the photon-transfer points: mean, variance and gain per light level)" } else { "" });

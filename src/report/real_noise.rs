@@ -282,6 +282,7 @@ mod tests {
             sigma_grid_e: vec![],
             r_const_px: vec![],
             status,
+            parts: Default::default(),
         }
     }
 

@@ -25,6 +25,7 @@ mod part;
 mod resume;
 mod run;
 mod solve;
+mod static_maps;
 
 #[cfg(test)]
 mod tests;
@@ -40,3 +41,4 @@ pub use part::{
 pub use resume::{merge_into_dir, run_into_dir, DirRun, DirTarget};
 pub use run::{solve_all, solve_each, Plan, SubapsJob};
 pub use solve::{check_centroider, solve_subap, NoiseMap, WindowStats};
+pub use static_maps::{write_maps as write_static_maps, STATIC_MAP_NAMES};

@@ -10,7 +10,8 @@ use crate::calib::{Map, Unit};
 use crate::centroid::CentroiderSpec;
 use crate::detector::{PerPixelSigma, Readout};
 use crate::effective::{
-    effective_sigma_with, invert, Effective, Inversion, Outside, Precision, Status,
+    effective_sigma_with, invert, random_sigma_unpaired, Effective, EffectiveParts, Inversion,
+    Outside, Precision, Status,
 };
 use crate::montecarlo::{Arm, Blocks, Experiment, SimConfig, SimResult, Term};
 use crate::progress::Observer;
@@ -274,6 +275,7 @@ impl Checkpoint<'_> {
             }
         };
         let own = &self.ladder.at(self.k).results[self.ladder.own()];
+        let random = random_sigma_unpaired(&det, own, &self.ladder.sigmas);
         Step::Done(Box::new(Effective {
             sigma_eff_e: value,
             sigma_eff_se_e: se,
@@ -289,6 +291,7 @@ impl Checkpoint<'_> {
             status,
             sigma_cog_equiv_e: cog_e,
             sigma_cog_equiv_se_e: cog_se_e,
+            parts: EffectiveParts::new(&det, random),
         }))
     }
 

@@ -351,3 +351,115 @@ fn a_readout_that_overflows_the_sums_is_an_error_not_an_empty_r() {
     let e = crate::effective::effective_sigma(&cfg, &absurd, &precision, &Silent).unwrap_err();
     assert!(e.to_string().contains("is not finite"), "{e}");
 }
+
+/// E[v] and E[v^2] of v = max(k + sigma Z - b, 0) for k ~ Poisson(mu), Z ~ N(0, 1): the
+/// clipped value of a pixel of mean mu photo-electrons and read noise sigma (e-) at background
+/// level b (e-). For m = k - b: E[max(m + sigma Z, 0)] = m Phi + sigma phi and
+/// E[max(m + sigma Z, 0)^2] = (m^2 + sigma^2) Phi + m sigma phi (Phi, phi at m / sigma).
+fn clipped_moments(mu: f64, sigma: f64, b: f64) -> (f64, f64) {
+    use crate::special::norm_cdf;
+    let phi = |z: f64| (-0.5 * z * z).exp() / (2.0 * std::f64::consts::PI).sqrt();
+    let (mut p, mut first, mut second) = ((-mu).exp(), 0.0, 0.0);
+    for k in 0..(mu + 12.0 * mu.sqrt() + 20.0) as u64 {
+        if k > 0 {
+            p *= mu / k as f64;
+        }
+        let m = k as f64 - b;
+        let (cdf, pdf) = (norm_cdf(m / sigma), phi(m / sigma));
+        first += p * (m * cdf + sigma * pdf);
+        second += p * ((m * m + sigma * sigma) * cdf + m * sigma * pdf);
+    }
+    (first, second)
+}
+#[test]
+fn a_uniform_camera_has_no_static_part_and_the_parts_add_up() {
+    // Uniform 1 e- camera, spots uniform in [-0.5, 0.5) px: by symmetry the mean error is 0,
+    // so each component lies within 3 SE of it (fixed seed); the random and static parts add
+    // up to the mean squared error: random^2 + static^2 = E|e|^2 (population moments).
+    let mut cfg = SimConfig::paper(8);
+    cfg.iters = 8000;
+    let m = ScmosConstant::new(1.0, "uniform".into());
+    let r = &run(&cfg, &[&m], &Silent).unwrap()[0];
+    let p = &r.parts;
+    assert!(p.static_x_px.abs() < 3.0 * p.static_x_se_px, "{p:?}");
+    assert!(p.static_y_px.abs() < 3.0 * p.static_y_se_px, "{p:?}");
+    assert!(
+        p.static_px < 3.0 * p.static_se_px && p.static_se_px > 0.0,
+        "{p:?}"
+    );
+    let ms = r.levels[r.best].r_se_px.powi(2) * (cfg.iters - 1) as f64 + r.r_px.powi(2);
+    let sum = p.random_rms_px.powi(2) + p.static_px.powi(2);
+    assert!((sum - p.rms_px.powi(2)).abs() < 1e-12 * sum, "{p:?}");
+    // E|e|^2 from R and its SE: var d = E d^2 - R^2.
+    assert!(
+        (p.rms_px.powi(2) - ms).abs() < 1e-9 * ms,
+        "{} vs {ms}",
+        p.rms_px.powi(2)
+    );
+    assert!(p.random_rms_se_px > 0.0 && p.random_rms_se_px < 0.05 * p.random_rms_px);
+}
+
+#[test]
+fn one_noisy_pixel_gives_the_static_offset_its_clipped_excess_predicts() {
+    // 8x8 px uniform 1 e- but one pixel at 10 e-, off-centre (row 3, column 6: lever arm
+    // (2.5, -0.5) px), a centred spot (no position jitter: truth 0). At the optimum level b the
+    // noisy pixel's expected clipped value E[max(k + n - b, 0)] (k Poisson, n Gaussian) exceeds
+    // a uniform pixel's; to first order the centroid's mean offset is that excess times its
+    // lever arm over the expected clipped total (the uniform camera's first moment is 0 by
+    // symmetry): E[A] / E[B] with A = sum v_i x_i, B = sum v_i. The noisy pixel's clipped value
+    // scatters by a good part of the total, so the ratio's second-order terms matter (first
+    // order overshoots by ~20 %): E[A / B] = E[A] / E[B] - cov(A, B) / E[B]^2 + E[A] var(B) /
+    // E[B]^3, with independent pixels cov(A, B) = sum var(v_i) x_i, var(B) = sum var(v_i).
+    // Within 3 SE per axis.
+    let n = 8;
+    let mut cfg = SimConfig::paper(n);
+    cfg.iters = 6000;
+    cfg.position_half_range_px = 0.0;
+    let (row, col) = (3, 6);
+    let mut sigma = vec![1.0; n * n];
+    sigma[row * n + col] = 10.0;
+    let m = crate::detector::PerPixelSigma::new(sigma.clone(), "one noisy pixel".into());
+    let r = &run(&cfg, &[&m], &Silent).unwrap()[0];
+    let renderer = SpotRenderer::new(cfg.spot, cfg.sampling, n, 0.0);
+    let mean = mean_spot_e(&cfg, &renderer);
+    let b = r.b_opt_e;
+    let c = (n as f64 - 1.0) / 2.0;
+    let moments: Vec<(f64, f64)> = (0..n * n)
+        .map(|i| clipped_moments(mean[i], sigma[i], b))
+        .collect();
+    let total: f64 = moments.iter().map(|v| v.0).sum();
+    let var = |v: &(f64, f64)| v.1 - v.0 * v.0;
+    let var_total: f64 = moments.iter().map(var).sum();
+    let p = row * n + col;
+    let excess = moments[p].0 - clipped_moments(mean[p], 1.0, b).0;
+    let first = |lever: f64| excess * lever / total;
+    let predict = |axis: fn(usize) -> f64| {
+        let ea = excess * axis(p);
+        let cov: f64 = moments
+            .iter()
+            .enumerate()
+            .map(|(i, v)| var(v) * axis(i))
+            .sum();
+        ea / total - cov / total.powi(2) + ea * var_total / total.powi(3)
+    };
+    let lever_x = |i: usize| (i % 8) as f64 - 3.5;
+    let lever_y = |i: usize| (i / 8) as f64 - 3.5;
+    let want = (predict(lever_x), predict(lever_y));
+    let parts = &r.parts;
+    println!(
+        "b {b} e-: excess {excess:.3} e- of {total:.2}; static ({:.4} +- {:.4}, {:.4} +- {:.4}) px, \
+         predicted ({:.4}, {:.4}), first order ({:.4}, {:.4}); random rms {:.4} px",
+        parts.static_x_px,
+        parts.static_x_se_px,
+        parts.static_y_px,
+        parts.static_y_se_px,
+        want.0,
+        want.1,
+        first(col as f64 - c),
+        first(row as f64 - c),
+        parts.random_rms_px
+    );
+    assert!(parts.static_resolved && want.0 > 0.05, "{parts:?}");
+    assert!((parts.static_x_px - want.0).abs() < 3.0 * parts.static_x_se_px);
+    assert!((parts.static_y_px - want.1).abs() < 3.0 * parts.static_y_se_px);
+}
