@@ -134,9 +134,13 @@ impl Readout for EmccdPp {
     fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
         // The levels are validated when the model is built and the signal is > 0, so a failure
         // here is a bug, not bad input.
+        // The counters span the frame's brightest expected pixel: a fixed span clipped bright
+        // pixels, and R grew with the signal.
+        let peak = input.expected_e.iter().copied().fold(0.0, f64::max);
+        let lambda_max = self.cache.config().spanning(peak).lambda_max;
         if let Some(prior) = &self.pixel_prior {
             let counters = prior
-                .counters(input.mean_e)
+                .counters(input.mean_e, lambda_max)
                 .expect("PP thresholds for a valid light level");
             return self.read_with(input, aux, out, |i| &counters[i]);
         }
@@ -145,7 +149,7 @@ impl Readout for EmccdPp {
         });
         let counter = self
             .cache
-            .get(lambda.max(PixelPrior::FLOOR_E))
+            .get_spanning(lambda.max(PixelPrior::FLOOR_E), lambda_max)
             .expect("PP thresholds for a valid light level");
         self.read_with(input, aux, out, |_| &counter);
     }

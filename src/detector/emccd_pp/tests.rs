@@ -106,7 +106,7 @@ fn the_pixel_prior_gives_each_pixel_rule_as_thresholds_at_its_own_level() {
     let rule_a = PpConfig::new(PpRule::PoissonPrior, 500.0, 50.0).unwrap();
     let prior = PixelPrior::new(config).unwrap();
     let mean_e = [0.0, 0.3, 3.0, 0.3, 12.5];
-    let counters = prior.counters(&mean_e).unwrap();
+    let counters = prior.counters(&mean_e, config.lambda_max).unwrap();
     assert_eq!(counters.len(), mean_e.len());
     for (c, &l) in counters.iter().zip(&mean_e) {
         let want = rule_a.thresholds(l.max(PixelPrior::FLOOR_E)).unwrap();
@@ -118,7 +118,7 @@ fn the_pixel_prior_gives_each_pixel_rule_as_thresholds_at_its_own_level() {
     assert!(std::sync::Arc::ptr_eq(&counters[1], &counters[3]));
     assert!(std::sync::Arc::ptr_eq(
         &counters,
-        &prior.counters(&mean_e).unwrap()
+        &prior.counters(&mean_e, config.lambda_max).unwrap()
     ));
     // A fixed reference level contradicts the per-pixel levels.
     let register = EmRegister::new(500.0, 520).unwrap();
@@ -169,4 +169,43 @@ fn with_the_pixel_prior_each_pixels_counts_follow_its_own_level() {
     let shared = count_probabilities(&rule_a.counter(1.65).unwrap(), 3.0);
     let own = count_probabilities(&rule_a.counter(3.0).unwrap(), 3.0);
     assert!((shared[1] - own[1]).abs() > 0.02, "{} {}", shared[1], own[1]);
+}
+
+#[test]
+fn bright_pixels_are_corrected_to_their_level_not_clipped() {
+    // 16x16 frames with one pixel of 900 photo-electrons (a point-sampled 2 px Airy spot of
+    // about 3000 photons) and the rest 1, read without read noise through the exact-doubling
+    // register: the bright pixel's count lies far above the outputs the default span of 256
+    // photo-electrons covers, so its corrected level was clipped at 256; spanning the frame's
+    // brightest pixel it is 900 to within the bin's width (about 28 e- here) and the
+    // correction's interpolation: 5 %. Both priors.
+    let n = 16;
+    let mut expected = vec![1.0; n * n];
+    expected[0] = 900.0;
+    let photo: Vec<u32> = expected.iter().map(|&v| v as u32).collect();
+    let normals = vec![0.0; n * n];
+    let input = FrameInput {
+        subap_px: n,
+        expected_e: &expected,
+        mean_e: &expected,
+        photo_e: &photo,
+        normals: &normals,
+    };
+    for rule in [PpRule::PoissonPrior, PpRule::PixelPrior] {
+        let config = PpConfig::new(rule, G, 0.0).unwrap();
+        let model = EmccdPp::new(EmRegister::new(G, 9).unwrap(), 0.0, config, None, true).unwrap();
+        let mut out = vec![0.0; n * n];
+        model.read(&input, &mut stream(5, 0, 0), &mut out);
+        assert!(
+            (out[0] / 900.0 - 1.0).abs() < 0.05,
+            "{rule:?}: bright pixel read as {}",
+            out[0]
+        );
+    }
+    // The span: powers of two at or above twice the peak, never below the configured one
+    // nor above the bound.
+    let c = PpConfig::new(PpRule::PoissonPrior, G, SIGMA).unwrap();
+    assert_eq!(c.spanning(10.0).lambda_max, c.lambda_max);
+    assert_eq!(c.spanning(900.0).lambda_max, 2048.0);
+    assert_eq!(c.spanning(1e9).lambda_max, PpConfig::LAMBDA_MAX_BOUND);
 }
