@@ -182,10 +182,17 @@ impl PpConfig {
     pub fn counter(&self, lambda_ref: f64) -> Result<PpCounter> {
         let thresholds = self.thresholds(lambda_ref)?;
         let correction = PhotometricCorrection::new(&thresholds, self.lambda_max)?;
+        let posterior = super::posterior::posterior_by_count(
+            &thresholds,
+            lambda_ref.max(Self::LAMBDA_MIN),
+            self.lambda_max,
+            |k| correction.lambda_for_count(k),
+        );
         Ok(PpCounter {
             lambda_ref,
             thresholds,
             correction,
+            posterior,
         })
     }
 }
