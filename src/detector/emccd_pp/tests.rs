@@ -225,7 +225,7 @@ fn posterior_is_the_mean_count_given_the_bin_under_the_prior() {
             .iter()
             .map(|&t| crate::detector::pp::survival_by_n(t * 500.0, 500.0, 50.0, 80))
             .collect();
-        let mut w = (-lambda as f64).exp();
+        let mut w = (-lambda).exp();
         let weights: Vec<f64> = (0..=80)
             .map(|n| {
                 if n > 0 {
