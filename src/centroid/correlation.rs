@@ -3,9 +3,10 @@
 //! a sub-pixel peak by a 3-point parabola in each axis through the peak and its two neighbours.
 //!
 //! The correlation is direct and not periodic (the template slides over the frame with zeros
-//! outside it): C(dx, dy) = sum_p I(p) T(p - (dx, dy)) for every shift of -(n-1)..=(n-1) px in
-//! each axis, n^4 products per frame (65,536 at 16x16 px). The peak is the first largest value
-//! in row-major order; in an axis where it lies on the edge of the shifts, or where the three
+//! outside it): C(dx, dy) = sum_p I(p) T(p - (dx, dy)) for shifts of -r..=r px in each axis,
+//! r = min(n - 1, n / 4 + 2): the engine's spot offsets are at most a quarter of the side, so
+//! farther peaks are noise (13 x 13 shifts, about 20,000 products per 16x16 frame, instead of
+//! 31 x 31). The peak is the first largest value in row-major order; in an axis where it lies on the edge of the shifts, or where the three
 //! points are not a maximum (a flat or upward parabola), the integer peak is kept. The parabola's
 //! vertex is at d + (C(d-1) - C(d+1)) / (2 (C(d-1) - 2 C(d) + C(d+1))). The position is the
 //! template's own centroid plus the shift. No background is subtracted (the template weights
@@ -60,17 +61,25 @@ impl Centroider for Correlation {
     }
 
     fn worker(&self) -> Box<dyn CentroidWorker + '_> {
-        let side = 2 * self.n - 1;
+        let reach = reach(self.n);
+        let side = 2 * reach + 1;
         Box::new(CorrelationWorker {
             n: self.n,
+            reach,
             corr: vec![0.0; side * side],
         })
     }
 }
 
-/// A thread's correlation map: shifts -(n-1)..=(n-1), row-major (dy outer).
+/// The largest shift searched (px) for n x n sub-apertures: min(n - 1, n / 4 + 2).
+pub(super) fn reach(n: usize) -> usize {
+    (n - 1).min(n / 4 + 2)
+}
+
+/// A thread's correlation map: shifts -reach..=reach, row-major (dy outer).
 struct CorrelationWorker {
     n: usize,
+    reach: usize,
     corr: Vec<f64>,
 }
 
@@ -88,12 +97,12 @@ pub(super) fn parabola_peak(a: f64, b: f64, c: f64) -> f64 {
 impl CorrelationWorker {
     /// Fill `corr` with the correlation of `img` and `template`.
     fn correlate(&mut self, img: &[f64], template: &[f64]) {
-        let n = self.n as isize;
-        let side = 2 * n - 1;
-        for dy in -(n - 1)..n {
+        let (n, r) = (self.n as isize, self.reach as isize);
+        let side = 2 * r + 1;
+        for dy in -r..=r {
             // Frame rows y with template rows y - dy inside 0..n.
             let (y0, y1) = (dy.max(0), (n + dy).min(n));
-            for dx in -(n - 1)..n {
+            for dx in -r..=r {
                 let (x0, x1) = (dx.max(0), (n + dx).min(n));
                 let mut s = 0.0;
                 for y in y0..y1 {
@@ -102,7 +111,7 @@ impl CorrelationWorker {
                     let trow = &template[t0..t0 + row.len()];
                     s += row.iter().zip(trow).map(|(a, b)| a * b).sum::<f64>();
                 }
-                self.corr[((dy + n - 1) * side + dx + n - 1) as usize] = s;
+                self.corr[((dy + r) * side + dx + r) as usize] = s;
             }
         }
     }
@@ -110,7 +119,7 @@ impl CorrelationWorker {
     /// The shift (px) of `img` against `template`: integer peak plus parabola per axis.
     fn shift(&mut self, img: &[f64], template: &[f64]) -> (f64, f64) {
         self.correlate(img, template);
-        let side = 2 * self.n - 1;
+        let side = 2 * self.reach + 1;
         let mut peak = 0;
         for (k, &v) in self.corr.iter().enumerate() {
             if v > self.corr[peak] {
@@ -128,7 +137,7 @@ impl CorrelationWorker {
         };
         let fx = sub(px, &|x| at(py, x));
         let fy = sub(py, &|y| at(y, px));
-        let centre = (self.n - 1) as f64;
+        let centre = self.reach as f64;
         (px as f64 - centre + fx, py as f64 - centre + fy)
     }
 }

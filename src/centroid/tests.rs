@@ -587,8 +587,9 @@ fn direct_matched_filter(f: &CentroidFrame, gx: &[f64], gy: &[f64]) -> (f64, f64
     (origin.0 + theta[0], origin.1 + theta[1])
 }
 
-/// The correlation centroider's estimate straight from its definition: every shift's sum over
-/// every frame pixel whose template pixel lies inside, the first largest, a parabola per axis.
+/// The correlation centroider's estimate straight from its definition: every searched shift's
+/// sum over every frame pixel whose template pixel lies inside, the first largest, a parabola
+/// per axis.
 fn direct_correlation(f: &CentroidFrame) -> (f64, f64) {
     let n = (f.image_e.len() as f64).sqrt() as isize;
     let c = |dx: isize, dy: isize| -> f64 {
@@ -603,9 +604,10 @@ fn direct_correlation(f: &CentroidFrame) -> (f64, f64) {
         }
         s
     };
-    let mut best = (-(n - 1), -(n - 1));
-    for dy in -(n - 1)..n {
-        for dx in -(n - 1)..n {
+    let r = correlation::reach(n as usize) as isize;
+    let mut best = (-r, -r);
+    for dy in -r..=r {
+        for dx in -r..=r {
             if c(dx, dy) > c(best.0, best.1) {
                 best = (dx, dy);
             }
@@ -620,12 +622,12 @@ fn direct_correlation(f: &CentroidFrame) -> (f64, f64) {
         }
     };
     let (dx, dy) = best;
-    let fx = if dx.abs() == n - 1 {
+    let fx = if dx.abs() == r {
         0.0
     } else {
         parabola(c(dx - 1, dy), c(dx, dy), c(dx + 1, dy))
     };
-    let fy = if dy.abs() == n - 1 {
+    let fy = if dy.abs() == r {
         0.0
     } else {
         parabola(c(dx, dy - 1), c(dx, dy), c(dx, dy + 1))
