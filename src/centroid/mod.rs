@@ -45,6 +45,8 @@ macro_rules! centroiders {
 centroiders! {
     thresholded: [COG, TCOG, MASKED_COG, IVW_COG, WCOG],
     brightest: [ENTRY],
+    matched_filter: [ENTRY],
+    correlation: [ENTRY],
 }
 
 // Parsing and the default spec live beside the table, so that the registry's machinery and

@@ -487,7 +487,8 @@ fn names_parse_with_and_without_parameters() {
     for (bad, why) in [
         (
             "cg",
-            "'cg': unknown; known: cog, tcog, masked-cog, ivw-cog, wcog, brightest-n",
+            "'cg': unknown; known: cog, tcog, masked-cog, ivw-cog, wcog, brightest-n, \
+             matched-filter, correlation",
         ),
         ("cog:2", "'cog:2': cog takes no parameter"),
         ("ivw-cog:1", "'ivw-cog:1': ivw-cog takes no parameter"),
@@ -507,4 +508,326 @@ fn names_parse_with_and_without_parameters() {
         let e = CentroiderSpec::parse(bad).unwrap_err().to_string();
         assert_eq!(e, format!("invalid `centroider`: {why}"));
     }
+}
+
+/// Random frames, noise maps and truths for the new centroiders' definition tests: the noise
+/// map is redrawn every fourth frame (a worker must notice the change) and the mean image is
+/// the given one.
+fn random_frames(n: usize, count: usize, rng: &mut crate::rng::SimRng) -> Vec<Drawn> {
+    let npix = n * n;
+    let mut sigma: Vec<f64> = Vec::new();
+    (0..count)
+        .map(|k| {
+            if k % 4 == 0 {
+                sigma = (0..npix).map(|_| rng.random_range(0.3..4.0)).collect();
+            }
+            Drawn {
+                image_e: (0..npix).map(|_| rng.random_range(-3.0..40.0)).collect(),
+                sigma_e: sigma.clone(),
+                truth_px: (rng.random_range(-0.5..0.5), rng.random_range(-0.5..0.5)),
+            }
+        })
+        .collect()
+}
+
+/// The error (px) of the single-setting centroider `c` on one frame, from its sums.
+fn one_error(c: &dyn Centroider, worker: &mut dyn CentroidWorker, f: &CentroidFrame) -> f64 {
+    let mut acc = c.sums();
+    worker.accumulate(f, &mut acc);
+    let t = acc.finish();
+    assert_eq!(t.len(), 1);
+    t[0].0
+}
+
+/// Solve the 3 x 3 system `m` x = `b` by Gaussian elimination with partial pivoting.
+#[allow(clippy::needless_range_loop)] // elimination's index arithmetic reads best as indices
+fn solve3(mut m: [[f64; 3]; 3], mut b: [f64; 3]) -> [f64; 3] {
+    for col in 0..3 {
+        let p = (col..3)
+            .max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))
+            .unwrap();
+        m.swap(col, p);
+        b.swap(col, p);
+        for r in col + 1..3 {
+            let f = m[r][col] / m[col][col];
+            for c in col..3 {
+                m[r][c] -= f * m[col][c];
+            }
+            b[r] -= f * b[col];
+        }
+    }
+    let mut x = [0.0; 3];
+    for r in (0..3).rev() {
+        let s: f64 = (r + 1..3).map(|c| m[r][c] * x[c]).sum();
+        x[r] = (b[r] - s) / m[r][r];
+    }
+    x
+}
+
+/// The matched filter's estimate straight from its definition: the generalised least-squares
+/// fit of I - I0 by [F gx, F gy, I0] with weights 1 / (factor mean + sigma^2), solved as normal
+/// equations for this frame, its shift added to the mean image's centroid.
+fn direct_matched_filter(f: &CentroidFrame, gx: &[f64], gy: &[f64]) -> (f64, f64) {
+    let n = (f.image_e.len() as f64).sqrt() as usize;
+    let flux: f64 = f.mean_e.iter().sum();
+    let (mut m, mut b) = ([[0.0; 3]; 3], [0.0; 3]);
+    for i in 0..n * n {
+        let var = f.photon_variance_factor * f.mean_e[i] + f.sigma_e[i] * f.sigma_e[i];
+        let w = 1.0 / var.max(matched_filter::VARIANCE_FLOOR_E2);
+        let g = [flux * gx[i], flux * gy[i], f.mean_e[i]];
+        for r in 0..3 {
+            for c in 0..3 {
+                m[r][c] += g[r] * w * g[c];
+            }
+            b[r] += g[r] * w * (f.image_e[i] - f.mean_e[i]);
+        }
+    }
+    let theta = solve3(m, b);
+    let origin = cog(f.mean_e, n).unwrap();
+    (origin.0 + theta[0], origin.1 + theta[1])
+}
+
+/// The correlation centroider's estimate straight from its definition: every searched shift's
+/// sum over every frame pixel whose template pixel lies inside, the first largest, a parabola
+/// per axis.
+fn direct_correlation(f: &CentroidFrame) -> (f64, f64) {
+    let n = (f.image_e.len() as f64).sqrt() as isize;
+    let c = |dx: isize, dy: isize| -> f64 {
+        let mut s = 0.0;
+        for y in 0..n {
+            for x in 0..n {
+                let (tx, ty) = (x - dx, y - dy);
+                if (0..n).contains(&tx) && (0..n).contains(&ty) {
+                    s += f.image_e[(y * n + x) as usize] * f.mean_e[(ty * n + tx) as usize];
+                }
+            }
+        }
+        s
+    };
+    let r = correlation::reach(n as usize) as isize;
+    let mut best = (-r, -r);
+    for dy in -r..=r {
+        for dx in -r..=r {
+            if c(dx, dy) > c(best.0, best.1) {
+                best = (dx, dy);
+            }
+        }
+    }
+    let parabola = |a: f64, b: f64, cc: f64| {
+        let curve = a - 2.0 * b + cc;
+        if curve < 0.0 {
+            (a - cc) / (2.0 * curve)
+        } else {
+            0.0
+        }
+    };
+    let (dx, dy) = best;
+    let fx = if dx.abs() == r {
+        0.0
+    } else {
+        parabola(c(dx - 1, dy), c(dx, dy), c(dx + 1, dy))
+    };
+    let fy = if dy.abs() == r {
+        0.0
+    } else {
+        parabola(c(dx, dy - 1), c(dx, dy), c(dx, dy + 1))
+    };
+    let origin = cog(f.mean_e, n as usize).unwrap();
+    (origin.0 + dx as f64 + fx, origin.1 + dy as f64 + fy)
+}
+
+#[test]
+fn matched_filter_and_correlation_match_their_definitions() {
+    // Random frames, noise maps (changing every fourth frame) and mean images at sizes 2-8 px:
+    // each frame's error from the worker (which keeps its filter between frames) against the
+    // estimate solved directly for that frame: equal to 1e-12 px (different routes through
+    // the same algebra, so rounding only).
+    let mut rng = stream(18, 0, 0);
+    for n in 2..9 {
+        let mean: Vec<f64> = (0..n * n).map(|_| rng.random_range(0.0..5.0)).collect();
+        let frames = random_frames(n, 24, &mut rng);
+        for name in ["matched-filter", "correlation"] {
+            let ctx_levels = [0.0];
+            let ctx = CentroidContext {
+                subap_px: n,
+                levels_e: &ctx_levels,
+                mean_e: &mean,
+                spot: Spot::Airy { diameter_px: 2.0 },
+                sampling: Sampling::Integrated,
+                median_sigma_e: 1.0,
+            };
+            let c = CentroiderSpec::parse(name).unwrap().build(&ctx).unwrap();
+            let filter = matched_filter::MatchedFilter::new(&ctx).unwrap();
+            let (gx, gy) = filter.gradients();
+            let mut worker = c.worker();
+            for (k, d) in frames.iter().enumerate() {
+                let f = CentroidFrame {
+                    image_e: &d.image_e,
+                    truth_px: d.truth_px,
+                    sigma_e: &d.sigma_e,
+                    mean_e: &mean,
+                    photon_variance_factor: [1.0, 2.0][k / 12],
+                };
+                let (x, y) = match name {
+                    "matched-filter" => direct_matched_filter(&f, gx, gy),
+                    _ => direct_correlation(&f),
+                };
+                let want = (x - d.truth_px.0).hypot(y - d.truth_px.1);
+                let got = one_error(c.as_ref(), worker.as_mut(), &f);
+                assert!(
+                    (got - want).abs() <= 1e-12 * want.max(1.0),
+                    "{name} {n}x{n} frame {k}: {got} vs {want}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn matched_filter_gradients_are_the_spots_derivative() {
+    // A point-sampled Gaussian of sigma 2 px on 16 px (well sampled, 0.2 % of it outside):
+    // the truth moves with the spot, so the unit-total image's derivative is the analytic
+    // -d/dx0 of the normalised Gaussian, (x - x0) / s^2 times it; the central difference over
+    // +-0.01 px and the truncation leave it within 1e-3 of the largest gradient.
+    let (n, s) = (16, 2.0);
+    let spot = Spot::Gauss {
+        sigma_x_px: s,
+        sigma_y_px: s,
+    };
+    let ctx = CentroidContext {
+        subap_px: n,
+        levels_e: &[0.0],
+        mean_e: &[],
+        spot,
+        sampling: Sampling::Point,
+        median_sigma_e: 1.0,
+    };
+    let filter = matched_filter::MatchedFilter::new(&ctx).unwrap();
+    let (gx, gy) = filter.gradients();
+    let c = (n as f64 - 1.0) / 2.0;
+    let g: Vec<f64> = (0..n * n)
+        .map(|p| {
+            let (x, y) = ((p % n) as f64 - c, (p / n) as f64 - c);
+            (-(x * x + y * y) / (2.0 * s * s)).exp()
+        })
+        .collect();
+    let total: f64 = g.iter().sum();
+    let largest = gx.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    for p in 0..n * n {
+        let (x, y) = ((p % n) as f64 - c, (p / n) as f64 - c);
+        let (wx, wy) = (x / (s * s) * g[p] / total, y / (s * s) * g[p] / total);
+        assert!(
+            (gx[p] - wx).abs() <= 1e-3 * largest && (gy[p] - wy).abs() <= 1e-3 * largest,
+            "pixel {p}: ({}, {}) vs ({wx}, {wy})",
+            gx[p],
+            gy[p]
+        );
+    }
+}
+
+#[test]
+fn matched_filter_and_correlation_find_noiseless_shifted_spots() {
+    // Noiseless images of the spot at small offsets, scaled to 200 e-, the mean spot the same
+    // centred: the matched filter finds the truth to 2 % of the offset (its response is linear
+    // to second order), the correlation's parabola to 10 % (a 3-point parabola through the
+    // Gaussian-like correlation peak of a spot of sigma 1.5 px reads about 0.89 of the shift:
+    // the method's own pixel-locking bias, which it keeps as DASP does).
+    let n = 10;
+    for (spot, sampling) in [
+        (Spot::Airy { diameter_px: 2.0 }, Sampling::Integrated),
+        (
+            Spot::Gauss {
+                sigma_x_px: 1.5,
+                sigma_y_px: 1.5,
+            },
+            Sampling::Point,
+        ),
+    ] {
+        let renderer = SpotRenderer::new(spot, sampling, n, 0.1);
+        let scaled = |x0: f64, y0: f64| {
+            let mut img = vec![0.0; n * n];
+            renderer.render(x0, y0, &mut img);
+            let t: f64 = img.iter().sum();
+            img.iter_mut().for_each(|v| *v *= 200.0 / t);
+            img
+        };
+        let mean = scaled(0.0, 0.0);
+        let sigma = vec![1.0; n * n];
+        let levels = [0.0];
+        let ctx = CentroidContext {
+            subap_px: n,
+            levels_e: &levels,
+            mean_e: &mean,
+            spot,
+            sampling,
+            median_sigma_e: 1.0,
+        };
+        for (dx, dy) in [(0.05, 0.0), (0.0, -0.03), (0.02, 0.04)] {
+            let img = scaled(dx, dy);
+            let truth = cog(&img, n).unwrap();
+            for (name, tol) in [("matched-filter", 0.02), ("correlation", 0.1)] {
+                if name == "correlation" && matches!(spot, Spot::Airy { .. }) {
+                    continue;
+                }
+                let c = CentroiderSpec::parse(name).unwrap().build(&ctx).unwrap();
+                let f = CentroidFrame {
+                    image_e: &img,
+                    truth_px: truth,
+                    sigma_e: &sigma,
+                    mean_e: &mean,
+                    photon_variance_factor: 1.0,
+                };
+                let d = one_error(c.as_ref(), c.worker().as_mut(), &f);
+                let offset = truth.0.hypot(truth.1);
+                assert!(
+                    d <= tol * offset,
+                    "{name} {spot:?} at ({dx}, {dy}): error {d} px of {offset}"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn matched_filter_beats_cog_when_read_noise_dominates() {
+    // 8x8 px, the paper's Airy spot, 50 photons, 3 e- read noise in every pixel, 3000 frames
+    // on one seed: the matched filter's R (0.13 px at 10,000 frames) is far below the swept
+    // cog's (0.23 px): more than 10 SE of either; correlation, which weights by the spot too,
+    // is below cog as well.
+    use crate::detector::{ModelParams, ModelSpec};
+    use crate::montecarlo::{sweep_with, SimConfig};
+    let cfg = crate::montecarlo::SimConfig {
+        iters: 3000,
+        ..SimConfig::paper(8)
+    };
+    let specs = ["cog", "matched-filter", "correlation"].map(|s| CentroiderSpec::parse(s).unwrap());
+    let records = sweep_with(
+        &[cfg],
+        &[ModelSpec::ScmosConstant(Some(3.0))],
+        &specs,
+        &ModelParams::default(),
+        &crate::progress::Silent,
+    )
+    .unwrap();
+    let [cog, mf, corr] = &records[..] else {
+        panic!("one record per centroider: {}", records.len())
+    };
+    let (cog, mf, corr) = (&cog.result, &mf.result, &corr.result);
+    assert_eq!(
+        (mf.centroider.as_str(), mf.param_name),
+        ("matched-filter", None)
+    );
+    let se = cog.r_se_px.max(mf.r_se_px);
+    assert!(
+        mf.r_px + 10.0 * se < cog.r_px,
+        "{} vs {}",
+        mf.r_px,
+        cog.r_px
+    );
+    assert!(
+        corr.r_px + 5.0 * se < cog.r_px,
+        "{} vs {}",
+        corr.r_px,
+        cog.r_px
+    );
 }

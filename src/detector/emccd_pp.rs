@@ -2,7 +2,9 @@
 //! thresholding into photon counts, with or without the photometric correction. The threshold
 //! rule is a reconstruction of Basden, Haniff & Mackay (2003); see [`crate::detector::pp`]. Its
 //! prior is the sub-aperture mean light level (or a fixed one), or with the pixel prior each
-//! pixel's own level in the mean spot image.
+//! pixel's own level in the mean spot image. The correction is the inverse of the mean transfer
+//! curve with the sub-aperture prior, and the posterior mean E[n | K] under the pixel's own
+//! prior with the pixel prior. Thresholds and correction span the frame's brightest pixel.
 
 
 use super::params::ModelParams;
@@ -113,7 +115,12 @@ impl EmccdPp {
             };
             let x = (em + self.read_noise_e * z) / g;
             let counter = counter_of(i);
-            *o = if self.corrected {
+            // With the pixel prior the correction is the posterior mean under the pixel's
+            // own prior: the inverse transfer curve of a dark pixel's counter (one boundary
+            // below the span) read a lone photon as tens to hundreds of photo-electrons.
+            *o = if self.corrected && self.pixel_prior.is_some() {
+                counter.posterior(x)
+            } else if self.corrected {
                 counter.corrected(x)
             } else {
                 counter.count(x) as f64
@@ -134,9 +141,13 @@ impl Readout for EmccdPp {
     fn read(&self, input: &FrameInput, aux: &mut SimRng, out: &mut [f64]) {
         // The levels are validated when the model is built and the signal is > 0, so a failure
         // here is a bug, not bad input.
+        // The counters span the frame's brightest expected pixel: a fixed span clipped bright
+        // pixels, and R grew with the signal.
+        let peak = input.expected_e.iter().copied().fold(0.0, f64::max);
+        let lambda_max = self.cache.config().spanning(peak).lambda_max;
         if let Some(prior) = &self.pixel_prior {
             let counters = prior
-                .counters(input.mean_e)
+                .counters(input.mean_e, lambda_max)
                 .expect("PP thresholds for a valid light level");
             return self.read_with(input, aux, out, |i| &counters[i]);
         }
@@ -145,7 +156,7 @@ impl Readout for EmccdPp {
         });
         let counter = self
             .cache
-            .get(lambda.max(PixelPrior::FLOOR_E))
+            .get_spanning(lambda.max(PixelPrior::FLOOR_E), lambda_max)
             .expect("PP thresholds for a valid light level");
         self.read_with(input, aux, out, |_| &counter);
     }

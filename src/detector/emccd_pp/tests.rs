@@ -106,7 +106,7 @@ fn the_pixel_prior_gives_each_pixel_rule_as_thresholds_at_its_own_level() {
     let rule_a = PpConfig::new(PpRule::PoissonPrior, 500.0, 50.0).unwrap();
     let prior = PixelPrior::new(config).unwrap();
     let mean_e = [0.0, 0.3, 3.0, 0.3, 12.5];
-    let counters = prior.counters(&mean_e).unwrap();
+    let counters = prior.counters(&mean_e, config.lambda_max).unwrap();
     assert_eq!(counters.len(), mean_e.len());
     for (c, &l) in counters.iter().zip(&mean_e) {
         let want = rule_a.thresholds(l.max(PixelPrior::FLOOR_E)).unwrap();
@@ -118,7 +118,7 @@ fn the_pixel_prior_gives_each_pixel_rule_as_thresholds_at_its_own_level() {
     assert!(std::sync::Arc::ptr_eq(&counters[1], &counters[3]));
     assert!(std::sync::Arc::ptr_eq(
         &counters,
-        &prior.counters(&mean_e).unwrap()
+        &prior.counters(&mean_e, config.lambda_max).unwrap()
     ));
     // A fixed reference level contradicts the per-pixel levels.
     let register = EmRegister::new(500.0, 520).unwrap();
@@ -169,4 +169,116 @@ fn with_the_pixel_prior_each_pixels_counts_follow_its_own_level() {
     let shared = count_probabilities(&rule_a.counter(1.65).unwrap(), 3.0);
     let own = count_probabilities(&rule_a.counter(3.0).unwrap(), 3.0);
     assert!((shared[1] - own[1]).abs() > 0.02, "{} {}", shared[1], own[1]);
+}
+
+#[test]
+fn bright_pixels_are_corrected_to_their_level_not_clipped() {
+    // 16x16 frames with one pixel of 900 photo-electrons (a point-sampled 2 px Airy spot of
+    // about 3000 photons) and the rest 1, read without read noise through the exact-doubling
+    // register: the bright pixel's count lies far above the outputs the default span of 256
+    // photo-electrons covers, so its corrected level was clipped at 256; spanning the frame's
+    // brightest pixel it is 900 to within the bin's width (about 28 e- here) and the
+    // correction's interpolation: 5 %. Both priors.
+    let n = 16;
+    let mut expected = vec![1.0; n * n];
+    expected[0] = 900.0;
+    let photo: Vec<u32> = expected.iter().map(|&v| v as u32).collect();
+    let normals = vec![0.0; n * n];
+    let input = FrameInput {
+        subap_px: n,
+        expected_e: &expected,
+        mean_e: &expected,
+        photo_e: &photo,
+        normals: &normals,
+    };
+    for rule in [PpRule::PoissonPrior, PpRule::PixelPrior] {
+        let config = PpConfig::new(rule, G, 0.0).unwrap();
+        let model = EmccdPp::new(EmRegister::new(G, 9).unwrap(), 0.0, config, None, true).unwrap();
+        let mut out = vec![0.0; n * n];
+        model.read(&input, &mut stream(5, 0, 0), &mut out);
+        assert!(
+            (out[0] / 900.0 - 1.0).abs() < 0.05,
+            "{rule:?}: bright pixel read as {}",
+            out[0]
+        );
+    }
+    // The span: powers of two at or above twice the peak, never below the configured one
+    // nor above the bound.
+    let c = PpConfig::new(PpRule::PoissonPrior, G, SIGMA).unwrap();
+    assert_eq!(c.spanning(10.0).lambda_max, c.lambda_max);
+    assert_eq!(c.spanning(900.0).lambda_max, 2048.0);
+    assert_eq!(c.spanning(1e9).lambda_max, PpConfig::LAMBDA_MAX_BOUND);
+}
+
+#[test]
+fn posterior_is_the_mean_count_given_the_bin_under_the_prior() {
+    // E[n | K = k] straight from its definition, with Poisson weights e^-lambda lambda^n / n!
+    // and the survival functions P(X > t | n) of the Gamma register, n up to 80: equal to the
+    // counter's table (log-space weights) to 1e-9, at a faint and a bright prior.
+    for lambda in [0.05, 3.0] {
+        let counter = PpConfig::new(PpRule::PoissonPrior, 500.0, 50.0)
+            .unwrap()
+            .counter(lambda)
+            .unwrap();
+        let t = &counter.thresholds.t_over_g;
+        let surv: Vec<Vec<f64>> = t
+            .iter()
+            .map(|&t| crate::detector::pp::survival_by_n(t * 500.0, 500.0, 50.0, 80))
+            .collect();
+        let mut w = (-lambda).exp();
+        let weights: Vec<f64> = (0..=80)
+            .map(|n| {
+                if n > 0 {
+                    w *= lambda / n as f64;
+                }
+                w
+            })
+            .collect();
+        for k in 0..=t.len().min(6) {
+            let (mut num, mut den) = (0.0, 0.0);
+            for (n, &wn) in weights.iter().enumerate() {
+                let hi = if k == 0 { 1.0 } else { surv[k - 1][n] };
+                let lo = surv.get(k).map_or(0.0, |s| s[n]);
+                num += n as f64 * wn * (hi - lo).max(0.0);
+                den += wn * (hi - lo).max(0.0);
+            }
+            let want = num / den;
+            assert!(
+                (counter.posterior[k] - want).abs() <= 1e-9 * want.max(1.0),
+                "lambda {lambda}, k {k}: {} vs {want}",
+                counter.posterior[k]
+            );
+        }
+    }
+}
+
+#[test]
+fn with_the_pixel_prior_a_lone_photon_in_a_dark_pixel_reads_as_one() {
+    // A dark pixel (mean level 1e-6) receiving one photo-electron, exact-doubling register
+    // without read noise: its counter has the 0|1 boundary and none other within the span, so
+    // the inverse transfer curve read the count 1 as the level whose mean count is 1 (tens of
+    // photo-electrons and more); the posterior under the pixel's prior reads 1.
+    let n = 2;
+    let expected = vec![1e-6; n * n];
+    let photo = [1, 0, 0, 0];
+    let normals = vec![0.0; n * n];
+    let input = FrameInput {
+        subap_px: n,
+        expected_e: &expected,
+        mean_e: &expected,
+        photo_e: &photo,
+        normals: &normals,
+    };
+    let model = model_with(PpRule::PixelPrior, None, true);
+    let mut out = vec![0.0; n * n];
+    model.read(&input, &mut stream(6, 0, 0), &mut out);
+    // Below 1 by the chance (under the prior) that the count is read noise; the unlit pixels
+    // read their prior's posterior, about 4e-7.
+    assert!((out[0] - 1.0).abs() < 0.05, "{out:?}");
+    assert!(out[1..].iter().all(|&v| (0.0..1e-5).contains(&v)), "{out:?}");
+    let counter = PpConfig::new(PpRule::PixelPrior, G, SIGMA)
+        .unwrap()
+        .counter(1e-6)
+        .unwrap();
+    assert!(counter.corrected(1.0) > 10.0, "{}", counter.corrected(1.0));
 }

@@ -14,7 +14,7 @@ use crate::error::Result;
 pub struct PpCache {
     config: PpConfig,
     capacity: usize,
-    map: Mutex<HashMap<u64, Arc<PpCounter>>>,
+    map: Mutex<HashMap<(u64, u64), Arc<PpCounter>>>,
 }
 
 impl PpCache {
@@ -30,15 +30,26 @@ impl PpCache {
 
     /// The counter for `lambda_ref` photo-electrons per pixel, built on first use.
     pub fn get(&self, lambda_ref: f64) -> Result<Arc<PpCounter>> {
+        self.get_spanning(lambda_ref, self.config.lambda_max)
+    }
+
+    /// The counter for `lambda_ref` photo-electrons per pixel whose thresholds and correction
+    /// span pixels up to `lambda_max` ([`PpConfig::spanning`]), built on first use.
+    pub fn get_spanning(&self, lambda_ref: f64, lambda_max: f64) -> Result<Arc<PpCounter>> {
         // Rule B does not depend on the light level: one entry serves all.
-        let key = match self.config.rule {
+        let level = match self.config.rule {
             PpRule::EqualDensity => 0,
             PpRule::PoissonPrior | PpRule::PixelPrior => lambda_ref.to_bits(),
         };
+        let key = (level, lambda_max.to_bits());
         if let Some(c) = self.lock().get(&key) {
             return Ok(Arc::clone(c));
         }
-        let counter = Arc::new(self.config.counter(lambda_ref)?);
+        let config = PpConfig {
+            lambda_max,
+            ..self.config
+        };
+        let counter = Arc::new(config.counter(lambda_ref)?);
         let mut map = self.lock();
         if map.len() >= self.capacity {
             map.clear();
@@ -47,7 +58,12 @@ impl PpCache {
         Ok(counter)
     }
 
-    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<u64, Arc<PpCounter>>> {
+    /// The configuration the counters are made from.
+    pub fn config(&self) -> &PpConfig {
+        &self.config
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, HashMap<(u64, u64), Arc<PpCounter>>> {
         // A panic while holding the lock cannot leave the map inconsistent (inserts are atomic).
         self.map.lock().unwrap_or_else(|e| e.into_inner())
     }

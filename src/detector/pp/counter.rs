@@ -12,6 +12,9 @@ pub struct PpCounter {
     pub thresholds: PpThresholds,
     /// The inverse transfer curve for these boundaries.
     pub correction: PhotometricCorrection,
+    /// E[n | K = k] per count k under a Poisson prior at `lambda_ref`
+    /// ([`super::posterior_by_count`]).
+    pub posterior: Vec<f64>,
 }
 
 impl PpCounter {
@@ -23,6 +26,12 @@ impl PpCounter {
     /// Photometrically corrected light level (photo-electrons) of an output `x_over_g`.
     pub fn corrected(&self, x_over_g: f64) -> f64 {
         self.correction.lambda_for_count(self.count(x_over_g))
+    }
+
+    /// Posterior mean photo-electrons E[n | K] of an output `x_over_g` under the counter's prior.
+    pub fn posterior(&self, x_over_g: f64) -> f64 {
+        let k = self.count(x_over_g);
+        self.posterior[k.min(self.posterior.len() - 1)]
     }
 }
 
@@ -42,6 +51,7 @@ mod tests {
         let correction = PhotometricCorrection::new(&thresholds, 20.0).unwrap();
         let c = PpCounter {
             lambda_ref: 1.0,
+            posterior: vec![0.0, 1.0, 2.0],
             thresholds,
             correction,
         };

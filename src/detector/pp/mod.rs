@@ -58,6 +58,7 @@ mod correction;
 mod counter;
 mod density;
 mod pixel;
+mod posterior;
 mod survival;
 mod thresholds;
 
@@ -66,6 +67,7 @@ pub use config::{PpConfig, PpRule, ZeroOneRule};
 pub use correction::PhotometricCorrection;
 pub use counter::PpCounter;
 pub use pixel::{PixelCounters, PixelPrior};
+pub use posterior::posterior_by_count;
 pub use survival::{p_exceed, survival_by_n};
 pub use thresholds::{rule_a_threshold_over_g, zero_one_threshold_e, PpThresholds};
 

@@ -40,15 +40,17 @@ impl PixelPrior {
     }
 
     /// One counter per pixel of `mean_e`, each for its own level (floored at
-    /// [`PixelPrior::FLOOR_E`]); the same `Arc` for the same image.
-    pub fn counters(&self, mean_e: &[f64]) -> Result<PixelCounters> {
-        let key: Vec<u64> = mean_e.iter().map(|v| v.to_bits()).collect();
+    /// [`PixelPrior::FLOOR_E`]), spanning pixels up to `lambda_max` ([`PpConfig::spanning`]);
+    /// the same `Arc` for the same image and span.
+    pub fn counters(&self, mean_e: &[f64], lambda_max: f64) -> Result<PixelCounters> {
+        let mut key: Vec<u64> = mean_e.iter().map(|v| v.to_bits()).collect();
+        key.push(lambda_max.to_bits());
         if let Some(c) = self.lock().get(&key) {
             return Ok(Arc::clone(c));
         }
         let counters: PixelCounters = mean_e
             .iter()
-            .map(|&l| self.levels.get(l.max(Self::FLOOR_E)))
+            .map(|&l| self.levels.get_spanning(l.max(Self::FLOOR_E), lambda_max))
             .collect::<Result<Vec<_>>>()?
             .into();
         let mut images = self.lock();
