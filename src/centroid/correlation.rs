@@ -152,14 +152,11 @@ impl CentroidWorker for CorrelationWorker {
             (ox + sx, oy + sy)
         });
         let sums = acc.part_mut(0);
-        if estimate.is_none() {
-            sums.empty[0] += 1;
-        }
-        let (x, y) = estimate.unwrap_or((0.0, 0.0));
+        let Some((x, y)) = estimate else {
+            return sums.add_empty(0, f.truth_px);
+        };
         let (ex, ey) = (x - f.truth_px.0, y - f.truth_px.1);
-        let d = ex.hypot(ey);
-        sums.sum[0] += d;
-        sums.sum_sq[0] += d * d;
+        sums.add_error(0, ex.hypot(ey), (ex, ey));
     }
 }
 

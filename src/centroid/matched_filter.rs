@@ -240,14 +240,9 @@ impl CentroidWorker for FilterWorker<'_> {
                     filter.origin.1 + ty - f.truth_px.1,
                 )
             }
-            None => {
-                sums.empty[0] += 1;
-                (-f.truth_px.0, -f.truth_px.1)
-            }
+            None => return sums.add_empty(0, f.truth_px),
         };
-        let d = ex.hypot(ey);
-        sums.sum[0] += d;
-        sums.sum_sq[0] += d * d;
+        sums.add_error(0, ex.hypot(ey), (ex, ey));
     }
 }
 
