@@ -12,6 +12,7 @@
 
 use super::poisson_gauss::gaussian_info;
 use crate::special::{gauss_legendre, ln_bessel_i1, LN_2PI};
+use std::sync::{Arc, Mutex};
 
 /// Largest read noise (input e-) computed exactly; above, the excess-noise approximation.
 pub const EXACT_SIGMA_MAX_E: f64 = 1.0;
@@ -115,6 +116,19 @@ pub struct EmInfo {
 }
 
 impl EmInfo {
+    /// The table for read noise `sigma`, built once per process and shared (a sweep asks for
+    /// the same read noise in every configuration).
+    pub fn shared(sigma: f64) -> Arc<EmInfo> {
+        static TABLES: Mutex<Vec<(u64, Arc<EmInfo>)>> = Mutex::new(Vec::new());
+        let mut tables = TABLES.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some((_, t)) = tables.iter().find(|(b, _)| *b == sigma.to_bits()) {
+            return Arc::clone(t);
+        }
+        let table = Arc::new(EmInfo::new(sigma));
+        tables.push((sigma.to_bits(), Arc::clone(&table)));
+        table
+    }
+
     /// The table for read noise `sigma` (input e-: the read noise over the gain).
     pub fn new(sigma: f64) -> Self {
         let ln_ratio = if sigma <= EXACT_SIGMA_MAX_E {

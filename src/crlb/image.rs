@@ -145,7 +145,7 @@ impl Position {
     /// `f`: T F^-1 T' with T the truth's Jacobian; None when F is singular.
     pub fn truth_covariance(&self, f: [[f64; 2]; 2]) -> Option<[[f64; 2]; 2]> {
         let det = f[0][0] * f[1][1] - f[0][1] * f[1][0];
-        if !(det > 0.0) || !det.is_finite() {
+        if det.is_nan() || det <= 0.0 || det.is_infinite() {
             return None;
         }
         let inv = [

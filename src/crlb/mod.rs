@@ -18,6 +18,7 @@ pub mod radial;
 use crate::detector::{FrameInput, PhotonNoise, Readout};
 use crate::montecarlo::SimConfig;
 pub use image::{Position, SpotImages};
+use std::sync::Arc;
 
 /// Per-pixel information: exact, or the common approximation 1 / (F^2 mu + sigma^2).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,18 +36,18 @@ pub struct PixelNoise {
     photon: PhotonNoise,
     mode: Information,
     /// Gamma-register tables by read-noise bits (EM register models only).
-    em: Vec<(u64, em_register::EmInfo)>,
+    em: Vec<(u64, Arc<em_register::EmInfo>)>,
 }
 
 impl PixelNoise {
     /// The information of `photon` noise read with the read noises in `sigmas_e` (e-, input
     /// units; every value a pixel will use must be listed for an EM register).
     pub fn new(photon: PhotonNoise, mode: Information, sigmas_e: &[f64]) -> Self {
-        let mut em: Vec<(u64, em_register::EmInfo)> = Vec::new();
+        let mut em: Vec<(u64, Arc<em_register::EmInfo>)> = Vec::new();
         if photon == PhotonNoise::EmRegister && mode == Information::Exact {
             for &s in sigmas_e {
                 if !em.iter().any(|(b, _)| *b == s.to_bits()) {
-                    em.push((s.to_bits(), em_register::EmInfo::new(s)));
+                    em.push((s.to_bits(), em_register::EmInfo::shared(s)));
                 }
             }
         }
@@ -71,7 +72,7 @@ impl PixelNoise {
             (PhotonNoise::EmRegister, Information::Exact) => {
                 match self.em.iter().find(|(b, _)| *b == sigma.to_bits()) {
                     Some((_, t)) => t.info(mu),
-                    None => em_register::EmInfo::new(sigma).info(mu),
+                    None => em_register::EmInfo::shared(sigma).info(mu),
                 }
             }
             (PhotonNoise::EmRegister, Information::Approximate) => {
