@@ -49,6 +49,10 @@ pub struct CentroiderRow {
     pub r_px: f64,
     /// Standard error of R (px).
     pub r_se_px: f64,
+    /// R_crlb / R: the Cramer-Rao floor over R (1 = efficient); None when not computed.
+    pub crlb_efficiency: Option<f64>,
+    /// R lies more than 3 SE under the floor: the centroid is biased.
+    pub below_crlb: Option<bool>,
     /// The uniform camera (plain `cog`) with the same R (e-); None without a value.
     pub sigma_eff_e: Option<f64>,
     /// Its standard error (e-).
@@ -290,6 +294,10 @@ fn with_gaps(records: &[EffectiveRecord], median: f64) -> Vec<CentroiderRow> {
                 centroider_param_opt: e.param_opt,
                 r_px: e.r_px,
                 r_se_px: e.r_se_px,
+                crlb_efficiency: r.r_crlb_px.map(|f| f / e.r_px).filter(|v| v.is_finite()),
+                below_crlb: r
+                    .r_crlb_px
+                    .map(|f| crate::crlb::below_floor(e.r_px, e.r_se_px, f)),
                 sigma_eff_e: finite(e.sigma_eff_e),
                 sigma_eff_se_e: finite(e.sigma_eff_se_e),
                 status: e.status,
@@ -478,7 +486,9 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
          noisiest pixels (masked-cog), weight by inverse variance (ivw-cog), weight by the \
          spot's shape (wcog), or keep the brightest pixels (brightest-n). Each is run at its \
          best parameter on the same frames; σ<sub>eff</sub> is the uniform camera that, \
-         centroided plainly (cog), has the same error, so it is comparable across methods. The \
+         centroided plainly (cog), has the same error, so it is comparable across methods. R<sub>crlb</sub> / R is the share of R \
+         that the Cramer-Rao floor of this camera sets (1: no unbiased centroid does better; \
+         a method more than 3 SE under the floor is marked biased). The \
          camera's median read noise is {} e⁻: a method reaching it would make this camera \
          behave like a uniform one of its median. Gap recovered = (σ<sub>eff</sub>(cog) − \
          σ<sub>eff</sub>) / (σ<sub>eff</sub>(cog) − median). At {}×{} px, {}, {} photons:</p>",
@@ -490,7 +500,7 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
     );
     h.push_str(
         "<table><tr><th>camera</th><th>centroider</th><th>best parameter</th><th>R (px)</th>\
-         <th>σ<sub>eff</sub> (e⁻)</th><th>status</th><th>gap recovered</th></tr>",
+         <th>R<sub>crlb</sub> / R</th><th>σ<sub>eff</sub> (e⁻)</th><th>status</th><th>gap recovered</th></tr>",
     );
     let op = c.rows.first();
     for r in c
@@ -513,6 +523,17 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
             ),
             other => format!("<span class=\"status\">{other}</span>"),
         };
+        // The Cramer-Rao floor's share of R; under the floor by 3 SE the method is biased.
+        let floor = match (r.crlb_efficiency, r.below_crlb) {
+            (Some(e), Some(true)) => {
+                format!(
+                    "{} <span class=\"status\">below floor: biased</span>",
+                    num(e, 2)
+                )
+            }
+            (Some(e), _) => num(e, 2),
+            _ => "–".into(),
+        };
         let camera = if r.model == "scmos-map" {
             "measured map"
         } else {
@@ -520,8 +541,8 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         };
         let _ = write!(
             h,
-            "<tr><td>{camera}</td><td>{}</td><td>{param}</td><td>{}</td><td>{}</td>\
-             <td><span class=\"status\">{}</span></td><td>{gap}</td></tr>",
+            "<tr><td>{camera}</td><td>{}</td><td>{param}</td><td>{}</td><td>{floor}</td>\
+             <td>{}</td><td><span class=\"status\">{}</span></td><td>{gap}</td></tr>",
             r.centroider,
             pm(Some(r.r_px), Some(r.r_se_px), 4),
             pm(r.sigma_eff_e, r.sigma_eff_se_e, 2),
