@@ -264,3 +264,24 @@ fn simulate_reports_the_floor_beside_r() {
         );
     }
 }
+
+#[test]
+fn the_exact_information_lowers_the_floor_most_behind_an_em_register() {
+    // Each pixel's output is an unbiased estimate of its mean with variance F^2 mu + sigma^2,
+    // so the exact information is never below the common approximation's: the exact floor is
+    // lower. Dim EMCCD pixels with a clean zero count photons (information 1 / mu, not
+    // 1 / (2 mu)): the gap is largest there.
+    use detnoise::detector::{EmRegister, EmccdStochastic};
+    let cfg = SimConfig::paper(8);
+    let em = EmccdStochastic::new(EmRegister::new(500.0, 520).unwrap(), 50.0, false);
+    let scmos = ScmosConstant::new(1.0, "scmos-constant".into());
+    for (name, model) in [
+        ("emccd-stochastic", &em as &dyn detnoise::detector::Readout),
+        ("scmos-constant:1", &scmos),
+    ] {
+        let exact = r_crlb_of_readout(&cfg, model, Information::Exact).unwrap();
+        let approx = r_crlb_of_readout(&cfg, model, Information::Approximate).unwrap();
+        eprintln!("8x8 airy:2 S=50 {name}: exact {exact:.5} px, approximate {approx:.5} px");
+        assert!(exact < approx, "{name}: {exact} vs {approx}");
+    }
+}
