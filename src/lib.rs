@@ -13,6 +13,7 @@ pub mod centroid;
 pub mod charts;
 #[cfg(feature = "cli")]
 pub mod cli;
+pub mod crlb;
 pub mod detector;
 pub mod effective;
 pub mod error;

@@ -38,7 +38,7 @@ pub use emccd_pp::EmccdPp;
 pub use emccd_simple::EmccdSimple;
 pub use emccd_stochastic::EmccdStochastic;
 pub use params::{operating_point, ModelParams};
-pub use readout::{draw_normals, FrameInput, Readout};
+pub use readout::{draw_normals, FrameInput, PhotonNoise, Readout};
 pub use register::EmRegister;
 pub use rts_table::{RtsPixel, RtsTable};
 pub use scmos_constant::ScmosConstant;

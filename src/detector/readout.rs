@@ -26,6 +26,27 @@ pub fn draw_normals(rng: &mut SimRng, out: &mut [f64]) {
     out.iter_mut().for_each(|z| *z = StandardNormal.sample(rng));
 }
 
+/// How a readout turns expected photo-electrons into its output, as the Cramer-Rao floor
+/// ([`crate::crlb`]) models a pixel (read noise from [`Readout::read_known`]'s sigmas).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PhotonNoise {
+    /// Poisson counts of `thinning` x the expected photo-electrons plus Gaussian read noise:
+    /// sCMOS (thinning 1) and `emccd-simple` (q).
+    Poisson {
+        /// Fraction of the expected photo-electrons counted.
+        thinning: f64,
+    },
+    /// Poisson electrons through an EM register, Gamma(k, 1) in input electrons (excess-noise
+    /// factor F^2 = 2), plus Gaussian read noise over the gain.
+    EmRegister,
+    /// Any other excess noise: variance `f2` per expected photo-electron, in the Gaussian
+    /// approximation.
+    Excess {
+        /// Output variance per expected photo-electron.
+        f2: f64,
+    },
+}
+
 /// A detector readout model. Output is in electrons referred to the input (EMCCD output is
 /// divided by the mean gain), so all models share one background scale.
 pub trait Readout: Send + Sync {
@@ -60,6 +81,16 @@ pub trait Readout: Send + Sync {
     /// to a fraction q. Inverse-variance centroiders weight with it.
     fn photon_variance_factor(&self) -> f64 {
         1.0
+    }
+    /// The photon noise the Cramer-Rao floor models, from [`Readout::photon_variance_factor`]:
+    /// up to 1, thinned Poisson counts; above 1.5, an EM register (F^2 = 1.97 at gain 500 is
+    /// taken as the Gamma register's 2); between, the excess noise in the Gaussian form.
+    fn photon_noise(&self) -> PhotonNoise {
+        match self.photon_variance_factor() {
+            f if f <= 1.0 => PhotonNoise::Poisson { thinning: f },
+            f if f > 1.5 => PhotonNoise::EmRegister,
+            f2 => PhotonNoise::Excess { f2 },
+        }
     }
 }
 

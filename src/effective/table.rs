@@ -24,8 +24,10 @@ pub const TABLE_NAMES: [&str; 2] = ["effective_noise.csv", "effective_noise.json
 /// larger of the absolute target and the relative one times the value; empty/null without a
 /// target or a value); `sigma_cog_equiv_e` and `sigma_cog_equiv_se_e` (e-, the uniform camera
 /// with the same R under plain `cog`: sigma_eff itself for `cog`; empty/null without a value);
-/// `r_px`, `r_se_px` (the detector's R and its
-/// SE), `b_opt_e` (its best background level), `centroider_param` and `centroider_param_opt`
+/// `r_px`, `r_se_px` (the detector's R and its SE), `r_crlb_px` and `crlb_efficiency` (the
+/// Cramer-Rao floor of R for the detector, px, and r_crlb_px / r_px; empty/null when not
+/// computed: see [`crate::crlb`]), `b_opt_e` (its best background level), `centroider_param`
+/// and `centroider_param_opt`
 /// (the centroider's parameter at the optimum; empty for `cog`); and `status` (`ok`, `imprecise`, `lower_bound`,
 /// `unreachable`, `no_eligible_level`: see [`crate::effective::Status::meaning`]); then the
 /// error's parts ([`crate::effective::EffectiveParts`]): `sigma_random_e`,
@@ -42,6 +44,8 @@ pub struct EffectiveRecord {
     pub config: SimConfig,
     /// The solution.
     pub effective: Effective,
+    /// The Cramer-Rao floor of the detector's R (px; None when not computed or infinite).
+    pub r_crlb_px: Option<f64>,
 }
 
 impl EffectiveRecord {
@@ -52,6 +56,7 @@ impl EffectiveRecord {
             centroider: CentroiderSpec::default().label(),
             config: cfg.clone(),
             effective: e.clone(),
+            r_crlb_px: None,
         }
     }
 }
@@ -59,7 +64,7 @@ impl EffectiveRecord {
 impl Serialize for EffectiveRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let e = &self.effective;
-        let mut s = serializer.serialize_struct("EffectiveRecord", 29)?;
+        let mut s = serializer.serialize_struct("EffectiveRecord", 31)?;
         s.serialize_field("model", &self.model)?;
         s.serialize_field("centroider", &self.centroider)?;
         let used = SimConfig {
@@ -76,6 +81,9 @@ impl Serialize for EffectiveRecord {
         s.serialize_field("sigma_cog_equiv_se_e", &finite(e.sigma_cog_equiv_se_e))?;
         s.serialize_field("r_px", &e.r_px)?;
         s.serialize_field("r_se_px", &e.r_se_px)?;
+        s.serialize_field("r_crlb_px", &self.r_crlb_px)?;
+        let efficiency = self.r_crlb_px.map(|f| f / e.r_px).and_then(finite);
+        s.serialize_field("crlb_efficiency", &efficiency)?;
         s.serialize_field("b_opt_e", &e.b_opt_e)?;
         s.serialize_field("centroider_param", &e.param_name)?;
         s.serialize_field("centroider_param_opt", &e.param_opt)?;
@@ -156,6 +164,11 @@ fn solve_all(
                 let e = effective_sigma_with(cfg, model.as_ref(), c, precision, observer)?;
                 let mut record = EffectiveRecord::new(model.name(), cfg, &e);
                 record.centroider = c.label();
+                record.r_crlb_px = crate::crlb::r_crlb_of_readout(
+                    cfg,
+                    model.as_ref(),
+                    crate::crlb::Information::Exact,
+                );
                 out.push(record);
             }
         }
@@ -298,7 +311,8 @@ mod tests {
     fn tables_are_written_as_csv_and_json_with_the_record_columns() {
         let cfg = SimConfig::paper(8);
         let e = effective(f64::NAN, f64::NAN, None, Status::Unreachable);
-        let records = [EffectiveRecord::new("scmos-map".into(), &cfg, &e)];
+        let mut records = [EffectiveRecord::new("scmos-map".into(), &cfg, &e)];
+        records[0].r_crlb_px = Some(0.125);
         let dir = tempfile::tempdir().unwrap();
         let written = write_tables(&records, dir.path()).unwrap();
         assert_eq!(written, TABLE_NAMES.map(|n| dir.path().join(n)));
@@ -308,11 +322,11 @@ mod tests {
             csv,
             "model,centroider,subap_px,spot,sampling,signal_photons,qe,iters,seed,sigma_eff_e,\
              sigma_eff_se_e,target_se_e,sigma_cog_equiv_e,sigma_cog_equiv_se_e,r_px,r_se_px,\
-             b_opt_e,centroider_param,centroider_param_opt,status,sigma_random_e,sigma_random_se_e,\
-             sigma_random_extrapolated,random_rms_px,static_x_px,static_y_px,static_px,\
-             static_se_px,static_resolved\n\
-             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,,,0.5,0.25,2,,,unreachable,,,false,\
-             ,,,,,false\n"
+             r_crlb_px,crlb_efficiency,b_opt_e,centroider_param,centroider_param_opt,status,\
+             sigma_random_e,sigma_random_se_e,sigma_random_extrapolated,random_rms_px,static_x_px,\
+             static_y_px,static_px,static_se_px,static_resolved\n\
+             scmos-map,cog,8,airy:2,integrated,50,1,40000,1,,,,,,0.5,0.25,0.125,0.25,2,,,\
+             unreachable,,,false,,,,,,false\n"
         );
         let json: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&written[1]).unwrap()).unwrap();
@@ -320,7 +334,7 @@ mod tests {
         assert_eq!(json[0]["status"], "unreachable");
         assert_eq!(json[0]["iters"], 40_000);
         assert!(json[0]["sigma_cog_equiv_e"].is_null());
-        assert_eq!(json[0].as_object().unwrap().len(), 29);
+        assert_eq!(json[0].as_object().unwrap().len(), 31);
     }
 
     #[test]

@@ -8,11 +8,12 @@ use serde::ser::{Serialize, SerializeStruct, Serializer};
 ///
 /// Serialised (CSV, JSON) as the columns `model`, `centroider`, the configuration
 /// (`subap_px`, `spot`, `sampling`, `signal_photons`, `qe`, `em_gain` (empty for models without
-/// an EM register), `iters`, `seed`), the result (`r_px` ... `zero_frames`, then
-/// `centroider_param` and `centroider_param_opt`, empty for `cog`), the error's static and
-/// random parts at the optimum (`static_x_px`, `static_y_px`, `static_px`, `static_se_px`,
-/// `static_resolved`, `random_rms_px`, `random_rms_se_px`: see
-/// [`super::ErrorParts`]), then `bg_levels_e`,
+/// an EM register), `iters`, `seed`), the result (`r_px`, `r_se_px`, the Cramer-Rao floor
+/// `r_crlb_px`, `crlb_efficiency` = R_crlb / R and `below_crlb` (R below the floor by more than
+/// 3 SE: a biased centroid), `b_opt_e` ... `zero_frames`, then `centroider_param` and
+/// `centroider_param_opt`, empty for `cog`), the error's static and random parts at the optimum
+/// (`static_x_px`, `static_y_px`, `static_px`, `static_se_px`, `static_resolved`,
+/// `random_rms_px`, `random_rms_se_px`: see [`super::ErrorParts`]), then `bg_levels_e`,
 /// `param_by_level` and `r_by_level_px` (arrays: JSON only).
 #[derive(Debug, Clone)]
 pub struct SimRecord {
@@ -22,6 +23,9 @@ pub struct SimRecord {
     pub em_gain: Option<f64>,
     /// The model's result.
     pub result: SimResult,
+    /// The Cramer-Rao floor of R for the configuration and the model's noise (px; None when
+    /// not computed or infinite), see [`crate::crlb`].
+    pub r_crlb_px: Option<f64>,
 }
 
 impl SimRecord {
@@ -31,7 +35,25 @@ impl SimRecord {
             config: config.clone(),
             em_gain,
             result,
+            r_crlb_px: None,
         }
+    }
+
+    /// The record with its Cramer-Rao floor `r_crlb_px` (px).
+    pub fn with_floor(mut self, r_crlb_px: Option<f64>) -> Self {
+        self.r_crlb_px = r_crlb_px;
+        self
+    }
+
+    /// R_crlb / R: how close the centroid comes to the floor (1 = efficient).
+    pub fn crlb_efficiency(&self) -> Option<f64> {
+        self.r_crlb_px.map(|f| f / self.result.r_px)
+    }
+
+    /// R below the floor by more than 3 standard errors: the centroid is biased.
+    pub fn below_crlb(&self) -> Option<bool> {
+        self.r_crlb_px
+            .map(|f| crate::crlb::below_floor(self.result.r_px, self.result.r_se_px, f))
     }
 }
 
@@ -58,12 +80,15 @@ pub(crate) fn config_columns<S: SerializeStruct>(
 impl Serialize for SimRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let r = &self.result;
-        let mut s = serializer.serialize_struct("SimRecord", 30)?;
+        let mut s = serializer.serialize_struct("SimRecord", 33)?;
         s.serialize_field("model", &r.model)?;
         s.serialize_field("centroider", &r.centroider)?;
         config_columns(&mut s, &self.config, Some(self.em_gain))?;
         s.serialize_field("r_px", &r.r_px)?;
         s.serialize_field("r_se_px", &r.r_se_px)?;
+        s.serialize_field("r_crlb_px", &self.r_crlb_px)?;
+        s.serialize_field("crlb_efficiency", &self.crlb_efficiency())?;
+        s.serialize_field("below_crlb", &self.below_crlb())?;
         s.serialize_field("b_opt_e", &r.b_opt_e)?;
         s.serialize_field("b_at_grid_edge", &r.b_at_grid_edge)?;
         s.serialize_field("no_eligible_level", &r.no_eligible_level)?;
@@ -136,20 +161,26 @@ mod tests {
             },
             levels: vec![level(0.0, 0.75), level(1.5, 0.25)],
         };
-        let rec = SimRecord::new(&config, None, result);
+        let rec = SimRecord::new(&config, None, result).with_floor(Some(0.125));
         assert_eq!(
             render(std::slice::from_ref(&rec), TableFormat::Csv).unwrap(),
             "model,centroider,subap_px,spot,sampling,signal_photons,qe,em_gain,iters,seed,r_px,\
-             r_se_px,b_opt_e,b_at_grid_edge,no_eligible_level,r0_px,r0_se_px,zero_frames,\
-             centroider_param,centroider_param_opt,static_x_px,static_y_px,static_px,static_se_px,\
-             static_resolved,random_rms_px,random_rms_se_px\n\
-             scmos-mean,cog,8,\"gauss:1,2.5\",integrated,50,1,,10000,1,0.25,0.5,1.5,false,true,\
-             0.75,0.125,3,,,0.125,-0.25,0.5,0.0625,true,1.5,0.25\n"
+             r_se_px,r_crlb_px,crlb_efficiency,below_crlb,b_opt_e,b_at_grid_edge,\
+             no_eligible_level,r0_px,r0_se_px,zero_frames,centroider_param,centroider_param_opt,\
+             static_x_px,static_y_px,static_px,static_se_px,static_resolved,random_rms_px,\
+             random_rms_se_px\n\
+             scmos-mean,cog,8,\"gauss:1,2.5\",integrated,50,1,,10000,1,0.25,0.5,0.125,0.5,false,\
+             1.5,false,true,0.75,0.125,3,,,0.125,-0.25,0.5,0.0625,true,1.5,0.25\n"
         );
         let json = serde_json::to_value(&rec).unwrap();
         assert_eq!(json["bg_levels_e"], serde_json::json!([0.0, 1.5]));
         assert_eq!(json["r_by_level_px"], serde_json::json!([0.75, 0.25]));
         assert_eq!(json["param_by_level"], serde_json::json!([null, null]));
-        assert_eq!(json.as_object().unwrap().len(), 30);
+        assert_eq!(json.as_object().unwrap().len(), 33);
+        // R more than 3 SE under the floor: a biased centroid, flagged.
+        let mut low = rec.clone().with_floor(Some(2.0));
+        assert_eq!(low.below_crlb(), Some(true));
+        low.r_crlb_px = None;
+        assert_eq!(low.below_crlb(), None);
     }
 }

@@ -107,6 +107,11 @@ fn run_all(
                     .map(move |&centroider| Arm { model, centroider })
             })
             .collect();
+        // The Cramer-Rao floor of each model (analytic: milliseconds beside the Monte-Carlo).
+        let floors: Vec<Option<f64>> = refs
+            .iter()
+            .map(|m| crate::crlb::r_crlb_of_readout(cfg, *m, crate::crlb::Information::Exact))
+            .collect();
         let mut exp = Experiment::with_arms(cfg, &refs, &arms)?;
         exp.extend_to(cfg.iters, observer, 1)?;
         for (arm, r) in arms.iter().zip(exp.results()?) {
@@ -123,7 +128,7 @@ fn run_all(
                 ));
             }
             let em_gain = spec.uses("em_gain").then_some(params.em_gain);
-            records.push(SimRecord::new(cfg, em_gain, r));
+            records.push(SimRecord::new(cfg, em_gain, r).with_floor(floors[arm.model]));
         }
     }
     Ok(records)

@@ -52,6 +52,10 @@ pub struct CentroiderRow {
     pub r_px: f64,
     /// Standard error of R (px).
     pub r_se_px: f64,
+    /// R_crlb / R: the Cramer-Rao floor over R (1 = efficient); None when not computed.
+    pub crlb_efficiency: Option<f64>,
+    /// R lies more than 3 SE under the floor: the centroid is biased.
+    pub below_crlb: Option<bool>,
     /// The uniform camera with the same R under this same centroider (its parameter
     /// re-optimised) (e-): the read noise for a simulator running it; None without a value.
     pub sigma_eff_e: Option<f64>,
@@ -365,6 +369,10 @@ fn with_comparisons(
             centroider_param_opt: e.param_opt,
             r_px: e.r_px,
             r_se_px: e.r_se_px,
+            crlb_efficiency: r.r_crlb_px.map(|f| f / e.r_px).filter(|v| v.is_finite()),
+            below_crlb: r
+                .r_crlb_px
+                .map(|f| crate::crlb::below_floor(e.r_px, e.r_se_px, f)),
             sigma_eff_e: finite(e.sigma_eff_e),
             sigma_eff_se_e: finite(e.sigma_eff_se_e),
             sigma_cog_equiv_e: finite(e.sigma_cog_equiv_e),
@@ -565,14 +573,18 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         "<h2>What the wavefront sensor can do about it: centroiders</h2><p>A controller knows \
          its camera's noise map: it can threshold each pixel by its own noise (tcog), mask the \
          noisiest pixels (masked-cog), weight by inverse variance (ivw-cog), weight by the \
-         spot's shape (wcog), or keep the brightest pixels (brightest-n). Methods are compared \
+         spot's shape (wcog), keep the brightest pixels (brightest-n), apply the noise-weighted \
+         matched filter of the mean spot (matched-filter) or correlate with it (correlation). \
+         Methods are compared \
          by R itself: each is run at its best parameter on the same frames as plain cog, and \
          “R vs cog” is R / R(cog) − 1 with the paired SE of that one run (lower by more than \
          2 SE, higher, or a tie). σ<sub>eff</sub> is the uniform camera that has the same R \
          under the <em>same</em> method (its parameter re-optimised): the read noise to give a \
          simulator that runs that method. The cog-equivalent is the uniform camera with the \
          same R under plain cog (it compares a method with the paper's cog in units of noise; \
-         0 when the method does better than a noiseless camera read with cog). The camera's \
+         0 when the method does better than a noiseless camera read with cog). \
+         R<sub>crlb</sub> / R is the share of R that the Cramer-Rao floor of this camera sets (1: no unbiased centroid does better; \
+         a method more than 3 SE under the floor is marked biased). The camera's \
          median read noise is {} e⁻. At {}×{} px, {}, {} photons:</p>",
         num(c.median_rms_e, 2),
         at.subap_px,
@@ -582,7 +594,7 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
     );
     h.push_str(
         "<table><tr><th>camera</th><th>centroider</th><th>best parameter</th><th>R (px)</th>\
-         <th>R vs cog</th><th>σ<sub>eff</sub>, same method (e⁻)</th><th>status</th>\
+         <th>R vs cog</th><th>R<sub>crlb</sub> / R</th><th>σ<sub>eff</sub>, same method (e⁻)</th><th>status</th>\
          <th>cog-equivalent (e⁻)</th></tr>",
     );
     let op = c.rows.first();
@@ -606,6 +618,17 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
                 )
             ),
         };
+        // The Cramer-Rao floor's share of R; under the floor by 3 SE the method is biased.
+        let floor = match (r.crlb_efficiency, r.below_crlb) {
+            (Some(e), Some(true)) => {
+                format!(
+                    "{} <span class=\"status\">below floor: biased</span>",
+                    num(e, 2)
+                )
+            }
+            (Some(e), _) => num(e, 2),
+            _ => "–".into(),
+        };
         let camera = if r.model == "scmos-map" {
             "measured map"
         } else {
@@ -613,7 +636,7 @@ pub(crate) fn section_html(h: &mut String, c: &Centroiders, at: &super::point::C
         };
         let _ = write!(
             h,
-            "<tr><td>{camera}</td><td>{}</td><td>{param}</td><td>{}</td><td>{vs_cog}</td>\
+            "<tr><td>{camera}</td><td>{}</td><td>{param}</td><td>{}</td><td>{vs_cog}</td><td>{floor}</td>\
              <td>{}</td><td><span class=\"status\">{}</span></td><td>{}</td></tr>",
             r.centroider,
             pm(Some(r.r_px), Some(r.r_se_px), 4),

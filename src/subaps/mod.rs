@@ -16,6 +16,7 @@
 //! from them, identical whether the job ran as one or as shards.
 
 mod chart;
+pub mod crlb;
 mod geometry;
 mod ladder;
 mod lock;

@@ -11,7 +11,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Files the map is written as (in an output directory): table, images, chart, summary.
-pub const OUTPUT_NAMES: [&str; 7] = [
+pub const OUTPUT_NAMES: [&str; 8] = [
     "subaps.csv",
     "subaps_sigma_eff_e.fits",
     "subaps_sigma_eff_se_e.fits",
@@ -19,6 +19,7 @@ pub const OUTPUT_NAMES: [&str; 7] = [
     "subaps_sigma_eff.png",
     "subaps_sigma_eff.svg",
     "subaps_summary.json",
+    super::crlb::FLOOR_NAME,
 ];
 
 /// The status image's code of a cell without a sub-aperture (masked, or not fitting the map).
@@ -258,11 +259,20 @@ pub fn write_outputs(
         "",
         &status_keys,
     )?;
+    let (floor, what) = super::crlb::floor_image(header, records);
+    write_image(
+        &path(super::crlb::FLOOR_NAME),
+        (gr, gc),
+        ImageData::F64(&floor),
+        "px",
+        &with(&what),
+    )?;
     for name in &OUTPUT_NAMES[4..6] {
         subaps_chart(header, records, &path(name))?;
     }
     let summary = SubapsSummary::new(header, records);
     write_json(&path(OUTPUT_NAMES[6]), &summary)?;
+    // OUTPUT_NAMES[7], the Cramer-Rao floor, is written above with the other images.
     Ok((summary, OUTPUT_NAMES.iter().map(|n| path(n)).collect()))
 }
 

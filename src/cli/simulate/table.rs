@@ -151,11 +151,15 @@ fn note(r: &SimRecord) -> String {
     if r.result.no_eligible_level {
         words.push(NO_ELIGIBLE);
     }
+    if r.below_crlb() == Some(true) {
+        words.push(BELOW_CRLB);
+    }
     words.join(", ")
 }
 
 const GRID_TOP: &str = "grid top";
 const NO_ELIGIBLE: &str = "no eligible level";
+const BELOW_CRLB: &str = "below R_crlb";
 
 /// True when `value` differs between records.
 fn varies(records: &[SimRecord], value: fn(&SimRecord) -> String) -> bool {
@@ -199,6 +203,10 @@ fn legend(results: &[Column<SimRecord>]) -> String {
         items.push(format!(
             "{NO_ELIGIBLE}: every level leaves more than --max-empty-frac of the frames \
              empty (the least empty is shown)"
+        ));
+        items.push(format!(
+            "{BELOW_CRLB}: R lies more than 3 SE under the Cramer-Rao floor r_crlb_px (in \
+             --format csv): the centroid is biased"
         ));
     }
     wrap(&(items.join("; ") + "."))
