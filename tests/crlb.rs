@@ -285,3 +285,50 @@ fn the_exact_information_lowers_the_floor_most_behind_an_em_register() {
         assert!(exact < approx, "{name}: {exact} vs {approx}");
     }
 }
+
+#[test]
+fn subaps_writes_the_floor_map_in_px() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("map");
+    let map = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/data-synthetic/scmos-darks-64x64.truth-rms_e.fits"
+    );
+    let status = assert_cmd::Command::cargo_bin("detnoise")
+        .unwrap()
+        .args([
+            "subaps",
+            "--map",
+            map,
+            "--subap-grid",
+            "16",
+            "--spot",
+            "airy:2",
+        ])
+        .args(["--signal", "50", "--iters", "200", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(
+        status.status.success(),
+        "{}",
+        String::from_utf8_lossy(&status.stderr)
+    );
+    let fits = std::fs::read(out.join("r_crlb_px.fits")).unwrap();
+    let header = String::from_utf8_lossy(&fits[..2880]);
+    assert!(header.contains("BUNIT   = 'px"), "{header}");
+    // 4 x 4 sub-apertures, big-endian f64 after the header: every floor finite and positive.
+    // One header block: the image's keywords are fewer than 36 cards.
+    assert!(header.contains("END     "));
+    let data = &fits[2880..];
+    let values: Vec<f64> = data[..16 * 8]
+        .chunks_exact(8)
+        .map(|b| f64::from_be_bytes(b.try_into().unwrap()))
+        .collect();
+    assert!(
+        values
+            .iter()
+            .all(|v| v.is_finite() && *v > 0.01 && *v < 1.0),
+        "{values:?}"
+    );
+}

@@ -79,7 +79,7 @@ pub fn floor_image(h: &PartHeader, records: &[PartRecord]) -> (Vec<f64>, String)
     for (r, f) in records.iter().zip(floor_map(&map, &origins, &cfg)) {
         image[r.grid_row * gc + r.grid_col] = f.unwrap_or(f64::INFINITY);
     }
-    let what = "Cramer-Rao floor R_crlb of R (Poisson + the map's read noise), px; NaN: no \
-                sub-aperture";
+    // FITS string values hold 68 characters.
+    let what = "Cramer-Rao floor of R (px); NaN where no sub-aperture";
     (image, what.into())
 }
