@@ -3,7 +3,7 @@
 
 use super::chart::subaps_chart;
 use super::part::{Binding, PartHeader, PartRecord};
-use crate::effective::Status;
+use crate::effective::{EffectiveParts, Status};
 use crate::io::fits::{key, write_image, ImageData, KeyValue, Keyword};
 use crate::output::{render, write_atomic, write_json, TableFormat};
 use crate::Result;
@@ -11,7 +11,7 @@ use serde::Serialize;
 use std::path::{Path, PathBuf};
 
 /// Files the map is written as (in an output directory): table, images, chart, summary.
-pub const OUTPUT_NAMES: [&str; 8] = [
+pub const OUTPUT_NAMES: [&str; 11] = [
     "subaps.csv",
     "subaps_sigma_eff_e.fits",
     "subaps_sigma_eff_se_e.fits",
@@ -20,6 +20,9 @@ pub const OUTPUT_NAMES: [&str; 8] = [
     "subaps_sigma_eff.svg",
     "subaps_summary.json",
     super::crlb::FLOOR_NAME,
+    super::static_maps::STATIC_MAP_NAMES[0],
+    super::static_maps::STATIC_MAP_NAMES[1],
+    super::static_maps::STATIC_MAP_NAMES[2],
 ];
 
 /// The status image's code of a cell without a sub-aperture (masked, or not fitting the map).
@@ -67,6 +70,26 @@ pub struct SubapRow {
     pub window_rms_e: Option<f64>,
     /// Non-finite map pixels in the window (read with the map's rms).
     pub window_nonfinite_px: usize,
+    /// The uniform camera with the same R under plain `cog` (e-; the value itself for `cog`).
+    pub sigma_cog_equiv_e: Option<f64>,
+    /// Its standard error (e-).
+    pub sigma_cog_equiv_se_e: Option<f64>,
+    /// Static part: the window's mean centroid error along x (px).
+    pub static_x_px: Option<f64>,
+    /// Static part along y (px).
+    pub static_y_px: Option<f64>,
+    /// Length of the static offset (px).
+    pub static_px: Option<f64>,
+    /// Its standard error (px).
+    pub static_se_px: Option<f64>,
+    /// True when the static offset is at least twice its SE.
+    pub static_resolved: bool,
+    /// Random part: the rms of the error about its mean (px).
+    pub random_rms_px: Option<f64>,
+    /// Constant read noise whose rms error equals the random rms (e-).
+    pub sigma_random_e: Option<f64>,
+    /// Its standard error (e-; from the window's and the ladder's own SEs: conservative).
+    pub sigma_random_se_e: Option<f64>,
 }
 
 fn finite(v: f64) -> Option<f64> {
@@ -92,6 +115,16 @@ impl SubapRow {
             window_median_e: finite(r.window.median_e),
             window_rms_e: finite(r.window.rms_e),
             window_nonfinite_px: r.window.nonfinite_px,
+            sigma_cog_equiv_e: finite(r.sigma_cog_equiv_e),
+            sigma_cog_equiv_se_e: finite(r.sigma_cog_equiv_se_e),
+            static_x_px: finite(r.parts.static_x_px),
+            static_y_px: finite(r.parts.static_y_px),
+            static_px: finite(r.parts.static_px),
+            static_se_px: finite(r.parts.static_se_px),
+            static_resolved: r.parts.static_resolved,
+            random_rms_px: finite(r.parts.random_rms_px),
+            sigma_random_e: finite(r.parts.sigma_random_e),
+            sigma_random_se_e: finite(r.parts.sigma_random_se_e),
         }
     }
 }
@@ -273,6 +306,11 @@ pub fn write_outputs(
     let summary = SubapsSummary::new(header, records);
     write_json(&path(OUTPUT_NAMES[6]), &summary)?;
     // OUTPUT_NAMES[7], the Cramer-Rao floor, is written above with the other images.
+    let cells: Vec<(usize, usize, EffectiveParts)> = records
+        .iter()
+        .map(|r| (r.grid_row, r.grid_col, r.parts))
+        .collect();
+    super::static_maps::write_maps(dir, (gr, gc), &cells, &keys)?;
     Ok((summary, OUTPUT_NAMES.iter().map(|n| path(n)).collect()))
 }
 

@@ -13,7 +13,7 @@ use super::lock::PartLock;
 use super::solve::WindowStats;
 use crate::calib::Map;
 use crate::centroid::CentroiderSpec;
-use crate::effective::{Effective, Precision, Status};
+use crate::effective::{Effective, EffectiveParts, Precision, Status};
 use crate::montecarlo::{BgGrid, SimConfig};
 use crate::{Error, Result};
 use serde::{Deserialize, Serialize};
@@ -22,10 +22,10 @@ use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 
 /// The `format` of a part file's header.
-pub const PART_FORMAT: &str = "detnoise-subaps-part-1";
+pub const PART_FORMAT: &str = "detnoise-subaps-part-2";
 
 /// Fields of a record line, the checksum last.
-const FIELDS: usize = 15;
+const FIELDS: usize = 26;
 
 /// One shard of a job: sub-apertures whose index is `k - 1` modulo `n` (round-robin, so each
 /// shard samples the whole detector).
@@ -253,6 +253,12 @@ pub struct PartRecord {
     pub b_opt_e: f64,
     /// The map in the window.
     pub window: WindowStats,
+    /// The uniform camera with the same R under plain `cog` (e-; NaN without a value).
+    pub sigma_cog_equiv_e: f64,
+    /// Its standard error (e-; NaN without a value).
+    pub sigma_cog_equiv_se_e: f64,
+    /// The error's static and random parts in the window.
+    pub parts: EffectiveParts,
 }
 
 impl PartRecord {
@@ -275,6 +281,9 @@ impl PartRecord {
             r_se_px: e.r_se_px,
             b_opt_e: e.b_opt_e,
             window,
+            sigma_cog_equiv_e: e.sigma_cog_equiv_e,
+            sigma_cog_equiv_se_e: e.sigma_cog_equiv_se_e,
+            parts: e.parts,
         }
     }
 
@@ -282,8 +291,9 @@ impl PartRecord {
     pub fn line(&self) -> String {
         let w = &self.window;
         let target = self.target_se_e.map_or("-".to_string(), |t| t.to_string());
+        let p = &self.parts;
         let body = format!(
-            "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
+            "{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}",
             self.index,
             self.grid_row,
             self.grid_col,
@@ -297,7 +307,18 @@ impl PartRecord {
             self.b_opt_e,
             w.median_e,
             w.rms_e,
-            w.nonfinite_px
+            w.nonfinite_px,
+            self.sigma_cog_equiv_e,
+            self.sigma_cog_equiv_se_e,
+            p.sigma_random_e,
+            p.sigma_random_se_e,
+            p.sigma_random_extrapolated,
+            p.random_rms_px,
+            p.static_x_px,
+            p.static_y_px,
+            p.static_px,
+            p.static_se_px,
+            p.static_resolved
         );
         format!("{body}\t{}\n", line_check(&body))
     }
@@ -331,6 +352,19 @@ impl PartRecord {
                 median_e: real(f[11])?,
                 rms_e: real(f[12])?,
                 nonfinite_px: whole(f[13])?,
+            },
+            sigma_cog_equiv_e: real(f[14])?,
+            sigma_cog_equiv_se_e: real(f[15])?,
+            parts: EffectiveParts {
+                sigma_random_e: real(f[16])?,
+                sigma_random_se_e: real(f[17])?,
+                sigma_random_extrapolated: f[18].parse().ok()?,
+                random_rms_px: real(f[19])?,
+                static_x_px: real(f[20])?,
+                static_y_px: real(f[21])?,
+                static_px: real(f[22])?,
+                static_se_px: real(f[23])?,
+                static_resolved: f[24].parse().ok()?,
             },
         })
     }

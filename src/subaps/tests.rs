@@ -1,7 +1,7 @@
 use super::*;
 use crate::calib::{Map, Unit};
 use crate::detector::ScmosConstant;
-use crate::effective::{effective_sigma, Precision, Status};
+use crate::effective::{effective_sigma, EffectiveParts, Precision, Status};
 use crate::montecarlo::SimConfig;
 use crate::progress::{Recorder, Silent};
 use crate::Error;
@@ -401,6 +401,14 @@ fn record_lines_round_trip_exactly_and_torn_lines_are_recognised() {
             rms_e: f64::NAN,
             nonfinite_px: 3,
         },
+        sigma_cog_equiv_e: 2.0 / 3.0,
+        sigma_cog_equiv_se_e: f64::NAN,
+        parts: EffectiveParts {
+            static_x_px: -0.1,
+            static_resolved: true,
+            sigma_random_extrapolated: true,
+            ..Default::default()
+        },
     };
     let line = r.line();
     assert!(line.ends_with('\n') && line.matches('\n').count() == 1);
@@ -408,6 +416,13 @@ fn record_lines_round_trip_exactly_and_torn_lines_are_recognised() {
     assert_eq!(back.r_px.to_bits(), r.r_px.to_bits());
     assert_eq!(back.b_opt_e.to_bits(), r.b_opt_e.to_bits());
     assert!(back.sigma_eff_e.is_nan() && back.sigma_eff_se_e == f64::INFINITY);
+    assert_eq!(
+        back.sigma_cog_equiv_e.to_bits(),
+        r.sigma_cog_equiv_e.to_bits()
+    );
+    assert_eq!(back.parts.static_x_px, -0.1);
+    assert!(back.parts.static_resolved && back.parts.sigma_random_extrapolated);
+    assert!(back.parts.sigma_random_e.is_nan() && back.sigma_cog_equiv_se_e.is_nan());
     assert_eq!(
         (back.index, back.status, back.target_se_e),
         (17, Status::Unreachable, None)
@@ -734,6 +749,13 @@ fn a_large_grid_is_drawn_as_an_image_with_its_files_complete() {
             r_se_px: 0.001,
             b_opt_e: 1.0,
             window,
+            sigma_cog_equiv_e: 1.0,
+            sigma_cog_equiv_se_e: 0.01,
+            parts: EffectiveParts {
+                static_x_px: 0.01 * s.grid_col as f64,
+                static_y_px: -0.01 * s.grid_row as f64,
+                ..Default::default()
+            },
         })
         .collect();
     let d = tempfile::tempdir().unwrap();
@@ -756,6 +778,15 @@ fn a_large_grid_is_drawn_as_an_image_with_its_files_complete() {
     let sigma = Map::read(d.path().join("subaps_sigma_eff_e.fits"), Unit::Electrons).unwrap();
     assert_eq!(sigma.shape(), (30, 30));
     assert!(sigma.data[0].is_nan() && sigma.data[1] == 1.0 + 1.0 / 900.0);
+    // The static offset as a vector map, every sub-aperture's (whatever its status).
+    let sx = crate::io::read_image(&d.path().join("static_x_px.fits")).unwrap();
+    assert_eq!(sx.bunit.as_deref(), Some("pixel"));
+    assert_eq!((sx.data[0], sx.data[31]), (0.0, 0.01));
+    let csv = std::fs::read_to_string(d.path().join("subaps.csv")).unwrap();
+    assert!(csv.lines().next().unwrap().ends_with(
+        "sigma_cog_equiv_e,sigma_cog_equiv_se_e,static_x_px,static_y_px,static_px,static_se_px,\
+         static_resolved,random_rms_px,sigma_random_e,sigma_random_se_e"
+    ));
 }
 
 #[test]
