@@ -9,7 +9,7 @@
 
 use super::params::ModelParams;
 use super::pp::{PixelPrior, PpCache, PpConfig, PpCounter, PpRule};
-use super::readout::{FrameInput, Readout};
+use super::readout::{FrameInput, PhotonNoise, Readout};
 use super::register::EmRegister;
 use super::spec::{ModelEntry, ModelSpec, Sensor};
 use crate::rng::SimRng;
@@ -163,6 +163,12 @@ impl Readout for EmccdPp {
 
     fn noise_scale_e(&self) -> f64 {
         self.read_noise_e / self.register.gain()
+    }
+
+    // Thresholding is processing of an EMCCD's output: the floor is the register's, not a
+    // photon counter's (the photon variance factor of 1 would floor it as one).
+    fn photon_noise(&self) -> PhotonNoise {
+        PhotonNoise::EmRegister
     }
 }
 

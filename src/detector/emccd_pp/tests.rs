@@ -282,3 +282,10 @@ fn with_the_pixel_prior_a_lone_photon_in_a_dark_pixel_reads_as_one() {
         .unwrap();
     assert!(counter.corrected(1.0) > 10.0, "{}", counter.corrected(1.0));
 }
+
+#[test]
+fn its_cramer_rao_floor_is_the_em_register_s_not_a_photon_counter_s() {
+    // Thresholding processes an EMCCD's output; its photon variance factor (1, a counter's)
+    // would floor it below the camera it reads.
+    assert_eq!(model(None, true).photon_noise(), PhotonNoise::EmRegister);
+}
