@@ -61,6 +61,8 @@ pub struct EmccdPp {
     /// With the pixel prior: each pixel's counter from the mean spot image.
     pixel_prior: Option<PixelPrior>,
     corrected: bool,
+    /// The threshold rule (its useful range).
+    rule: PpRule,
 }
 
 impl EmccdPp {
@@ -94,6 +96,7 @@ impl EmccdPp {
             lambda_ref,
             pixel_prior,
             corrected,
+            rule: config.rule,
         })
     }
 
@@ -169,6 +172,10 @@ impl Readout for EmccdPp {
     // photon counter's (the photon variance factor of 1 would floor it as one).
     fn photon_noise(&self) -> PhotonNoise {
         PhotonNoise::EmRegister
+    }
+
+    fn in_range(&self, mean_e_per_px: f64) -> Option<bool> {
+        Some(self.rule.in_range(mean_e_per_px))
     }
 }
 

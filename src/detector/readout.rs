@@ -82,6 +82,12 @@ pub trait Readout: Send + Sync {
     fn photon_variance_factor(&self) -> f64 {
         1.0
     }
+    /// Whether the model's R describes a usable camera at `mean_e_per_px` (the sub-aperture's
+    /// mean photo-electrons per pixel); None for a model that holds at every light level.
+    fn in_range(&self, _mean_e_per_px: f64) -> Option<bool> {
+        None
+    }
+
     /// The photon noise the Cramer-Rao floor models, from [`Readout::photon_variance_factor`]:
     /// up to 1, thinned Poisson counts; above 1.5, an EM register (F^2 = 1.97 at gain 500 is
     /// taken as the Gamma register's 2); between, the excess noise in the Gaussian form.

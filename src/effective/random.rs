@@ -51,7 +51,7 @@ pub struct EffectiveParts {
     pub static_px: f64,
     /// Standard error of `static_px` (px).
     pub static_se_px: f64,
-    /// True when `static_px` is at least twice its SE (a static part is resolved).
+    /// True when `static_px` is at least 3 times its SE (a static part is resolved).
     pub static_resolved: bool,
 }
 

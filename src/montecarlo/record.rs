@@ -13,7 +13,9 @@ use serde::ser::{Serialize, SerializeStruct, Serializer};
 /// 3 SE: a biased centroid), `b_opt_e` ... `zero_frames`, then `centroider_param` and
 /// `centroider_param_opt`, empty for `cog`), the error's static and random parts at the optimum
 /// (`static_x_px`, `static_y_px`, `static_px`, `static_se_px`, `static_resolved`,
-/// `random_rms_px`, `random_rms_se_px`: see [`super::ErrorParts`]), then `bg_levels_e`,
+/// `random_rms_px`, `random_rms_se_px`: see [`super::ErrorParts`]), `model_range` (`ok` or
+/// `outside_range` for a model with a useful range, e.g. `emccd-pp`; empty otherwise), then
+/// `bg_levels_e`,
 /// `param_by_level` and `r_by_level_px` (arrays: JSON only).
 #[derive(Debug, Clone)]
 pub struct SimRecord {
@@ -26,6 +28,9 @@ pub struct SimRecord {
     /// The Cramer-Rao floor of R for the configuration and the model's noise (px; None when
     /// not computed or infinite), see [`crate::crlb`].
     pub r_crlb_px: Option<f64>,
+    /// Whether the model's R describes a usable camera at this light level (see
+    /// [`crate::detector::Readout::in_range`]); None for a model valid at every level.
+    pub in_range: Option<bool>,
 }
 
 impl SimRecord {
@@ -36,6 +41,7 @@ impl SimRecord {
             em_gain,
             result,
             r_crlb_px: None,
+            in_range: None,
         }
     }
 
@@ -43,6 +49,18 @@ impl SimRecord {
     pub fn with_floor(mut self, r_crlb_px: Option<f64>) -> Self {
         self.r_crlb_px = r_crlb_px;
         self
+    }
+
+    /// The record with the model's range verdict at its light level (None: no range).
+    pub fn with_range(mut self, in_range: Option<bool>) -> Self {
+        self.in_range = in_range;
+        self
+    }
+
+    /// The range's status word: `ok`, `outside_range`, or None for a model without a range.
+    pub fn model_range(&self) -> Option<&'static str> {
+        self.in_range
+            .map(|ok| if ok { "ok" } else { "outside_range" })
     }
 
     /// R_crlb / R: how close the centroid comes to the floor (1 = efficient).
@@ -80,7 +98,7 @@ pub(crate) fn config_columns<S: SerializeStruct>(
 impl Serialize for SimRecord {
     fn serialize<S: Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
         let r = &self.result;
-        let mut s = serializer.serialize_struct("SimRecord", 33)?;
+        let mut s = serializer.serialize_struct("SimRecord", 34)?;
         s.serialize_field("model", &r.model)?;
         s.serialize_field("centroider", &r.centroider)?;
         config_columns(&mut s, &self.config, Some(self.em_gain))?;
@@ -105,6 +123,7 @@ impl Serialize for SimRecord {
         s.serialize_field("static_resolved", &p.static_resolved)?;
         s.serialize_field("random_rms_px", &p.random_rms_px)?;
         s.serialize_field("random_rms_se_px", &p.random_rms_se_px)?;
+        s.serialize_field("model_range", &self.model_range())?;
         let levels: Vec<f64> = r.levels.iter().map(|l| l.b_e).collect();
         s.serialize_field("bg_levels_e", &levels)?;
         let params: Vec<Option<f64>> = r.levels.iter().map(|l| l.param).collect();
@@ -168,15 +187,18 @@ mod tests {
              r_se_px,r_crlb_px,crlb_efficiency,below_crlb,b_opt_e,b_at_grid_edge,\
              no_eligible_level,r0_px,r0_se_px,zero_frames,centroider_param,centroider_param_opt,\
              static_x_px,static_y_px,static_px,static_se_px,static_resolved,random_rms_px,\
-             random_rms_se_px\n\
+             random_rms_se_px,model_range\n\
              scmos-mean,cog,8,\"gauss:1,2.5\",integrated,50,1,,10000,1,0.25,0.5,0.125,0.5,false,\
-             1.5,false,true,0.75,0.125,3,,,0.125,-0.25,0.5,0.0625,true,1.5,0.25\n"
+             1.5,false,true,0.75,0.125,3,,,0.125,-0.25,0.5,0.0625,true,1.5,0.25,\n"
         );
         let json = serde_json::to_value(&rec).unwrap();
         assert_eq!(json["bg_levels_e"], serde_json::json!([0.0, 1.5]));
         assert_eq!(json["r_by_level_px"], serde_json::json!([0.75, 0.25]));
         assert_eq!(json["param_by_level"], serde_json::json!([null, null]));
-        assert_eq!(json.as_object().unwrap().len(), 33);
+        assert_eq!(json.as_object().unwrap().len(), 34);
+        assert!(json["model_range"].is_null());
+        let outside = rec.clone().with_range(Some(false));
+        assert_eq!(outside.model_range(), Some("outside_range"));
         // R more than 3 SE under the floor: a biased centroid, flagged.
         let mut low = rec.clone().with_floor(Some(2.0));
         assert_eq!(low.below_crlb(), Some(true));

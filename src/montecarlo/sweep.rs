@@ -127,8 +127,20 @@ fn run_all(
                     cfg.signal_photons
                 ));
             }
+            let per_px = cfg.signal_photons * cfg.qe / (cfg.subap_px * cfg.subap_px) as f64;
+            let in_range = refs[arm.model].in_range(per_px);
+            // Once per model and configuration, not per centroider.
+            if in_range == Some(false) && arm.centroider == centroiders[0] {
+                observer.warn(&format!(
+                    "{} at {}x{} px, S = {} ({per_px:.3} photo-electrons per pixel): outside the \
+                     model's useful range, its R does not describe a usable camera (model_range \
+                     = outside_range; see docs/models.md)",
+                    r.model, cfg.subap_px, cfg.subap_px, cfg.signal_photons
+                ));
+            }
             let em_gain = spec.uses("em_gain").then_some(params.em_gain);
-            records.push(SimRecord::new(cfg, em_gain, r).with_floor(floors[arm.model]));
+            let record = SimRecord::new(cfg, em_gain, r).with_floor(floors[arm.model]);
+            records.push(record.with_range(in_range));
         }
     }
     Ok(records)

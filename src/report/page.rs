@@ -384,19 +384,20 @@ fn charts(h: &mut String, p: &ScmosPage) {
 /// the status word alone otherwise; then the legend of the words.
 fn effective_table(h: &mut String, effective: &[EffectiveRecord]) {
     let _ = write!(h, "<h2>Effective read noise</h2><details><summary>Every configuration: {} rows, the fitted distribution's then the measured map's (also in effective_noise.csv and .json)</summary><table><tr>", effective.len());
-    h.push_str("<th>detector model</th><th>sub-aperture (px)</th><th>spot</th><th>signal (photons)</th><th>σ<sub>eff</sub> ± SE (e⁻)</th><th>R ± SE (px)</th></tr>");
+    h.push_str("<th>detector model</th><th>sub-aperture (px)</th><th>spot</th><th>signal (photons)</th><th>σ<sub>eff</sub> ± SE (e⁻)</th><th>R ± SE (px)</th><th>R<sub>crlb</sub> (px): the floor of any unbiased centroid</th></tr>");
     for r in effective {
         let e = &r.effective;
         let _ = write!(
             h,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} ± {}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{} ± {}</td><td>{}</td></tr>",
             esc(&r.model),
             r.config.subap_px,
             esc(&r.config.spot.label()),
             r.config.signal_photons,
             fmt_effective(e.sigma_eff_e, e.sigma_eff_se_e, e.status),
             num(e.r_px, 4),
-            num(e.r_se_px, 4)
+            num(e.r_se_px, 4),
+            r.r_crlb_px.map_or("–".into(), |f| num(f, 4))
         );
     }
     h.push_str("</table></details>");

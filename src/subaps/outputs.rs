@@ -82,7 +82,7 @@ pub struct SubapRow {
     pub static_px: Option<f64>,
     /// Its standard error (px).
     pub static_se_px: Option<f64>,
-    /// True when the static offset is at least twice its SE.
+    /// True when the static offset is at least 3 times its SE.
     pub static_resolved: bool,
     /// Random part: the rms of the error about its mean (px).
     pub random_rms_px: Option<f64>,

@@ -42,6 +42,25 @@ impl PpRule {
     pub fn parse(label: &str) -> Option<PpRule> {
         Self::ALL.into_iter().find(|r| r.label() == label)
     }
+
+    /// Mean photo-electrons per pixel that splits the rules' useful ranges (docs/models.md's
+    /// table at 16x16 px): below it the pixel prior lowers R (0.80-0.89 of the analogue
+    /// EMCCD's) and the sub-aperture-mean rules lose 24-35 % or far more (1.0 px against 0.19
+    /// at 0.08 e- per pixel); above it the pixel prior loses 1.8-4.3x and the sub-aperture-mean
+    /// rules follow the analogue EMCCD (within 9 %, 2.5 % from 2 e- per pixel).
+    pub const RANGE_SPLIT_E_PER_PX: f64 = 0.4;
+
+    /// Whether the rule's R describes a usable camera at `mean_e_per_px` (the sub-aperture's
+    /// mean photo-electrons per pixel): the pixel prior at or below
+    /// [`PpRule::RANGE_SPLIT_E_PER_PX`], the sub-aperture-mean rules at or above it.
+    pub fn in_range(self, mean_e_per_px: f64) -> bool {
+        match self {
+            PpRule::PixelPrior => mean_e_per_px <= Self::RANGE_SPLIT_E_PER_PX,
+            PpRule::PoissonPrior | PpRule::EqualDensity => {
+                mean_e_per_px >= Self::RANGE_SPLIT_E_PER_PX
+            }
+        }
+    }
 }
 
 /// How the 0|1 boundary is placed.

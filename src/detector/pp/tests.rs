@@ -174,3 +174,15 @@ fn k_sigma_option_and_bad_values() {
     assert!(PpConfig::new(PpRule::PoissonPrior, -1.0, SIGMA).is_err());
     assert!(PpConfig::new(PpRule::PoissonPrior, G, f64::INFINITY).is_err());
 }
+
+#[test]
+fn the_rules_useful_ranges_meet_at_the_split() {
+    // Measured (docs/models.md): the pixel prior helps only in the photon-counting regime, the
+    // sub-aperture-mean rules only follow the analogue EMCCD above it.
+    let split = PpRule::RANGE_SPLIT_E_PER_PX;
+    assert!(PpRule::PixelPrior.in_range(0.2) && !PpRule::PixelPrior.in_range(0.8));
+    for rule in [PpRule::PoissonPrior, PpRule::EqualDensity] {
+        assert!(!rule.in_range(0.08) && rule.in_range(2.0));
+    }
+    assert!(PpRule::ALL.iter().all(|r| r.in_range(split)));
+}

@@ -30,8 +30,9 @@ pub struct ErrorParts {
     /// Unbiased estimate of the squared static offset (px^2): |mean|^2 less the variances of
     /// the two means; may be negative when the offset is consistent with zero.
     pub static_sq_unbiased_px2: f64,
-    /// True when `static_px` is at least twice its SE: a static part is resolved; false: the
-    /// static part is consistent with zero at this precision.
+    /// True when `static_px` is at least 3 times its SE: a static part is resolved; false: the
+    /// static part is consistent with zero at this precision. (With no static part the ratio is
+    /// Rayleigh-distributed: 3 SE is passed by chance 1.1 % of the time, 2 SE 13.5 %.)
     pub static_resolved: bool,
     /// Rms of the error about its mean (px): sqrt(E|e - mean e|^2), the random slope noise.
     pub random_rms_px: f64,
@@ -91,7 +92,7 @@ impl ErrorParts {
             static_px: length,
             static_se_px: se,
             static_sq_unbiased_px2: mx * mx + my * my - se_x * se_x - se_y * se_y,
-            static_resolved: length >= 2.0 * se,
+            static_resolved: length >= 3.0 * se,
             random_rms_px: random_rms,
             random_rms_se_px: se_ms / (2.0 * random_rms),
             rms_px: rms,
