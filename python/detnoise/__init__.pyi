@@ -67,8 +67,9 @@ class ModelParams(TypedDict, total=False):
     #: `emccd-pp` threshold rule (a reconstruction of Basden et al. 2003): poisson-prior (boundaries
     #: n(n+1)/lambda in units of g, lambda the sub-aperture mean or `pp_lambda`), pixel-prior (the
     #: same with each pixel's own mean level in the centred noiseless spot, in photo-electrons:
-    #: per-pixel thresholds and correction) or equal-density (fixed, ~0.203, 0.719, 1.896 g ...);
-    #: default: poisson-prior.
+    #: per-pixel thresholds, counts corrected to the posterior mean E[n | K] under that prior) or
+    #: equal-density (fixed, ~0.203, 0.719, 1.896 g ...); pixel-prior is useful below 0.4
+    #: photo-electrons per pixel, the others above it (model_range says so); default: poisson-prior.
     pp_rule: Literal["poisson-prior", "equal-density", "pixel-prior"]
     #: `emccd-pp` reference light level, photo-electrons per pixel, > 0 and at most 1e5 (the largest
     #: level the correction's thresholds can span; photon counting is for levels of a few e- at

@@ -117,7 +117,7 @@ pub(super) fn fig06_pp(ctx: &Ctx) -> Result<FigureInfo> {
         number: 6,
         slug: "pp-thresholding",
         title: "Poisson-probability thresholding: improvement over the analogue EMCCD".into(),
-        caption: "Ratio R(emccd-stochastic) / R(thresholded) against EM gain, 8x8 px, D = 4 px, with and without the photometric correction, and with the per-pixel prior (corrected, lines without markers); above 1 is an improvement. The thresholds are a reconstruction of Basden, Haniff & Mackay (2003): boundaries n(n+1)/lambda in units of g for the sub-aperture mean lambda (or, with the per-pixel prior, each pixel's own mean level in the centred noiseless spot), the 0|1 boundary at equal zero- and one-electron likelihood. Error bars treat the two R as independent (conservative).".into(),
+        caption: "Ratio R(emccd-stochastic) / R(thresholded) against EM gain, 8x8 px, D = 4 px, with and without the photometric correction, and with the per-pixel prior (corrected, lines without markers); above 1 is an improvement. The thresholds are a reconstruction of Basden, Haniff & Mackay (2003): boundaries n(n+1)/lambda in units of g for the sub-aperture mean lambda (or, with the per-pixel prior, each pixel's own mean level in the centred noiseless spot, the counts then corrected to the posterior mean E[n | K] under that prior), the 0|1 boundary at equal zero- and one-electron likelihood. Error bars treat the two R as independent (conservative).".into(),
         x_label: "EM gain (e-/e-)".into(),
         y_label: "improvement ratio R(stochastic) / R(PP)".into(),
         columns: ("em_gain_e_per_e", "improvement_ratio", "improvement_ratio_se"),
