@@ -16,6 +16,7 @@ pub mod cli;
 pub mod crlb;
 pub mod detector;
 pub mod effective;
+pub mod emva;
 pub mod error;
 pub mod fit;
 pub mod io;

@@ -44,3 +44,18 @@ def cli():
         return proc
 
     return run
+
+
+def simulator(name):
+    """Import an AO simulator for an adapter's test. Skipped when it is not installed, except
+    under ``DETNOISE_REQUIRE_AO=1`` (set by ``.ci/run``, which installs them): there a missing
+    simulator fails the test instead of hiding it."""
+    import importlib
+    import os
+
+    try:
+        return importlib.import_module(name)
+    except ImportError as e:
+        if os.environ.get("DETNOISE_REQUIRE_AO") == "1":
+            raise AssertionError(f"{name} must be installed for this test ({e})") from e
+        pytest.skip(f"{name} is not installed")

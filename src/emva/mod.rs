@@ -1,0 +1,8 @@
+//! The EMVA 1288 (release 4.0) datasheet of a camera: a photon-transfer series of frame pairs
+//! (bright and dark at each exposure or irradiance) and the spatial stacks, read from an EMVA
+//! descriptor or a campaign's manifest, reduced to the standard's numbers with their standard
+//! errors, and per-pixel maps the standard does not give.
+
+pub mod dataset;
+
+pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
