@@ -4,5 +4,7 @@
 //! errors, and per-pixel maps the standard does not give.
 
 pub mod dataset;
+pub mod quantity;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
+pub use quantity::{Quantity, QuantityStatus};
