@@ -163,7 +163,7 @@ mod tests {
             "0.12345 ± 0.00067"
         );
         assert_eq!(value_pm(&Quantity::ok(9012.3, 41.0)), "9012 ± 41");
-        assert_eq!(value_pm(&Quantity::ok(2.71828, f64::NAN)), "2.718");
+        assert_eq!(value_pm(&Quantity::ok(4.56789, f64::NAN)), "4.568");
         assert_eq!(value_pm(&Quantity::unavailable("x")), "–");
     }
 
