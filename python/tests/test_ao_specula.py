@@ -3,7 +3,8 @@ through a circular pupil (64 px, 4 m), a 4x4 SH of 8x8 px (a 32x32 px frame), ma
 pixel statistics are checked against the readout's: each pixel's mean is its noise-free
 intensity (the CCD's ``integrated_i``), its variance photons + sigma_i^2 with a per-pixel noise
 map, F^2 photons + (read noise / gain)^2 with the EMCCD register. Tolerances are Z standard
-errors from the frames' own moments, on fixed seeds."""
+errors from the model's moments, on fixed seeds. The page docs/ao-specula.md's parameter file
+and Python example run here too."""
 
 import logging
 from pathlib import Path
@@ -221,19 +222,21 @@ def test_bad_input_is_refused_clearly():
         cam.setup()
 
 
-PARAMS_YML = """
+DOC = Path(__file__).resolve().parents[2] / "docs" / "ao-specula.md"
+
+# The SH chain the page's parameter-file fragment (its `main` and `detector`) goes into.
+CHAIN_YML = """
 main:
   class: 'SimulParams'
   root_dir: './calib'
-  pixel_pupil: 64
+  pixel_pupil: 128
   pixel_pitch: 0.0625
   total_time: 0.003
   time_step: 0.001
-  add_modules: ['detnoise.ao.specula']
 source:
   class: 'Source'
   polar_coordinates: [0.0, 0.0]
-  magnitude: 10
+  magnitude: 12
   wavelengthInNm: 600
 pupilstop:
   class: 'Pupilstop'
@@ -250,39 +253,70 @@ sh:
   subap_wanted_fov: 4.0
   sensor_pxscale: 0.5
   subap_npx: 8
-  subap_on_diameter: 4
+  subap_on_diameter: 8
   wavelengthInNm: 600
   inputs:
     in_ef: 'prop.out_source_ef'
   outputs: ['out_i']
-detector:
-  class: 'DetnoiseCCD'
-  simul_params_ref: 'main'
-  size: [32, 32]
-  dt: 0.001
-  bandw: 300
-  readout: 'scmos-map'
-  readout_params: {map_e: 'rms_e.fits'}
-  seed: 7
-  inputs:
-    in_i: 'sh.out_i'
-  outputs: ['out_pixels']
 """
 
 
-def test_a_parameter_file_swaps_it_for_specula_ccd(tmp_path, monkeypatch):
+def doc_block(info):
+    """The one fenced block of docs/ao-specula.md with this info string."""
+    parts = DOC.read_text(encoding="utf-8").split(f"```{info}\n")
+    assert len(parts) == 2, f"docs/ao-specula.md: expected one {info} block"
+    return parts[1].split("```", 1)[0]
+
+
+@pytest.fixture
+def in_scratch(tmp_path, monkeypatch):
+    """A scratch directory as the working directory, the bundled data linked in, the page's
+    map written where its `detnoise darks` command writes it."""
     from astropy.io import fits
+
+    root = Path(__file__).resolve().parents[2]
+    (tmp_path / "data-synthetic").symlink_to(root / "data-synthetic")
+    monkeypatch.chdir(tmp_path)
+    rms_e = detnoise.dark_maps("data-synthetic/scmos-darks-64x64.fits", gain_e_per_adu=0.25).rms_e
+    (tmp_path / "darks-out").mkdir()
+    fits.writeto("darks-out/rms_e.fits", rms_e)
+    return tmp_path
+
+
+def page_simulation(**detector_extra):
+    """The chain with the page's `main` and `detector` sections, as a parameter file."""
+    import yaml
+
+    params = yaml.safe_load(CHAIN_YML)
+    page = yaml.safe_load(doc_block("yaml"))
+    params["main"].update(page["main"])
+    params["detector"] = {**page["detector"], **detector_extra}
+    Path("params.yml").write_text(yaml.safe_dump(params))
+    return "params.yml"
+
+
+def test_the_pages_parameter_file_swaps_it_for_specula_ccd(in_scratch):
     from specula.simul import Simul
 
-    monkeypatch.chdir(tmp_path)
-    fits.writeto("rms_e.fits", noise_map_e())
-    (tmp_path / "params.yml").write_text(PARAMS_YML)
-    sim = Simul("params.yml", log_level="warning")
+    sim = Simul(page_simulation(), log_level="warning")
     sim.run()
     cam = sim.objs["detector"]
     assert type(cam) is DetnoiseCCD
-    # The static chain triggers the camera once: frame 0 of a camera of seed 7.
+    # The static chain triggers the camera once: frame 0 of a camera of the page's seed, 1.
     assert cam.readout.frame == 1
-    photons = np.array(cam.outputs["integrated_i"].i, dtype=float)
-    expected = detnoise.Readout("scmos-map", map_e=tmp_path / "rms_e.fits", seed=7).read(photons)
+    photons = 0.8 * np.array(cam.outputs["integrated_i"].i, dtype=float)
+    expected = detnoise.Readout("scmos-map", map_e="darks-out/rms_e.fits", seed=1).read(photons)
     np.testing.assert_array_equal(cam.outputs["out_pixels"].pixels, expected)
+
+
+def test_a_parameter_file_keeping_speculas_noise_options_is_refused(in_scratch):
+    from specula.simul import Simul
+
+    sim = Simul(page_simulation(readout_level=1.0), log_level="warning")
+    with pytest.raises(ValueError, match="readout_level is not expected by class DetnoiseCCD"):
+        sim.run()
+
+
+def test_the_pages_python_example_runs(in_scratch, capsys):
+    exec(compile(doc_block("python"), str(DOC), "exec"), {"__name__": "__docs__"})
+    assert capsys.readouterr().out.startswith("(100, 64, 64) ")
