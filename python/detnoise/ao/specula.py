@@ -122,7 +122,7 @@ class DetnoiseCCD(CCD):
 
     def apply_noise(self):
         pixels = self._pixels.pixels
-        # Round-off of SPECULA's FFTs can leave expected values a hair below zero.
+        # FFT convolutions (the SH's spot kernels) can leave values a hair below zero.
         expected_e = np.clip(cpuArray(pixels).astype(np.float64) + self._background_e, 0.0, None)
         if not self._read_photon_noise:
             expected_e = np.rint(expected_e)
