@@ -32,7 +32,7 @@ __all__ = ["DetnoiseDetector", "attach", "reference_slopes"]
 # OOPAO Detector settings whose effect this camera does not model, with their neutral values:
 # the readout (or a camera model) is the one place the frame's noise comes from.
 _UNSUPPORTED = {
-    "darkCurrent": (0, "use a camera model (DetnoiseDetector.from_camera), which has its own dark current"),
+    "darkCurrent": (0, "a camera model (DetnoiseDetector.from_camera) has its own dark current"),
     "FWC": (None, "saturation is not modelled"),
     "bits": (None, "the frames are e-, not quantised"),
     "backgroundNoise": (False, "add the background to the source's flux instead"),
@@ -56,7 +56,7 @@ def _map_array(map_e):
         return np.asarray(next(frames), dtype=float)
     array = np.asarray(map_e, dtype=float)
     if array.ndim != 2:
-        raise ValueError(f"noise map: shape {array.shape}, expected a 2-D map (rows, columns) in e-")
+        raise ValueError(f"noise map: shape {array.shape}, expected a 2-D map (rows, columns), e-")
     return array
 
 
@@ -118,16 +118,25 @@ class DetnoiseDetector(Detector):
         array = _map_array(map_e)
         if window is not None:
             row, col, n = (int(v) for v in window)
-            if row < 0 or col < 0 or n < 1 or row + n > array.shape[0] or col + n > array.shape[1]:
-                raise ValueError(f"window {tuple(window)} (row, col, n px) is not inside the {array.shape[0]}x{array.shape[1]} px noise map")
+            rows, cols = array.shape
+            if row < 0 or col < 0 or n < 1 or row + n > rows or col + n > cols:
+                raise ValueError(
+                    f"window {tuple(window)} (row, col, n px) is not inside the {rows}x{cols} px "
+                    "noise map"
+                )
             array = array[row : row + n, col : col + n]
         if array.shape[0] != array.shape[1]:
-            raise ValueError(f"noise map is {array.shape[0]}x{array.shape[1]} px: the frame is square, cut a square window=(row, col, n)")
+            raise ValueError(
+                f"noise map is {array.shape[0]}x{array.shape[1]} px: the frame is square, cut a "
+                "square window=(row, col, n)"
+            )
         readout = detnoise.Readout("scmos-map", map_e=np.ascontiguousarray(array), seed=seed)
         return cls(readout, map_shape=array.shape, **detector)
 
     @classmethod
-    def from_camera(cls, path, *, exposure_s=None, em_gain=None, temperature_c=None, seed=0, **detector):
+    def from_camera(
+        cls, path, *, exposure_s=None, em_gain=None, temperature_c=None, seed=0, **detector
+    ):
         """A camera model folder (docs/camera.md) at an operating point: exposure (s; None:
         the campaign's shortest dark exposure), commanded EM gain (None: no multiplication),
         sensor temperature (degrees C). Its rows x columns must be the frame's. Other keywords:
@@ -145,19 +154,26 @@ class DetnoiseDetector(Detector):
         shape = tuple(int(s) for s in shape)
         if shape == self._checked_shape:
             return
-        what = f"the {'x'.join(map(str, shape))} px frame of the detector"
+        frame = f"the detector's {'x'.join(map(str, shape))} px frame"
         if len(shape) != 2 or shape[0] != shape[1]:
-            raise ValueError(f"detnoise.ao.oopao: {what} is not square; detnoise.Readout reads square (n, n) frames")
-        if self.map_shape is not None and self.map_shape != shape:
             raise ValueError(
-                f"detnoise.ao.oopao: the noise map is {self.map_shape[0]}x{self.map_shape[1]} px but {what} "
-                "is not: a map of the frame's shape reads as one fixed camera (from_map(window=...) cuts one)"
+                f"detnoise.ao.oopao: {frame} is not square: detnoise.Readout reads (n, n) frames"
             )
+        if self.map_shape is not None and self.map_shape != shape:
+            rows, cols = self.map_shape
+            raise ValueError(
+                f"detnoise.ao.oopao: the camera's map is {rows}x{cols} px, {frame}: only a map of "
+                "the frame's shape reads as one fixed camera (a larger one would be read through a "
+                "random window every frame; from_map(window=...) cuts a fixed one)"
+            )
+        readout = self.detnoise_readout
         try:
             # frame 0 of an explicit seed: leaves the camera's frame counter alone
-            self.detnoise_readout.read(np.zeros(shape), seed=self.detnoise_readout.seed, photon_noise=False)
+            readout.read(np.zeros(shape), seed=readout.seed, photon_noise=False)
         except ValueError as e:
-            raise ValueError(f"detnoise.ao.oopao: readout {self.detnoise_readout.model_name!r} cannot read {what}: {e}") from e
+            raise ValueError(
+                f"detnoise.ao.oopao: readout {readout.model_name!r} cannot read {frame}: {e}"
+            ) from e
         self._checked_shape = shape
 
     def _refuse_unsupported(self):
@@ -219,6 +235,8 @@ class DetnoiseDetector(Detector):
         if isinstance(readout, detnoise.Readout):
             prop["readout_noise"] = f"{'Readout (detnoise)':<25s}|{readout.model_name:^9s}"
             prop["read_noise_on"] = f"{'Readout noise':<25s}|{str(bool(self.readoutNoise)):^9s}"
+            # OOPAO's dark current is not used: a camera model's is in the readout
+            prop.pop("dark_current", None)
         return prop
 
 
@@ -227,9 +245,50 @@ def attach(wfs, camera):
     that it reads the sensor's frame (square, the map's shape). Returns the camera."""
     if not isinstance(camera, DetnoiseDetector):
         raise TypeError(f"camera: a DetnoiseDetector, not {type(camera).__name__}")
+    if camera.binning != 1:
+        raise ValueError(
+            f"camera binning {camera.binning}: the wavefront sensor splits the unbinned frame "
+            "into its sub-apertures; bin with the sensor's own binning_factor instead"
+        )
     raw = getattr(wfs, "raw_data", None)
     if raw is not None:
         shape = np.shape(raw)[-2:]
         camera.check_frame((shape[0] // camera.binning, shape[1] // camera.binning))
     wfs.cam = camera
     return camera
+
+
+def reference_slopes(wfs, frames):
+    """Take the reference slopes of OOPAO Shack-Hartmann `wfs` through its camera with the noise
+    on: the mean centroids (px) of `frames` frames of the source through the telescope alone, as
+    ``wfs.initialize_wfs()`` propagates it (decouple the atmosphere first), at the source's
+    current flux. Sets them as the reference of every source; returns them (``signal_2D``'s
+    layout, px before ``slopes_units``). The noise-free reference is OOPAO's own:
+    ``wfs.initialize_wfs()`` switches the camera's noise off, through this camera too."""
+    if int(frames) != frames or frames < 1:
+        raise ValueError(f"frames: {frames}, expected a whole number >= 1")
+    if getattr(wfs, "is_geometric", False):
+        raise ValueError("reference_slopes: a geometric Shack-Hartmann has no camera")
+    sh_data = [wfs.sh_data["src_" + str(i)] for i in range(len(wfs.sh_data))]
+    saved = [d.reference_signal_2D for d in sh_data]
+    total = 0.0
+    try:
+        for d in sh_data:
+            d.reference_signal_2D = 0
+        for _ in range(int(frames)):
+            wfs.src**wfs.telescope * wfs.em_field_transform
+            wfs.relay(wfs.src)
+            # signal_2D is (centroid - 0) / slopes_units, zero outside the valid sub-apertures
+            total = total + np.asarray(wfs.signal_2D) * wfs.slopes_units
+    except BaseException:
+        for d, ref in zip(sh_data, saved):
+            d.reference_signal_2D = ref
+        raise
+    reference = total / int(frames)
+    if len(sh_data) == 1:
+        sh_data[0].reference_signal_2D = reference
+    else:
+        for i, d in enumerate(sh_data):
+            d.reference_signal_2D = reference[i]
+    wfs.reference_signal_2D = np.squeeze(reference)
+    return reference
