@@ -188,11 +188,14 @@ def test_noise_free_reference_slopes_through_the_camera(oopao, wfs):
     assert cam.detnoise_readout.frame == 3  # the noise-free frames drew nothing
     f = frames_of(wfs, 2)
     assert not np.array_equal(f[0], f[1])
-    # both switches off by hand: the expected photo-electrons
-    cam.photonNoise = cam.readoutNoise = False
-    f = frames_of(wfs, 2)
+    # both switches off for a block (OOPAO's InteractionMatrix does not switch them off itself):
+    # the expected photo-electrons
+    with cam.noise_free():
+        f = frames_of(wfs, 2)
     np.testing.assert_array_equal(f[0], f[1])
     np.testing.assert_allclose(f[0], 0.7 * cam.perfect_frame, rtol=1e-12, atol=1e-12)
+    assert cam.photonNoise and cam.readoutNoise
+    assert cam.detnoise_readout.frame == 5
 
 
 def test_reference_slopes_with_the_cameras_noise(oopao, wfs):
@@ -322,10 +325,16 @@ def test_bad_input_is_refused(oopao, wfs):
         quiet(Detnoise, small).integrate(np.zeros((8, 6)))
     with pytest.raises(TypeError, match="detnoise.Readout"):
         Detnoise(1.5)
+    with pytest.raises(TypeError, match="detnoise.Readout"):
+        oopao.attach(wfs, 1.5)
     with pytest.raises(ValueError, match="QE"):
         Detnoise(small, QE=0.0)
     with pytest.raises(ValueError, match="binning"):
         oopao.attach(wfs, quiet(Detnoise, small, binning=2))
+    with pytest.raises(OopaoError, match="readoutNoise=2.5 is a switch"):
+        quiet(Detnoise, small).readoutNoise = 2.5
+    with pytest.raises(OopaoError, match="photonNoise='yes' is a switch"):
+        quiet(Detnoise, small, photonNoise="yes")
     cam = oopao.attach(wfs, quiet(Detnoise.from_map, np.ones((48, 48))))
     cam.darkCurrent = 5.0
     with pytest.raises(OopaoError, match="darkCurrent"):
@@ -343,3 +352,19 @@ def test_the_manual_pages_example_runs(oopao):
     assert isinstance(wfs.cam, oopao.DetnoiseDetector)
     assert wfs.cam.detnoise_readout.model_name == "emccd-stochastic"
     assert wfs.cam.detnoise_readout.frame == 100
+
+
+def test_a_map_file_and_a_bare_readout(oopao, wfs):
+    """from_map reads a FITS map (the bundled camera's 4x4 px read noise, 1.5 e-); attach wraps
+    a Readout with the defaults."""
+    path = Path(__file__).resolve().parent / "data" / "camera" / "read_noise_e.fits"
+    cam = quiet(oopao.DetnoiseDetector.from_map, str(path), nRes=4, photonNoise=False)
+    assert cam.map_shape == (4, 4)
+    frames = []
+    for _ in range(2000):
+        cam.integrate(np.full((4, 4), 3.0))
+        frames.append(cam.frame)
+    _, z = variance_z(np.array(frames), 0.0, 1.5**2)
+    assert np.abs(z).max() < 5.0
+    cam = quiet(oopao.attach, wfs, detnoise.Readout("scmos-map", map_e=noisy_map(), seed=1))
+    assert isinstance(wfs.cam, oopao.DetnoiseDetector) and cam.photonNoise and cam.readoutNoise

@@ -18,6 +18,7 @@ give the noise-free frame, which is how OOPAO takes its reference slopes
 (``wfs.initialize_wfs()``); `reference_slopes` takes them through the camera's noise instead.
 """
 
+import contextlib
 import json
 from pathlib import Path
 
@@ -47,6 +48,18 @@ def _to_numpy(array):
     return array if backend is np else backend.asnumpy(array)
 
 
+def _switch(name, value):
+    """An OOPAO noise switch as a bool: True/False, 1/0 (OOPAO saves and restores them as 0-d
+    arrays). A read noise in e- is refused: the readout sets the noise."""
+    flag = np.asarray(value)
+    if flag.shape != () or flag.item() not in (0, 1):
+        raise OopaoError(
+            f"DetnoiseDetector: {name}={value!r} is a switch here (True or False): the detnoise "
+            "readout sets the noise; choose a readout model or noise map for another read noise"
+        )
+    return bool(flag.item())
+
+
 def _map_array(map_e):
     """A noise map (array, or FITS/TIFF/EXR path of one frame) as a 2-D float array, e-."""
     if isinstance(map_e, (str, Path)):
@@ -68,9 +81,10 @@ class DetnoiseDetector(Detector):
     hardware binning). photonNoise, readoutNoise: switches (OOPAO sets both to 0 to take noise-
     free frames): both on, the readout draws shot and read noise; photon noise off, the expected
     frame rounded to whole photo-electrons is read without shot noise; read noise off, Poisson
-    shot noise only; both off, the expected frame. map_shape: (rows, columns) the readout's map
-    must match, checked against the frame at `attach` or the first frame. nRes, psf_sampling,
-    integrationTime: as OOPAO's ``Detector``.
+    shot noise only; both off, the expected frame. They are switches only (True/False, 1/0):
+    the readout sets the noise, so a read-noise value in e- is refused. map_shape: (rows,
+    columns) the readout's map must match, checked against the frame at `attach` or the first
+    frame. nRes, psf_sampling, integrationTime: as OOPAO's ``Detector``.
     """
 
     def __init__(
@@ -109,6 +123,35 @@ class DetnoiseDetector(Detector):
         )
         if nRes is not None:
             self.check_frame((nRes // self.binning, nRes // self.binning))
+
+    @property
+    def photonNoise(self):
+        """Switch: shot noise drawn (True) or not (False)."""
+        return self._photon_noise
+
+    @photonNoise.setter
+    def photonNoise(self, value):
+        self._photon_noise = _switch("photonNoise", value)
+
+    @property
+    def readoutNoise(self):
+        """Switch: the readout's noise drawn (True) or not (False)."""
+        return self._readout_noise
+
+    @readoutNoise.setter
+    def readoutNoise(self, value):
+        self._readout_noise = _switch("readoutNoise", value)
+
+    @contextlib.contextmanager
+    def noise_free(self):
+        """Both switches off inside the block, restored after it: for calibrations OOPAO does not
+        take noise-free itself (``InteractionMatrix``)."""
+        saved = self.photonNoise, self.readoutNoise
+        self.photonNoise = self.readoutNoise = False
+        try:
+            yield self
+        finally:
+            self.photonNoise, self.readoutNoise = saved
 
     @classmethod
     def from_map(cls, map_e, *, window=None, seed=0, **detector):
@@ -241,10 +284,14 @@ class DetnoiseDetector(Detector):
 
 
 def attach(wfs, camera):
-    """Make `camera` the detector of OOPAO wavefront sensor `wfs` (``wfs.cam``), after checking
-    that it reads the sensor's frame (square, the map's shape). Returns the camera."""
+    """Make `camera` (a `DetnoiseDetector`, or a `detnoise.Readout` to wrap with the defaults)
+    the detector of OOPAO wavefront sensor `wfs` (``wfs.cam``), after checking that it reads
+    the sensor's frame (square, the map's shape). Returns the camera."""
+    if isinstance(camera, detnoise.Readout):
+        camera = DetnoiseDetector(camera)
     if not isinstance(camera, DetnoiseDetector):
-        raise TypeError(f"camera: a DetnoiseDetector, not {type(camera).__name__}")
+        kind = type(camera).__name__
+        raise TypeError(f"camera: a DetnoiseDetector or a detnoise.Readout, not {kind}")
     if camera.binning != 1:
         raise ValueError(
             f"camera binning {camera.binning}: the wavefront sensor splits the unbinned frame "
