@@ -6,6 +6,7 @@ OOPAO is imported once per session (numba: the first import in a fresh environme
 for a minute; cached afterwards, ~1.5 s)."""
 
 import contextlib
+import copy
 import io
 from pathlib import Path
 
@@ -244,6 +245,11 @@ def test_same_seed_same_frames(oopao, wfs):
     np.testing.assert_array_equal(frames_of(wfs, 1)[0], a[2])
     oopao.attach(wfs, oopao.DetnoiseDetector.from_map(noisy_map(), seed=10))
     assert not np.array_equal(frames_of(wfs, 1)[0], a[0])
+    # a deep copy (OOPAO copies its objects) shares the readout: the frames continue
+    twin = copy.deepcopy(wfs.cam)
+    assert twin.detnoise_readout is wfs.cam.detnoise_readout and twin.frame is not wfs.cam.frame
+    quiet(twin.integrate, wfs.cam.perfect_frame)
+    assert wfs.cam.detnoise_readout.frame == 2
 
 
 # OOPAO centroids the empty frame of the first loop step of a longer exposure (as with its own

@@ -19,6 +19,7 @@ give the noise-free frame, which is how OOPAO takes its reference slopes
 """
 
 import contextlib
+import copy
 import json
 from pathlib import Path
 
@@ -142,10 +143,20 @@ class DetnoiseDetector(Detector):
     def readoutNoise(self, value):
         self._readout_noise = _switch("readoutNoise", value)
 
+    def __deepcopy__(self, memo):
+        """A copy (OOPAO deep-copies its objects) that shares the readouts, which cannot be
+        copied: the copy's frames continue the same frame counter."""
+        new = self.__class__.__new__(self.__class__)
+        memo[id(self)] = new
+        for name, value in self.__dict__.items():
+            shared = isinstance(value, detnoise.Readout)
+            setattr(new, name, value if shared else copy.deepcopy(value, memo))
+        return new
+
     @contextlib.contextmanager
     def noise_free(self):
-        """Both switches off inside the block, restored after it: for calibrations OOPAO does not
-        take noise-free itself (``InteractionMatrix``)."""
+        """Both switches off inside the block, restored after it, e.g. around OOPAO's
+        ``InteractionMatrix``, which switches them off (noise='off') and leaves them off."""
         saved = self.photonNoise, self.readoutNoise
         self.photonNoise = self.readoutNoise = False
         try:
