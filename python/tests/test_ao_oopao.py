@@ -2,8 +2,8 @@
 pixel statistics of many frames of a flat wavefront against the readout's, with tolerances
 from standard errors on fixed seeds, and against OOPAO's own Detector where they differ.
 
-OOPAO is imported once per session (numba: the first import in a fresh environment compiles
-for a minute; cached afterwards, ~1.5 s)."""
+OOPAO is imported once per session: its first import in a fresh environment compiles its numba
+functions (slow); cached afterwards it takes ~1.5 s. The file takes ~9 s of CPU."""
 
 import contextlib
 import copy
