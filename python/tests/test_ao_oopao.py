@@ -2,8 +2,9 @@
 pixel statistics of many frames of a flat wavefront against the readout's, with tolerances
 from standard errors on fixed seeds, and against OOPAO's own Detector where they differ.
 
-OOPAO is imported once per session: its first import in a fresh environment compiles its numba
-functions (slow); cached afterwards it takes ~1.5 s. The file takes ~9 s of CPU."""
+OOPAO is imported once per session, ~1.5 s of CPU: the modules used here do not import its numba
+code (calibration/ao_cockpit_psim.py), even with an empty numba cache. The file takes ~9 s of
+CPU."""
 
 import contextlib
 import copy
