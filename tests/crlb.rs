@@ -187,18 +187,26 @@ fn the_maximum_likelihood_centroid_reaches_the_floor() {
 }
 
 #[test]
-fn the_floor_map_of_a_2048_px_detector_takes_seconds() {
-    // 16,384 windows of 16x16 px, S = 50, airy:2, on a map of per-pixel sigmas spread as an
-    // sCMOS's (0.5 to 3 e-); a uniform window gives the constant camera's floor.
+fn the_floor_map_gives_every_window_its_floor() {
+    // 256 windows of 16x16 px, S = 50, airy:2, on a map of per-pixel sigmas spread as an
+    // sCMOS's (0.5 to 3 e-): every window has a finite floor, windows with the same pixels
+    // the same floor, and a uniform window the constant camera's floor. (Its speed on a
+    // 2048x2048 detector is measured by `cargo bench --bench subaps`.)
     use detnoise::calib::{Map, Unit};
-    let (side, n) = (2048usize, 16usize);
+    let (side, n) = (256usize, 16usize);
     let mut rng = stream(5, 0, 0);
-    let data: Vec<f64> = (0..side * side)
+    let mut data: Vec<f64> = (0..side * side)
         .map(|_| {
             let z: f64 = StandardNormal.sample(&mut rng);
             (0.0f64 + 0.35 * z).exp().clamp(0.5, 3.0)
         })
         .collect();
+    // The window at (16, 0) is a copy of the window at (0, 0).
+    for r in 0..n {
+        for c in 0..n {
+            data[r * side + n + c] = data[r * side + c];
+        }
+    }
     let map = Map {
         rows: side,
         cols: side,
@@ -210,18 +218,12 @@ fn the_floor_map_of_a_2048_px_detector_takes_seconds() {
         .flat_map(|r| (0..side / n).map(move |c| (c * n, r * n)))
         .collect();
     let cfg = SimConfig::paper(n);
-    let start = std::time::Instant::now();
     let floors = detnoise::subaps::crlb::floor_map(&map, &origins, &cfg);
-    let secs = start.elapsed().as_secs_f64();
+    assert_eq!(floors.len(), 256);
     let finite: Vec<f64> = floors.iter().map(|f| f.unwrap()).collect();
-    let mean = finite.iter().sum::<f64>() / finite.len() as f64;
-    eprintln!(
-        "floor map: {} windows in {secs:.2} s ({} threads), mean R_crlb {mean:.4} px",
-        floors.len(),
-        rayon::current_num_threads()
-    );
-    assert_eq!(floors.len(), 16_384);
-    assert!(secs < 60.0, "{secs} s");
+    assert!(finite.iter().all(|f| f.is_finite() && *f > 0.0));
+    assert_eq!(finite[0], finite[1]);
+    assert!(finite.iter().any(|f| *f != finite[0]));
     let flat = Map {
         rows: n,
         cols: n,
@@ -316,7 +318,7 @@ fn subaps_writes_the_floor_map_in_px() {
     );
     let fits = std::fs::read(out.join("r_crlb_px.fits")).unwrap();
     let header = String::from_utf8_lossy(&fits[..2880]);
-    assert!(header.contains("BUNIT   = 'px"), "{header}");
+    assert!(header.contains("BUNIT   = 'pixel"), "{header}");
     // 4 x 4 sub-apertures, big-endian f64 after the header: every floor finite and positive.
     // One header block: the image's keywords are fewer than 36 cards.
     assert!(header.contains("END     "));

@@ -135,6 +135,27 @@ fn bad_inputs_are_refused_before_any_work_naming_what_is_wrong() {
     assert_eq!(o.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&o.stderr).contains("not a detnoise part file"));
     assert!(!out.exists());
+    // A part of an older format is named as such, to be rerun.
+    let old = d.path().join("subaps-part-0-of-1.jsonl");
+    std::fs::write(
+        &old,
+        "{\"format\":\"detnoise-subaps-part-1\",\"shard\":\"0/1\"}\n",
+    )
+    .unwrap();
+    let o = detnoise()
+        .args(["subaps-merge", "--out"])
+        .arg(&out)
+        .arg(&old)
+        .output()
+        .unwrap();
+    assert_eq!(o.status.code(), Some(1));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("written by an older detnoise") && err.contains("rerun"),
+        "{err}"
+    );
+    assert!(err.contains("subaps-part-0-of-1.jsonl"), "{err}");
+    assert!(!out.exists());
 }
 
 #[test]

@@ -81,11 +81,24 @@ pub trait Centroider: Send + Sync {
     /// Name as given on the command line and written in tables, e.g. `masked-cog`.
     fn name(&self) -> String;
     /// Name of its own parameter with its unit (e.g. `k_sigma`), None for plain `cog`.
-    fn param_name(&self) -> Option<&'static str>;
-    /// Every setting swept, in the order of the sums.
-    fn settings(&self) -> Vec<Setting>;
-    /// Zeroed sums shaped for its settings.
-    fn sums(&self) -> SettingSums;
+    /// Default: none.
+    fn param_name(&self) -> Option<&'static str> {
+        None
+    }
+    /// Every setting swept, in the order of the sums. Default: one setting, no parameter and
+    /// no background subtracted (a method that sweeps nothing).
+    fn settings(&self) -> Vec<Setting> {
+        vec![Setting {
+            param: None,
+            b_e: 0.0,
+            part: 0,
+        }]
+    }
+    /// Zeroed sums shaped for its settings. Default: the one setting of the default
+    /// `settings`.
+    fn sums(&self) -> SettingSums {
+        SettingSums::new(&[1])
+    }
     /// True when it uses the per-pixel read noise ([`CentroidFrame::sigma_e`]).
     fn needs_noise_map(&self) -> bool;
     /// A worker with its own scratch, for one thread.

@@ -12,7 +12,7 @@
 //! template's own centroid plus the shift. No background is subtracted (the template weights
 //! the pixels), and it takes no parameter.
 
-use super::centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
+use super::centroider::{CentroidFrame, CentroidWorker, Centroider, SettingSums};
 use super::image::ImageSums;
 use super::spec::CentroiderEntry;
 
@@ -38,22 +38,6 @@ pub(super) struct Correlation {
 impl Centroider for Correlation {
     fn name(&self) -> String {
         ENTRY.name.into()
-    }
-
-    fn param_name(&self) -> Option<&'static str> {
-        None
-    }
-
-    fn settings(&self) -> Vec<Setting> {
-        vec![Setting {
-            param: None,
-            b_e: 0.0,
-            part: 0,
-        }]
-    }
-
-    fn sums(&self) -> SettingSums {
-        SettingSums::new(&[1])
     }
 
     fn needs_noise_map(&self) -> bool {

@@ -21,7 +21,7 @@
 //! response is linear only near the centre (about a quarter of the spot's FWHM), beyond which it
 //! underestimates the shift.
 
-use super::centroider::{CentroidFrame, CentroidWorker, Centroider, Setting, SettingSums};
+use super::centroider::{CentroidFrame, CentroidWorker, Centroider, SettingSums};
 use super::image::ImageSums;
 use super::spec::{CentroidContext, CentroiderEntry};
 use crate::spot::SpotRenderer;
@@ -89,22 +89,6 @@ impl MatchedFilter {
 impl Centroider for MatchedFilter {
     fn name(&self) -> String {
         ENTRY.name.into()
-    }
-
-    fn param_name(&self) -> Option<&'static str> {
-        None
-    }
-
-    fn settings(&self) -> Vec<Setting> {
-        vec![Setting {
-            param: None,
-            b_e: 0.0,
-            part: 0,
-        }]
-    }
-
-    fn sums(&self) -> SettingSums {
-        SettingSums::new(&[1])
     }
 
     fn needs_noise_map(&self) -> bool {

@@ -4,7 +4,10 @@
 //! errors, and per-pixel maps the standard does not give.
 
 pub mod dataset;
+pub mod page;
 pub mod quantity;
+pub mod sheet;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
 pub use quantity::{Quantity, QuantityStatus};
+pub use sheet::{Curve, Figure, Row, Section, Sheet};

@@ -27,6 +27,14 @@ impl QuantityStatus {
             QuantityStatus::Unavailable(_) => "unavailable",
         }
     }
+
+    /// The rule broken or the reason a number is unavailable, if any.
+    pub fn rule(&self) -> Option<&str> {
+        match self {
+            QuantityStatus::OutOfRules(r) | QuantityStatus::Unavailable(r) => Some(r),
+            _ => None,
+        }
+    }
 }
 
 /// A datasheet number in the unit its name states, with its standard error (same unit; NaN

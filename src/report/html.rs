@@ -46,10 +46,15 @@ pub(crate) fn fmt_effective(sigma_e: f64, se_e: f64, status: Status) -> String {
 
 /// The page's head and style sheet, shared by both kinds of report.
 pub(crate) fn page_head() -> String {
+    page_head_titled("detnoise report")
+}
+
+/// The head and style sheet of a detnoise page titled `title` (plain text).
+pub(crate) fn page_head_titled(title: &str) -> String {
     let mut h = String::new();
     let _ = write!(
         h,
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>detnoise report</title><style>\
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{}</title><style>\
 body{{font-family:'DejaVu Sans',Helvetica,Arial,sans-serif;max-width:1100px;margin:1.5em auto;padding:0 1em;color:#1d1d1d;line-height:1.45}}\
 h1{{font-size:1.6em;margin-bottom:.2em}}h2{{margin-top:1.8em;border-bottom:2px solid #ddd;padding-bottom:.2em}}\
 .keys{{display:grid;grid-template-columns:repeat(auto-fill,minmax(230px,1fr));gap:.8em;margin:1em 0}}\
@@ -59,7 +64,8 @@ table{{border-collapse:collapse;font-size:.88em;margin:.8em 0}}td,th{{border:1px
 .note{{color:#555;font-size:.9em}}.muted{{color:#888}}.status{{font-family:monospace;color:#6a3d00}}\
 dl.legend{{display:grid;grid-template-columns:max-content 1fr;gap:.2em 1em;font-size:.92em}}dl.legend dd{{margin:0}}\
 .advice{{background:#fff6e5;border:1px solid #e8c98a;border-radius:6px;padding:.6em .9em}}\
-details{{margin:.8em 0}}summary{{cursor:pointer;color:#0b4f8a}}</style></head><body>"
+details{{margin:.8em 0}}summary{{cursor:pointer;color:#0b4f8a}}</style></head><body>",
+        esc(title)
     );
     h
 }

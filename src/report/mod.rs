@@ -10,7 +10,7 @@ mod centroiders;
 mod compare;
 mod emccd;
 mod grid;
-mod html;
+pub(crate) mod html;
 mod options;
 mod page;
 mod point;

@@ -297,7 +297,7 @@ pub fn write_outputs(
         &path(super::crlb::FLOOR_NAME),
         (gr, gc),
         ImageData::F64(&floor),
-        "px",
+        "pixel",
         &with(&what),
     )?;
     for name in &OUTPUT_NAMES[4..6] {

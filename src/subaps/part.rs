@@ -404,7 +404,17 @@ pub fn read_part(path: &Path) -> Result<PartContent> {
         .position(|&b| b == b'\n')
         .ok_or_else(not_part)?;
     let head = std::str::from_utf8(&bytes[..head_end]).map_err(|_| not_part())?;
-    let header: PartHeader = serde_json::from_str(head).map_err(|_| not_part())?;
+    let value: serde_json::Value = serde_json::from_str(head).map_err(|_| not_part())?;
+    let format = value.get("format").and_then(|f| f.as_str()).unwrap_or("");
+    // An older detnoise's part: its values have another meaning, so it cannot be resumed or
+    // merged, only rerun.
+    if format != PART_FORMAT && format.starts_with("detnoise-subaps-part-") {
+        return Err(bad(format!(
+            "written by an older detnoise (format {format:?}; this version writes \
+             {PART_FORMAT:?}): rerun this shard to replace it"
+        )));
+    }
+    let header: PartHeader = serde_json::from_value(value).map_err(|_| not_part())?;
     if header.format != PART_FORMAT {
         return Err(not_part());
     }
