@@ -4,7 +4,9 @@
 //! errors, and per-pixel maps the standard does not give.
 
 pub mod dataset;
+pub mod pairs;
 pub mod quantity;
+pub mod temporal;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
 pub use quantity::{Quantity, QuantityStatus};
