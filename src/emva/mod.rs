@@ -5,8 +5,10 @@
 
 pub mod dataset;
 pub mod page;
+pub mod pairs;
 pub mod quantity;
 pub mod sheet;
+pub mod temporal;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
 pub use quantity::{Quantity, QuantityStatus};
