@@ -5,6 +5,7 @@
 
 pub mod dataset;
 pub mod quantity;
+pub mod spatial;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
 pub use quantity::{Quantity, QuantityStatus};
