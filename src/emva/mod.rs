@@ -8,6 +8,7 @@ pub mod page;
 pub mod pairs;
 pub mod quantity;
 pub mod sheet;
+pub mod spatial;
 pub mod temporal;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
