@@ -4,9 +4,8 @@
 Our own forward model of a linear camera (not the reference implementation's simulator, so
 that detnoise is not checked against the code it is compared with), per pixel i and frame:
 
-    electrons = Poisson(QE * photons) + Poisson(dark_current_i * t) + dsnu_offset_i
-                + Normal(0, read_noise)                          (e-)
-    electrons clipped to [0, full_well]                          (saturation at full well)
+    charge = Poisson(QE * photons) + Poisson(dark_current_i * t), clipped to [0, full_well]
+    electrons = charge + dsnu_offset_i + Normal(0, read_noise)   (e-, at readout)
     DN = round(K * (1 + prnu_i) * electrons + offset), clipped to [0, 2^bits - 1]
 
 with a fixed pattern made of row, column and pixel parts (DSNU in e-, PRNU on the gain), and
@@ -83,10 +82,12 @@ def main(out: Path) -> None:
     top = 2**BITS - 1
 
     def grab(photons, t):
+        # Charge in the well (photo-electrons and dark current) saturates at the full well;
+        # the read noise and the fixed offset pattern are added at readout.
         e = rng.poisson(QE * photons, (ROWS, COLS)).astype(float)
         e += rng.poisson(dark_current * t)
-        e += dsnu + rng.normal(0, READ_NOISE_E, (ROWS, COLS))
         np.clip(e, 0, FULL_WELL_E, out=e)
+        e += dsnu + rng.normal(0, READ_NOISE_E, (ROWS, COLS))
         dn = np.rint(gain * e + OFFSET_DN)
         return np.clip(dn, 0, top).astype(np.uint16)
 
@@ -159,7 +160,9 @@ def main(out: Path) -> None:
             "DN = round(K (1 + prnu) e + offset): the read noise, DSNU and dark signal in DN "
             "carry the pixel's gain too (1 % effect).",
             "The temporal dark noise in DN is sqrt((K read_noise)^2 + K^2 dark_current t + 1/12).",
-            "Saturation is at the full well (9000 e-, 3700 DN), below the 12-bit ceiling.",
+            "Saturation is at the full well (9000 e-, 3700 DN), below the 12-bit ceiling; the "
+            "read noise and DSNU are added after the well saturates, so the saturated pairs "
+            "keep the read noise.",
         ],
     }
     (out / "truth.json").write_text(json.dumps(truth, indent=1) + "\n")
