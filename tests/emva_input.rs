@@ -332,3 +332,86 @@ fn the_reference_results_agree_with_the_truth_they_were_made_from() {
     let b = json(&fixture("bundled-results.json"));
     assert_eq!(b["results"]["index_u_ysat"].as_f64(), Some(59.0));
 }
+
+/// The bundled dataset as a campaign manifest (one row per image, light_level the photons per
+/// pixel of the flats) is the same dataset as its descriptor, `n` line aside.
+#[test]
+fn the_bundled_dataset_as_a_manifest_is_the_same_dataset() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(bundled()).unwrap();
+    let folder = bundled().parent().unwrap().to_path_buf();
+    let mut rows = String::from("file,kind,exposure_s,em_gain,temperature_c,light_level\n");
+    let mut condition = String::new();
+    for line in text.lines() {
+        let words: Vec<&str> = line.split_whitespace().collect();
+        let ns = |w: &str| w.parse::<f64>().unwrap() * 1e-9;
+        match words.as_slice() {
+            ["b", t, photons] => condition = format!("flat,{},,,{photons}", ns(t)),
+            ["d", t] => condition = format!("dark,{},,,", ns(t)),
+            ["i", path] => {
+                let file = folder.join(path.replace('\\', "/"));
+                rows.push_str(&format!("{},{condition}\n", file.display()));
+            }
+            _ => {}
+        }
+    }
+    let manifest = dir.path().join("emva.csv");
+    std::fs::write(&manifest, rows).unwrap();
+    let from_manifest = EmvaDataset::from_manifest(&manifest).unwrap();
+    let from_descriptor = EmvaDataset::from_descriptor(&bundled()).unwrap();
+    assert_eq!(from_manifest.format, None);
+    assert_eq!(from_manifest.points.len(), from_descriptor.points.len());
+    for (m, d) in from_manifest.points.iter().zip(&from_descriptor.points) {
+        assert_eq!((&m.bright, &m.dark), (&d.bright, &d.dark));
+        assert!((m.exposure_s - d.exposure_s).abs() < 1e-15);
+        assert!((m.photons_per_px.unwrap() - d.photons_per_px.unwrap()).abs() < 1e-9);
+    }
+    assert_eq!(
+        from_manifest.spatial_bright.as_ref().unwrap().files,
+        from_descriptor.spatial_bright.as_ref().unwrap().files
+    );
+    assert_eq!(
+        from_manifest.spatial_dark.as_ref().unwrap().files,
+        from_descriptor.spatial_dark.as_ref().unwrap().files
+    );
+    let check = from_manifest.check_frames().unwrap();
+    // No `n` line: the largest value is the stored type's (uint16).
+    assert_eq!(check.saturation_dn, Some(65535.0));
+    assert_eq!(check.rule_breaks, vec![]);
+}
+
+#[test]
+fn a_multi_frame_file_in_a_manifest_is_refused_by_the_frame_check() {
+    let ds = Dataset::new();
+    let text = camera(&ds, (6, 8), 5, 500.0, 1000.0);
+    let d = EmvaDataset::from_descriptor(&ds.descriptor(&text)).unwrap();
+    // The brightest point's first image replaced by a 3-frame stack.
+    let path = &d.points[4].bright[0];
+    let mut next = || vec![100.0; 48];
+    write_cube(path, (6, 8), 3, true, &mut next, &[]).unwrap();
+    let e = d.check_frames().unwrap_err().to_string();
+    assert!(
+        e.contains(
+            "f16.fits: holds 3 frames: each image of an EMVA dataset is one single-frame file"
+        ),
+        "{e}"
+    );
+}
+
+#[test]
+fn a_descriptor_saved_on_windows_reads_as_it_is() {
+    let ds = Dataset::new();
+    let text = camera(&ds, (6, 8), 5, 500.0, 1000.0);
+    // CRLF line ends, a byte-order mark, decimal commas, comments.
+    let windows = format!(
+        "\u{feff}# written on Windows\r\n{}",
+        text.replace("b 1000 1000\n", "b 1000,0 1000,0\n")
+            .replace('\n', "\r\n")
+    );
+    assert!(windows.contains("b 1000,0 1000,0\r\ni images\\f0.fits\r\n"));
+    let d = EmvaDataset::from_descriptor(&ds.descriptor(&windows)).unwrap();
+    let plain = EmvaDataset::from_descriptor(&ds.descriptor(&text)).unwrap();
+    assert_eq!(d.points, plain.points);
+    assert_eq!(d.spatial_bright, plain.spatial_bright);
+    assert_eq!(d.points[0].bright[0], ds.dir.path().join("images/f0.fits"));
+}
