@@ -54,14 +54,18 @@ pub fn run(args: &DatasheetArgs) -> Result<()> {
         },
     };
     let (_, sheet, out) = run_datasheet(&job)?;
-    for (section, row) in sheet.rows() {
-        let q = &row.quantity;
-        let word = q.status.label();
-        let shown = crate::emva::page::value_pm(q);
-        println!(
-            "{section:<38} {:<52} {shown:>22} {:<10} {word}",
-            row.label, row.unit
-        );
+    for section in &sheet.sections {
+        println!("{}", section.title);
+        for row in &section.rows {
+            let q = &row.quantity;
+            let shown = crate::emva::page::value_pm(q);
+            let label = format!("{} ({})", row.label, row.unit);
+            let label = label.trim_end_matches(" ()");
+            println!("  {label:<58} {shown:>24}  {}", q.status.label());
+        }
+    }
+    for note in &sheet.notes {
+        eprintln!("note: {note}");
     }
     eprintln!("wrote {}", out.display());
     Ok(())
