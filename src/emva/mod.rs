@@ -5,6 +5,7 @@
 
 pub mod dataset;
 pub mod pairs;
+pub mod pixel_maps;
 pub mod quantity;
 pub mod temporal;
 
