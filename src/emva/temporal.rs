@@ -14,7 +14,9 @@
 //! below the maximum); the absolute sensitivity threshold is the exact root of SNR = 1,
 //! (1/2 + sqrt(1/4 + sigma_y.dark^2 / K^2)) e-, where emva1288 uses the approximation
 //! sigma_y.dark / K + 1/2; with a single exposure time the dark variance is the mean of every
-//! point's dark pair (emva1288 takes the first point's).
+//! point's dark pair (emva1288 takes the first point's); a negative dark-current slope is
+//! reported with its SE (emva1288 gives NaN for the variance one), as a dark current consistent
+//! with zero is a result.
 
 use serde::Serialize;
 
