@@ -104,3 +104,52 @@ fn gain_and_dark_current_maps_match_the_pixels_truth_within_their_ses() {
         "{mean} {rms}"
     );
 }
+
+#[test]
+fn pixel_maps_read_from_files_equal_the_accumulated_frames() {
+    use crate::emva::pairs::measure;
+    use crate::emva::{EmvaDataset, PairPoint};
+    use crate::io::fits::{write_image, ImageData};
+    let truth = truth();
+    let dir = tempfile::tempdir().unwrap();
+    let mut frames = Vec::new();
+    let mut points = Vec::new();
+    for i in 0..4 {
+        let t = 0.1 * (i + 1) as f64;
+        let mut rng = stream(22, i, 0);
+        let mut paths = Vec::new();
+        for (k, e) in [2000.0 * t, 2000.0 * t, 0.0, 0.0].into_iter().enumerate() {
+            let v = frame(&truth, e, t, &mut rng);
+            let path = dir.path().join(format!("p{i}f{k}.fits"));
+            write_image(&path, (50, 50), ImageData::F64(&v), "", &[]).unwrap();
+            frames.push(v);
+            paths.push(path);
+        }
+        points.push(PairPoint {
+            exposure_s: t,
+            photons_per_px: None,
+            bright: [paths[0].clone(), paths[1].clone()],
+            dark: [paths[2].clone(), paths[3].clone()],
+        });
+    }
+    let dataset = EmvaDataset {
+        source: dir.path().join("descriptor.txt"),
+        format: None,
+        points,
+        spatial_bright: None,
+        spatial_dark: None,
+    };
+    let stats = measure(&dataset).unwrap();
+    let result = temporal(&stats);
+    let maps = pixel_maps(&dataset, &stats, &result).unwrap();
+    let k = result.system_gain_dn_per_e.value;
+    let mut acc = MapAccumulator::new(PIXELS);
+    for (i, f) in frames.chunks(4).enumerate() {
+        acc.add_dark_point(&f[2], &f[3], &stats[i]);
+        if i <= result.sensitivity_fit[1] {
+            acc.add_gain_point([&f[0], &f[1], &f[2], &f[3]], &stats[i], k);
+        }
+    }
+    assert_eq!(maps, acc.finish((50, 50), k));
+    assert!(maps.gain_dn_per_e.iter().all(|g| g.is_finite()));
+}
