@@ -7,6 +7,7 @@ pub mod dataset;
 pub mod datasheet;
 pub mod page;
 pub mod pairs;
+pub mod pixel_maps;
 pub mod quantity;
 pub mod run;
 pub mod sheet;

@@ -107,13 +107,14 @@ pub fn measure_point(point: &PairPoint, shape: (usize, usize)) -> Result<PointSt
     })
 }
 
-fn frame_shape(path: &Path) -> Result<(usize, usize)> {
+/// The frame shape (rows, cols) of the file at `path`.
+pub(super) fn frame_shape(path: &Path) -> Result<(usize, usize)> {
     Ok(FrameStack::open(&[path.to_path_buf()])?.shape)
 }
 
 /// Read a pair's two frames into `a` and `b`: the first frame of each file, or frames 0 and 1
 /// when both are the same file.
-fn read_pair(
+pub(super) fn read_pair(
     paths: &[PathBuf; 2],
     shape: (usize, usize),
     a: &mut Vec<f64>,

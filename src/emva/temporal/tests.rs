@@ -314,3 +314,24 @@ fn measure_reads_each_pair_from_files() {
     assert_eq!(got[0].bright, pair_stats(&frames[0], &frames[1]));
     assert_eq!(got[0].dark, pair_stats(&frames[2], &frames[3]));
 }
+
+#[test]
+fn the_standard_errors_are_honest_over_seeds() {
+    // 12 independent series: the RMS of (estimate - truth) / SE is ~1 (chi^2 with 12 dof puts
+    // it in [0.5, 1.6] with 99.5 % probability).
+    let cam = CAMERA;
+    let mut sums = [0.0; 3];
+    let seeds = 12;
+    for seed in 0..seeds {
+        let r = temporal(&series(&cam, 50, 1.3, true, 0.0, 100 + seed));
+        let pull = |q: &Quantity, truth: f64| ((q.value - truth) / q.se).powi(2);
+        sums[0] += pull(&r.system_gain_dn_per_e, cam.k_dn_per_e);
+        sums[1] += pull(&r.dark_noise_e, cam.sigma_d_e);
+        sums[2] += pull(&r.dark_current_variance_e_per_s, cam.dark_current_e_per_s);
+    }
+    for (name, s) in ["K", "sigma_d", "dark current (variance)"].iter().zip(sums) {
+        let rms = (s / seeds as f64).sqrt();
+        eprintln!("{name}: RMS pull {rms}");
+        assert!((0.5..1.6).contains(&rms), "{name}: RMS pull {rms}");
+    }
+}
