@@ -307,17 +307,21 @@ fn figure(
 
 /// Photon transfer, SNR, linearity and its deviation.
 fn temporal_figures(t: &TemporalResult) -> Vec<Figure> {
-    let p = &t.points;
+    // The photon transfer shows every point (saturation is where its variance falls); the
+    // SNR and linearity curves end at saturation, as the standard draws them.
+    let all = &t.points;
+    let p = &all[..(t.saturation_index + 1).min(all.len())];
     let col = |f: fn(&CurvePoint) -> f64| p.iter().map(f).collect::<Vec<f64>>();
+    let col_all = |f: fn(&CurvePoint) -> f64| all.iter().map(f).collect::<Vec<f64>>();
     let signal = col(|c| c.signal_dn);
     let fit = |range: [usize; 2]| range[0].min(p.len())..(range[1] + 1).min(p.len());
     let k = t.system_gain_dn_per_e.value;
     let in_fit = fit(t.sensitivity_fit);
     let ptc = Curve {
         name: "measured".into(),
-        x: signal.clone(),
-        y: col(|c| c.variance_dn2),
-        y_se: Some(col(|c| c.variance_se_dn2)),
+        x: col_all(|c| c.signal_dn),
+        y: col_all(|c| c.variance_dn2),
+        y_se: Some(col_all(|c| c.variance_se_dn2)),
         markers: true,
     };
     let fit_x: Vec<f64> = signal[in_fit.clone()].to_vec();
