@@ -54,16 +54,24 @@ pub fn run(args: &DatasheetArgs) -> Result<()> {
         },
     };
     let (_, sheet, out) = run_datasheet(&job)?;
+    // One write, its failure ignored: a reader that closes the pipe early (`| head`) is not
+    // an error of the run, whose files are already in place.
+    let mut text = String::new();
     for section in &sheet.sections {
-        println!("{}", section.title);
+        text.push_str(&section.title);
+        text.push('\n');
         for row in &section.rows {
             let q = &row.quantity;
             let shown = crate::emva::page::value_pm(q);
             let label = format!("{} ({})", row.label, row.unit);
             let label = label.trim_end_matches(" ()");
-            println!("  {label:<58} {shown:>24}  {}", q.status.label());
+            text.push_str(&format!(
+                "  {label:<58} {shown:>24}  {}\n",
+                q.status.label()
+            ));
         }
     }
+    let _ = std::io::Write::write_all(&mut std::io::stdout().lock(), text.as_bytes());
     for note in &sheet.notes {
         eprintln!("note: {note}");
     }
