@@ -533,7 +533,12 @@ impl EmvaDataset {
             declared: self.format,
             saturation_dn: None,
         };
-        let brightest = self.points.last().expect("a dataset has points");
+        let Some(brightest) = self.points.last() else {
+            return Err(Error::input(
+                &self.source,
+                "no photon-transfer points to check",
+            ));
+        };
         let reference = &self.points[(self.points.len() - 1) / 4];
         let (b_mean, b_var, brightest_frame) = reader.pair_and_first(&brightest.bright)?;
         let (d_mean, d_var) = reader.pair(&brightest.dark)?;
