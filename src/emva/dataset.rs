@@ -847,4 +847,17 @@ mod tests {
             .to_string();
         assert!(e.contains("m.csv: line 14: a bright pair without its photons per pixel while 4 others give theirs"), "{e}");
     }
+
+    #[test]
+    fn the_frame_check_of_a_dataset_without_points_is_an_error() {
+        let d = EmvaDataset {
+            source: PathBuf::from("built.txt"),
+            format: None,
+            points: Vec::new(),
+            spatial_bright: None,
+            spatial_dark: None,
+        };
+        let e = d.check_frames().unwrap_err().to_string();
+        assert_eq!(e, "built.txt: no photon-transfer points to check");
+    }
 }
