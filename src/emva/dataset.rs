@@ -533,7 +533,12 @@ impl EmvaDataset {
             declared: self.format,
             saturation_dn: None,
         };
-        let brightest = self.points.last().expect("a dataset has points");
+        let Some(brightest) = self.points.last() else {
+            return Err(Error::input(
+                &self.source,
+                "no photon-transfer points to check",
+            ));
+        };
         let reference = &self.points[(self.points.len() - 1) / 4];
         let (b_mean, b_var, brightest_frame) = reader.pair_and_first(&brightest.bright)?;
         let (d_mean, d_var) = reader.pair(&brightest.dark)?;
@@ -841,5 +846,18 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(e.contains("m.csv: line 14: a bright pair without its photons per pixel while 4 others give theirs"), "{e}");
+    }
+
+    #[test]
+    fn the_frame_check_of_a_dataset_without_points_is_an_error() {
+        let d = EmvaDataset {
+            source: PathBuf::from("built.txt"),
+            format: None,
+            points: Vec::new(),
+            spatial_bright: None,
+            spatial_dark: None,
+        };
+        let e = d.check_frames().unwrap_err().to_string();
+        assert_eq!(e, "built.txt: no photon-transfer points to check");
     }
 }
