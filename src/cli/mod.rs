@@ -3,6 +3,7 @@
 pub mod args;
 pub mod campaign;
 pub mod darks;
+pub mod datasheet;
 pub mod effective;
 pub mod emgain;
 pub mod fields;
@@ -66,6 +67,9 @@ pub enum Command {
     /// A characterisation campaign: dark and flat stacks at several exposure times, EM gains
     /// and temperatures, each streamed once into its noise figures.
     Campaign(campaign::CampaignArgs),
+    /// The EMVA 1288 (release 4.0) datasheet of a camera from its photon-transfer pairs and
+    /// spatial stacks, every number with its standard error.
+    Datasheet(datasheet::DatasheetArgs),
 }
 
 /// The command line: the derived parser, with the exit codes at the end of every help page,
@@ -140,6 +144,7 @@ where
         Command::Subaps(a) => subaps::run_cli(a),
         Command::SubapsMerge(a) => subaps::run_merge_cli(a),
         Command::Campaign(a) => campaign::run(a),
+        Command::Datasheet(a) => datasheet::run(a),
     };
     // An interruption being handled ends the process with its own code: wait for it.
     crate::output::temps::settle();

@@ -4,9 +4,15 @@
 //! errors, and per-pixel maps the standard does not give.
 
 pub mod dataset;
+pub mod datasheet;
 pub mod page;
+pub mod pairs;
+pub mod pixel_maps;
 pub mod quantity;
+pub mod run;
 pub mod sheet;
+pub mod spatial;
+pub mod temporal;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
 pub use quantity::{Quantity, QuantityStatus};
