@@ -1,7 +1,7 @@
 //! An EMVA 1288 descriptor file, read as the EMVA reference implementation (`emva1288` on
 //! PyPI, `process/parser.py`) reads it, so that datasets made for it run unchanged:
 //!
-//! - `v VERSION` (ignored), `n BITS WIDTH HEIGHT` (once; the frames' shape is checked
+//! - `v VERSION` and `l NAME VALUE` (report values; ignored), `n BITS WIDTH HEIGHT` (once; the frames' shape is checked
 //!   against it), `b TEXP_NS PHOTONS` (a bright point) and `d TEXP_NS` (a dark point), each
 //!   followed by at least two `i PATH` lines, its images;
 //! - blank lines and lines starting with `#` skipped; numbers may use a decimal comma;
@@ -69,7 +69,8 @@ pub fn parse_emva(text: &str, source: &Path) -> Result<(Option<EmvaFormat>, Vec<
             ));
         }
         let (exposure_ns, kind, photons) = match words[0] {
-            "v" => continue,
+            // `v` the version; `l NAME VALUE` a value for the reference's LaTeX report.
+            "v" | "l" => continue,
             "n" => {
                 if format.is_some() {
                     return Err(bad(
@@ -95,7 +96,7 @@ pub fn parse_emva(text: &str, source: &Path) -> Result<(Option<EmvaFormat>, Vec<
             other => {
                 return Err(bad(
                     line,
-                    format!("unknown line kind {other:?} (v, n, b, d or i)"),
+                    format!("unknown line kind {other:?} (v, l, n, b, d or i)"),
                 ))
             }
         };
@@ -194,7 +195,7 @@ fn image_path(descriptor: &Path, written: &str) -> PathBuf {
 mod tests {
     use super::*;
 
-    const EXAMPLE: &str = "# EMVA 1288 test\nv 3.0\nn 12 640 480\nb 100000 0,5\ni images\\b1.tif\ni images\\b2.tif\n\nd 100000\ni images/d1.tif\ni images/d2.tif\nd 2000000\ni d3.tif\ni d4.tif\ni d5.tif\n";
+    const EXAMPLE: &str = "# EMVA 1288 test\nv 3.0\nl camera_name Test camera\nn 12 640 480\nb 100000 0,5\ni images\\b1.tif\ni images\\b2.tif\n\nd 100000\ni images/d1.tif\ni images/d2.tif\nd 2000000\ni d3.tif\ni d4.tif\ni d5.tif\n";
 
     #[test]
     fn points_become_stacks_with_ns_exposures_and_windows_paths() {
@@ -221,7 +222,7 @@ mod tests {
         assert_eq!(s[1].condition.kind, StackKind::Dark);
         assert_eq!(s[1].condition.light_level, None);
         assert_eq!(s[2].files.len(), 3);
-        assert_eq!(s[2].listed_in.line, Some(11));
+        assert_eq!(s[2].listed_in.line, Some(12));
     }
 
     #[test]
@@ -231,6 +232,7 @@ mod tests {
             ("n 8 4\n", "line 1: should be `n bits width height`"),
             ("n 8 4 4\nn 8 4 4\n", "line 2: a second `n"),
             ("x 1\n", "unknown line kind \"x\""),
+            ("l\n", "every line is a letter and its values"),
             ("d 1 2\ni a\ni b\n", "should be `d exposure_ns`"),
             ("d abc\ni a\ni b\n", "exposure time (ns) \"abc\""),
             (
