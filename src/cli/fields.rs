@@ -78,6 +78,9 @@ pub const FIELD_FLAGS: &[(&str, &str)] = &[
 /// Fields of library-only settings (chart building blocks) that no option sets: errors about
 /// them are programming errors of a caller and keep the library's name.
 pub const LIBRARY_ONLY_FIELDS: &[&str] = &[
+    // A spatial stack given to the EMVA library without files (the datasheet's dataset loader
+    // never builds one).
+    "spatial_stack",
     // Campaign decomposition options no option sets (the fitted EM gains come from the
     // campaign's own histogram fits; `hot` is the class rule as a whole, its thresholds have
     // options); the emgain histogram's pixel mask.
