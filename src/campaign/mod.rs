@@ -26,6 +26,6 @@ pub use input::{CampaignInput, CampaignStack, KeywordOptions, Listing};
 pub use measure::{measure_campaign, measure_stack, MeasureOptions, StackMeasurement};
 pub use outputs::{
     write_campaign_outputs, CampaignSummary, ConditionRow, StackSummary, CAMERA_DIR,
-    CAMPAIGN_OUTPUTS,
+    CAMPAIGN_OUTPUTS, DATASHEET_DIR,
 };
 pub use run::{run, CampaignRun, CampaignRunResult};

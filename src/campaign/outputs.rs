@@ -22,11 +22,15 @@ pub const CAMPAIGN_OUTPUTS: [&str; 2] = ["conditions.csv", "campaign.json"];
 /// The camera model's folder inside the campaign's output.
 pub const CAMERA_DIR: &str = "camera";
 
+/// The EMVA 1288 datasheet's folder inside the campaign's output (an EMVA 1288 input only).
+pub const DATASHEET_DIR: &str = "datasheet";
+
 /// Every file `campaign` may write: its own and the decomposition's.
 pub fn campaign_output_names() -> Vec<&'static str> {
     let mut names = CAMPAIGN_OUTPUTS.to_vec();
     names.extend(super::fit::OUTPUT_NAMES);
     names.push(CAMERA_DIR);
+    names.push(DATASHEET_DIR);
     names
 }
 

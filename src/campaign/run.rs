@@ -16,6 +16,7 @@ use super::measure::{
 };
 use super::outputs::{
     campaign_output_names, write_campaign_outputs, CampaignSummary, StackSummary, CAMERA_DIR,
+    DATASHEET_DIR,
 };
 use crate::error::{Error, Result};
 use crate::output::{DirPlan, OutputDir};
@@ -76,6 +77,12 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
     job.thresholds.check()?;
     job.measure.clip.check()?;
     let listing = job.input.read()?;
+    // An EMVA 1288 dataset also gets its datasheet; one the datasheet refuses (too few
+    // points, no dark pairs) is still a campaign.
+    let emva = match &job.input {
+        CampaignInput::Emva(d) => Some(crate::emva::EmvaDataset::from_descriptor(d)),
+        _ => None,
+    };
     let mut inputs: Vec<PathBuf> = listing
         .stacks
         .iter()
@@ -173,6 +180,12 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         Ok(model) => model.write_files(&dir.path(CAMERA_DIR))?,
         Err(e) => observer.warn(&format!("no camera model written: {e}")),
     }
+    if let Some(dataset) = emva {
+        let written = dataset.and_then(|d| write_datasheet(&d, &dir.path(DATASHEET_DIR)));
+        if let Err(e) = written {
+            observer.warn(&format!("no EMVA 1288 datasheet written: {e}"));
+        }
+    }
     let write_seconds = t.elapsed().as_secs_f64();
     Ok(CampaignRunResult {
         stored_bytes: stacks.iter().map(|m| m.stored_bytes).sum(),
@@ -185,6 +198,17 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
         design: plan.design,
         out: dir.commit()?,
     })
+}
+
+/// The datasheet of an EMVA 1288 dataset (as `detnoise datasheet` writes it) into `dir`.
+fn write_datasheet(dataset: &crate::emva::EmvaDataset, dir: &std::path::Path) -> Result<()> {
+    use crate::emva::{datasheet::compute, spatial::SpatialOptions, xml::write_xml};
+    dataset.check_frames()?;
+    let datasheet = compute(dataset, &SpatialOptions::default())?;
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    datasheet.sheet(dataset).write(dir)?;
+    write_xml(&datasheet, dir)?;
+    Ok(())
 }
 
 /// The per-pixel decomposition of the darks' mean signal, with the EM gains the histogram fits

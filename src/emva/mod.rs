@@ -13,6 +13,7 @@ pub mod run;
 pub mod sheet;
 pub mod spatial;
 pub mod temporal;
+pub mod xml;
 
 pub use dataset::{EmvaDataset, PairPoint, SpatialStack};
 pub use quantity::{Quantity, QuantityStatus};

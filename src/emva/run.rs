@@ -33,8 +33,9 @@ pub struct DatasheetRun {
 }
 
 /// What `datasheet` may write (glob patterns), for the output folder's checks.
-pub const DATASHEET_NAMES: [&str; 5] = [
+pub const DATASHEET_NAMES: [&str; 6] = [
     "datasheet.json",
+    "datasheet.xml",
     "datasheet.csv",
     "datasheet.html",
     "*.png",
@@ -62,6 +63,8 @@ pub fn run(job: &DatasheetRun) -> Result<(Datasheet, Sheet, PathBuf)> {
     let datasheet = compute(&dataset, &job.spatial)?;
     let sheet = datasheet.sheet(&dataset);
     sheet.write(&dir.path(""))?;
+    // The reference implementation's XML result file, beside the sheet.
+    super::xml::write_xml(&datasheet, &dir.path(""))?;
     let out = dir.commit()?;
     Ok((datasheet, sheet, out))
 }

@@ -69,6 +69,10 @@ pub struct CameraSection {
     /// The effective read noise against frame rate (camera_noise.csv/.json, not summary.json).
     #[serde(skip)]
     pub curve: Vec<CurveRow>,
+    /// The EMVA 1288 datasheet of the campaign that measured the camera, when it has one
+    /// (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub datasheet: Option<super::datasheet::DatasheetLink>,
 }
 
 /// The camera's terms at one operating point: medians over the pixels, e- input-referred.
@@ -167,6 +171,16 @@ pub(crate) fn section(
         return Ok(None);
     };
     let mut s = describe(choice)?;
+    // The camera folder is the one whose camera.json the report reads.
+    let camera_dir = o
+        .model_input_paths
+        .iter()
+        .find(|p| {
+            p.file_name()
+                .is_some_and(|n| n == crate::camera::CAMERA_JSON)
+        })
+        .and_then(|p| p.parent());
+    s.datasheet = camera_dir.and_then(|c| super::datasheet::find(c, &o.out_dir));
     match simulate(o, grid, op, &choice.at, observer)? {
         Ok(sim) => s.monte_carlo = Some(sim),
         Err(note) => s.monte_carlo_note = Some(note),
@@ -200,6 +214,7 @@ pub fn describe(choice: &CameraChoice) -> Result<CameraSection> {
         monte_carlo: None,
         monte_carlo_note: None,
         curve: curve(choice, cic.as_deref())?,
+        datasheet: None,
     })
 }
 
@@ -488,6 +503,9 @@ pub(crate) fn section_html(h: &mut String, s: &CameraSection) {
         "the operating point is marked (the model records no campaign)"
     };
     figure(h, "camera_noise.png", "Effective read noise of the camera model against frame rate", &format!("Effective read noise (median over the pixels of the total temporal noise, e⁻ input-referred) of the camera model against frame rate (exposure = 1 / rate) at the operating point's EM gain and temperature; {marks}; the dashed line is the noise without any dark signal. Data in camera_noise.csv/.json (every term at every rate)."));
+    if let Some(d) = &s.datasheet {
+        super::datasheet::section_html(h, d);
+    }
 }
 
 #[cfg(test)]

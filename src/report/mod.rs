@@ -8,6 +8,7 @@
 mod camera;
 mod centroiders;
 mod compare;
+pub mod datasheet;
 mod emccd;
 mod grid;
 pub(crate) mod html;
