@@ -3,6 +3,7 @@
 
 use std::path::PathBuf;
 
+use super::beyond::{beyond, BeyondOptions};
 use super::dataset::EmvaDataset;
 use super::datasheet::{compute, Datasheet};
 use super::sheet::Sheet;
@@ -30,19 +31,29 @@ pub struct DatasheetRun {
     pub force: bool,
     /// Spatial settings (defect threshold, histogram bins).
     pub spatial: SpatialOptions,
+    /// Where the effective read noise of the dark noise map is computed.
+    pub beyond: BeyondOptions,
 }
 
 /// What `datasheet` may write (glob patterns), for the output folder's checks.
-pub const DATASHEET_NAMES: [&str; 5] = [
+pub const DATASHEET_NAMES: [&str; 11] = [
     "datasheet.json",
     "datasheet.csv",
     "datasheet.html",
     "*.png",
     "*.svg",
+    // The per-pixel maps (crate::emva::beyond).
+    "gain_dn_per_e.fits",
+    "gain_se_dn_per_e.fits",
+    "dark_current_e_per_s.fits",
+    "dark_current_se_e_per_s.fits",
+    "rms_e.fits",
+    "rms_se_e.fits",
 ];
 
 /// Run the job: the datasheet, its sheet and the folder written.
 pub fn run(job: &DatasheetRun) -> Result<(Datasheet, Sheet, PathBuf)> {
+    job.beyond.validate()?;
     let dataset = match &job.input {
         DatasheetInput::Descriptor(p) => EmvaDataset::from_descriptor(p)?,
         DatasheetInput::Manifest(p) => EmvaDataset::from_manifest(p)?,
@@ -59,8 +70,15 @@ pub fn run(job: &DatasheetRun) -> Result<(Datasheet, Sheet, PathBuf)> {
         },
     )?;
     dataset.check_frames()?;
+    if let Some(first) = dataset.points.first() {
+        let shape = super::pairs::frame_shape(&first.bright[0])?;
+        job.beyond.check_shape(shape, &first.bright[0])?;
+    }
     let datasheet = compute(&dataset, &job.spatial)?;
-    let sheet = datasheet.sheet(&dataset);
+    let mut sheet = datasheet.sheet(&dataset);
+    let beyond = beyond(&dataset, &datasheet, &job.beyond)?;
+    beyond.add_to(&mut sheet);
+    beyond.write(&dir.path(""))?;
     sheet.write(&dir.path(""))?;
     let out = dir.commit()?;
     Ok((datasheet, sheet, out))
