@@ -335,7 +335,8 @@ pub fn summarise(values: &[f64], se: &[f64], k_rel: f64) -> (Quantity, Quantity)
         .hypot(spread * k_rel);
     let judged = |value: f64, se: f64| {
         let mut q = Quantity::ok(value, se);
-        if !(se <= IMPRECISE_RELATIVE_SE * value.abs()) {
+        // A NaN SE is imprecise too.
+        if se.is_nan() || se > IMPRECISE_RELATIVE_SE * value.abs() {
             q.status = QuantityStatus::Imprecise;
         }
         q
@@ -370,21 +371,22 @@ mod tests {
     #[test]
     fn the_spread_removes_the_measurement_noise_and_the_mean_carries_k_and_clips_hot_pixels() {
         // Values 10 + 3 z with SE 2: the pixels' own spread is sqrt(9 - 4).
-        let ppf = |p: f64| crate::special::bisect(|z| crate::special::norm_cdf(z) - p, -10.0, 10.0);
+        use rand_distr::{Distribution, StandardNormal};
+        let mut rng = crate::rng::stream(34, 0, 0);
         let z: Vec<f64> = (0..20_001)
-            .map(|i| ppf((i as f64 + 0.5) / 20_001.0))
+            .map(|_| StandardNormal.sample(&mut rng))
             .collect();
         let v: Vec<f64> = z.iter().map(|z| 10.0 + 3.0 * z).collect();
         let se = vec![2.0; v.len()];
         let mut v = v;
         v[0] = 1e6; // a hot pixel, clipped
         let (mean, spread) = summarise(&v, &se, 0.01);
-        assert!((mean.value - 10.0).abs() < 0.01, "{mean:?}");
+        assert!((mean.value - 10.0).abs() < 0.07, "{mean:?}");
         assert!(
             (mean.se - (3.0 / 20_000f64.sqrt()).hypot(0.1)).abs() < 1e-3,
             "{mean:?}"
         );
-        assert!((spread.value - 5f64.sqrt()).abs() < 0.01, "{spread:?}");
+        assert!((spread.value - 5f64.sqrt()).abs() < 0.07, "{spread:?}");
         assert_eq!(spread.status, QuantityStatus::Ok);
         // All noise: no spread left, and not a result.
         let (_, none) = summarise(&v, &vec![4.0; v.len()], 0.0);
