@@ -242,6 +242,7 @@ fn datasheet_writes_the_xml_beside_the_sheet() {
         out: tmp.path().join("ds"),
         force: false,
         spatial: SpatialOptions::default(),
+        beyond: Default::default(),
     };
     let (datasheet, _, out) = run(&job).unwrap();
     let written = std::fs::read_to_string(out.join(XML_FILE)).unwrap();

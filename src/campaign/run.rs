@@ -200,14 +200,11 @@ pub fn run(job: &CampaignRun, observer: &dyn Observer) -> Result<CampaignRunResu
     })
 }
 
-/// The datasheet of an EMVA 1288 dataset (as `detnoise datasheet` writes it) into `dir`.
+/// The datasheet of an EMVA 1288 dataset (as `detnoise datasheet` writes it, with its default
+/// settings) into `dir`.
 fn write_datasheet(dataset: &crate::emva::EmvaDataset, dir: &std::path::Path) -> Result<()> {
-    use crate::emva::{datasheet::compute, spatial::SpatialOptions, xml::write_xml};
-    dataset.check_frames()?;
-    let datasheet = compute(dataset, &SpatialOptions::default())?;
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    datasheet.sheet(dataset).write(dir)?;
-    write_xml(&datasheet, dir)?;
+    crate::emva::run::write_all(dataset, &Default::default(), &Default::default(), dir)?;
     Ok(())
 }
 

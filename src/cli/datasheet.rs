@@ -4,9 +4,11 @@ use std::ops::Bound::{Excluded, Included};
 use std::path::PathBuf;
 
 use super::args::real;
+use crate::emva::beyond::BeyondOptions;
 use crate::emva::run::{run as run_datasheet, DatasheetInput, DatasheetRun};
 use crate::emva::spatial::SpatialOptions;
 use crate::error::Result;
+use crate::report::OperatingPoint;
 
 /// Options of `detnoise datasheet`.
 #[derive(clap::Args, Debug)]
@@ -35,6 +37,12 @@ pub struct DatasheetArgs {
     /// 1000.
     #[arg(long, default_value_t = 6.0, value_parser = real(Excluded(0.0), Included(1000.0), "robust standard deviations"))]
     pub defect_sigma: f64,
+    /// The Shack-Hartmann sub-aperture of the effective read noise of the dark noise map
+    /// (section "Beyond the standard"), as the report's: sub-aperture size (px per side), spot
+    /// (airy:D or gauss:SX,SY, px) and signal (photons per sub-aperture), e.g. 12,airy:4,100;
+    /// cog, QE 1, the quick precision (at most 24,000 frames).
+    #[arg(long, value_name = "SUBAP,SPOT,SIGNAL", default_value = OperatingPoint::DEFAULT_TEXT, allow_hyphen_values = true)]
+    pub operating_point: String,
 }
 
 /// Run `detnoise datasheet`.
@@ -51,6 +59,10 @@ pub fn run(args: &DatasheetArgs) -> Result<()> {
         spatial: SpatialOptions {
             defect_factor: args.defect_sigma,
             ..SpatialOptions::default()
+        },
+        beyond: BeyondOptions {
+            point: OperatingPoint::parse(&args.operating_point)?,
+            ..BeyondOptions::default()
         },
     };
     let (_, sheet, out) = run_datasheet(&job)?;

@@ -5,7 +5,7 @@
 use serde::Serialize;
 
 use super::dataset::EmvaDataset;
-use super::pairs::measure;
+use super::pairs::{measure, PointStats};
 use super::quantity::Quantity;
 use super::sheet::{Curve, Figure, Row, Section, Sheet};
 use super::spatial::{spatial_from_stacks, Parts, SpatialOptions, SpatialResult};
@@ -19,6 +19,9 @@ pub struct Datasheet {
     pub temporal: TemporalResult,
     /// DSNU, PRNU, spectrograms, profiles, histograms, defects (None without spatial stacks).
     pub spatial: Option<SpatialResult>,
+    /// The reduced photon-transfer points (for the per-pixel maps' second pass).
+    #[serde(skip)]
+    pub points: Vec<PointStats>,
 }
 
 /// Compute the datasheet of `dataset` (every frame read once; the spatial stacks after the
@@ -45,7 +48,11 @@ pub fn compute(dataset: &EmvaDataset, options: &SpatialOptions) -> Result<Datash
         }
         _ => None,
     };
-    Ok(Datasheet { temporal, spatial })
+    Ok(Datasheet {
+        temporal,
+        spatial,
+        points,
+    })
 }
 
 impl Datasheet {

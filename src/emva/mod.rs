@@ -3,6 +3,7 @@
 //! descriptor or a campaign's manifest, reduced to the standard's numbers with their standard
 //! errors, and per-pixel maps the standard does not give.
 
+pub mod beyond;
 pub mod dataset;
 pub mod datasheet;
 pub mod page;

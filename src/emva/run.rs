@@ -1,8 +1,9 @@
 //! `detnoise datasheet` as a library call: check the output folder and the dataset before any
 //! frame is read, compute, and write the sheet's files into a folder that appears only whole.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use super::beyond::{beyond, BeyondOptions};
 use super::dataset::EmvaDataset;
 use super::datasheet::{compute, Datasheet};
 use super::sheet::Sheet;
@@ -30,20 +31,30 @@ pub struct DatasheetRun {
     pub force: bool,
     /// Spatial settings (defect threshold, histogram bins).
     pub spatial: SpatialOptions,
+    /// Where the effective read noise of the dark noise map is computed.
+    pub beyond: BeyondOptions,
 }
 
 /// What `datasheet` may write (glob patterns), for the output folder's checks.
-pub const DATASHEET_NAMES: [&str; 6] = [
+pub const DATASHEET_NAMES: [&str; 12] = [
     "datasheet.json",
     "datasheet.xml",
     "datasheet.csv",
     "datasheet.html",
     "*.png",
     "*.svg",
+    // The per-pixel maps (crate::emva::beyond).
+    "gain_dn_per_e.fits",
+    "gain_se_dn_per_e.fits",
+    "dark_current_e_per_s.fits",
+    "dark_current_se_e_per_s.fits",
+    "rms_e.fits",
+    "rms_se_e.fits",
 ];
 
 /// Run the job: the datasheet, its sheet and the folder written.
 pub fn run(job: &DatasheetRun) -> Result<(Datasheet, Sheet, PathBuf)> {
+    job.beyond.validate()?;
     let dataset = match &job.input {
         DatasheetInput::Descriptor(p) => EmvaDataset::from_descriptor(p)?,
         DatasheetInput::Manifest(p) => EmvaDataset::from_manifest(p)?,
@@ -59,14 +70,33 @@ pub fn run(job: &DatasheetRun) -> Result<(Datasheet, Sheet, PathBuf)> {
             names: &DATASHEET_NAMES,
         },
     )?;
-    dataset.check_frames()?;
-    let datasheet = compute(&dataset, &job.spatial)?;
-    let sheet = datasheet.sheet(&dataset);
-    sheet.write(&dir.path(""))?;
-    // The reference implementation's XML result file, beside the sheet.
-    super::xml::write_xml(&datasheet, &dir.path(""))?;
+    let (datasheet, sheet) = write_all(&dataset, &job.spatial, &job.beyond, &dir.path(""))?;
     let out = dir.commit()?;
     Ok((datasheet, sheet, out))
+}
+
+/// Check the frames of `dataset`, compute its datasheet and write every file of it (sheet,
+/// figures, per-pixel maps, XML) into the folder `dir` (being built by its caller).
+pub fn write_all(
+    dataset: &EmvaDataset,
+    spatial: &SpatialOptions,
+    beyond_options: &BeyondOptions,
+    dir: &Path,
+) -> Result<(Datasheet, Sheet)> {
+    dataset.check_frames()?;
+    if let Some(first) = dataset.points.first() {
+        let shape = super::pairs::frame_shape(&first.bright[0])?;
+        beyond_options.check_shape(shape, &first.bright[0])?;
+    }
+    let datasheet = compute(dataset, spatial)?;
+    let mut sheet = datasheet.sheet(dataset);
+    let beyond = beyond(dataset, &datasheet, beyond_options)?;
+    beyond.add_to(&mut sheet);
+    beyond.write(dir)?;
+    sheet.write(dir)?;
+    // The reference implementation's XML result file, beside the sheet.
+    super::xml::write_xml(&datasheet, dir)?;
+    Ok((datasheet, sheet))
 }
 
 /// Every frame file the dataset names.
