@@ -20,8 +20,8 @@ pub struct DatasheetArgs {
     #[arg(long, value_name = "FILE")]
     pub emva_descriptor: Option<PathBuf>,
     /// Campaign manifest (CSV, `file,kind,exposure_s,em_gain,temperature_c,light_level`;
-    /// light_level in photons per pixel) whose two-frame stacks are the photon-transfer pairs
-    /// and longer stacks the spatial ones.
+    /// light_level in photons per pixel), one row per image: consecutive rows of one
+    /// condition form a set, two images a photon-transfer pair, more a spatial stack.
     #[arg(long, value_name = "FILE")]
     pub manifest: Option<PathBuf>,
     /// Output directory: datasheet.json, datasheet.csv, datasheet.html and its figures (PNG
