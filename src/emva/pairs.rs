@@ -2,8 +2,10 @@
 //! temporal variance from their difference, corrected for the drift of the mean between the two
 //! frames (EMVA 1288 release 4.0), with the standard errors the datasheet's fits need.
 //!
-//! Each point's four frames are read once; memory is four frames per point being read (points
-//! are read in parallel, one per worker).
+//! Each point's four frames are read once; memory is two frames' stored bytes per worker
+//! (points are read in parallel, one per worker; the buffers are reused from point to point, so
+//! no frame-sized allocation is faulted in per point). Stored integer frames are decoded a few
+//! thousand pixels at a time as they are summed, never into whole frames of f64.
 
 use std::path::{Path, PathBuf};
 
@@ -11,7 +13,10 @@ use rayon::prelude::*;
 
 use super::dataset::{EmvaDataset, PairPoint};
 use crate::error::{Error, Result};
-use crate::io::FrameStack;
+use crate::io::{FrameData, FrameStack};
+
+/// Pixels decoded at a time from stored bytes (two such blocks of f64 stay in L1).
+const CHUNK: usize = 2048;
 
 /// The mean and temporal variance of one pair of frames (A, B) of the same scene.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -50,27 +55,119 @@ pub struct PointStats {
 /// is computed here (two passes over the pixels, no cancellation).
 pub fn pair_stats(a: &[f64], b: &[f64]) -> PairStats {
     assert_eq!(a.len(), b.len(), "a pair's frames differ in length");
-    let n = a.len() as f64;
-    let (sa, sb) = a
-        .iter()
-        .zip(b)
-        .fold((0.0, 0.0), |(sa, sb), (x, y)| (sa + x, sb + y));
-    let (mean_a, mean_b) = (sa / n, sb / n);
-    let drift = mean_a - mean_b;
-    let (m2, m4) = a.iter().zip(b).fold((0.0, 0.0), |(m2, m4), (x, y)| {
-        let e = (x - y) - drift;
-        let e2 = e * e;
-        (m2 + e2, m4 + e2 * e2)
+    stats_of_chunks(a.len(), false, |f| f(a, b))
+}
+
+/// [`pair_stats`] of two frames as read (stored bytes or values), with the same result bit for
+/// bit: the same sums in the same order, over blocks of [`CHUNK`] decoded pixels.
+fn pair_stats_data(a: &FrameData, b: &FrameData) -> PairStats {
+    if let (FrameData::Values(a), FrameData::Values(b)) = (a, b) {
+        return pair_stats(a, b);
+    }
+    let n = pixels(a);
+    assert_eq!(n, pixels(b), "a pair's frames differ in length");
+    let exact = exact_sums(a, n) && exact_sums(b, n);
+    stats_of_chunks(n, exact, |f| {
+        let (mut ba, mut bb) = ([0.0; CHUNK], [0.0; CHUNK]);
+        for start in (0..n).step_by(CHUNK) {
+            let end = (start + CHUNK).min(n);
+            f(
+                values(a, start, end, &mut ba),
+                values(b, start, end, &mut bb),
+            );
+        }
+    })
+}
+
+/// The statistics of a pair of `n` pixels whose values `each` hands, block by block in pixel
+/// order, to the closure it is given. `exact`: every value is an integer and every partial
+/// sum of a frame's values stays below 2^53 in magnitude, so the frame sums are exact in any
+/// order and are taken in eight lanes (the sequential sum's latency chain halved the speed);
+/// otherwise, and always for the squares, the sums run in pixel order.
+fn stats_of_chunks(
+    n: usize,
+    exact: bool,
+    each: impl Fn(&mut dyn FnMut(&[f64], &[f64])),
+) -> PairStats {
+    let (mut sa, mut sb) = (0.0, 0.0);
+    each(&mut |a, b| {
+        if exact {
+            sa += lane_sum(a);
+            sb += lane_sum(b);
+        } else {
+            (sa, sb) = a
+                .iter()
+                .zip(b)
+                .fold((sa, sb), |(sa, sb), (x, y)| (sa + x, sb + y));
+        }
     });
-    let (m2, m4) = (m2 / n, m4 / n);
+    let nf = n as f64;
+    let (mean_a, mean_b) = (sa / nf, sb / nf);
+    let drift = mean_a - mean_b;
+    let (mut m2, mut m4) = (0.0, 0.0);
+    each(&mut |a, b| {
+        (m2, m4) = a.iter().zip(b).fold((m2, m4), |(m2, m4), (x, y)| {
+            let e = (x - y) - drift;
+            let e2 = e * e;
+            (m2 + e2, m4 + e2 * e2)
+        });
+    });
+    let (m2, m4) = (m2 / nf, m4 / nf);
     let variance = m2 / 2.0;
     PairStats {
         mean_dn: (mean_a + mean_b) / 2.0,
-        mean_se_dn: (variance / (2.0 * n)).sqrt(),
+        mean_se_dn: (variance / (2.0 * nf)).sqrt(),
         drift_dn: drift,
         variance_dn2: variance,
-        variance_se_dn2: ((m4 - m2 * m2).max(0.0) / n).sqrt() / 2.0,
-        pixels: a.len(),
+        variance_se_dn2: ((m4 - m2 * m2).max(0.0) / nf).sqrt() / 2.0,
+        pixels: n,
+    }
+}
+
+/// Sum of `v` in eight lanes (exact only for integers with small partial sums).
+fn lane_sum(v: &[f64]) -> f64 {
+    let mut lanes = [0.0; 8];
+    let mut blocks = v.chunks_exact(8);
+    for block in &mut blocks {
+        for (l, x) in lanes.iter_mut().zip(block) {
+            *l += x;
+        }
+    }
+    lanes.iter().chain(blocks.remainder()).sum()
+}
+
+/// Pixels of a frame as read.
+fn pixels(f: &FrameData) -> usize {
+    match f {
+        FrameData::Values(v) => v.len(),
+        FrameData::Raw(bytes, layout) => bytes.len() / layout.width(),
+    }
+}
+
+/// Whether `f`'s `n` values are integers whose sums over any subset stay below 2^53 (stored
+/// integers of at most 32 bits, unit scale, an integer zero).
+fn exact_sums(f: &FrameData, n: usize) -> bool {
+    let FrameData::Raw(_, layout) = f else {
+        return false;
+    };
+    let bits = 8 * layout.width() as i32;
+    let largest = 2f64.powi(bits) + layout.zero.abs();
+    layout.width() <= 4
+        && layout.scale == 1.0
+        && layout.zero.fract() == 0.0
+        && largest * (n as f64) < 2f64.powi(53)
+}
+
+/// Values `start..end` of `f`: a slice of its values, or its bytes decoded into `buf`.
+fn values<'a>(f: &'a FrameData, start: usize, end: usize, buf: &'a mut [f64; CHUNK]) -> &'a [f64] {
+    match f {
+        FrameData::Values(v) => &v[start..end],
+        FrameData::Raw(bytes, layout) => {
+            let w = layout.width();
+            let out = &mut buf[..end - start];
+            layout.decode(&bytes[start * w..end * w], out);
+            out
+        }
     }
 }
 
@@ -87,18 +184,30 @@ pub fn measure(dataset: &EmvaDataset) -> Result<Vec<PointStats>> {
     dataset
         .points
         .par_iter()
-        .map(|p| measure_point(p, shape))
+        .map_init(PairBuffers::default, |buf, p| measure_point(p, shape, buf))
         .collect()
 }
 
-/// The bright and dark pairs of one point, each frame read once.
-pub fn measure_point(point: &PairPoint, shape: (usize, usize)) -> Result<PointStats> {
-    let mut a = Vec::new();
-    let mut b = Vec::new();
-    read_pair(&point.bright, shape, &mut a, &mut b)?;
-    let bright = pair_stats(&a, &b);
-    read_pair(&point.dark, shape, &mut a, &mut b)?;
-    let dark = pair_stats(&a, &b);
+/// A worker's two frames as read (stored bytes or values), reused from pair to pair.
+#[derive(Debug)]
+pub struct PairBuffers([FrameData; 2]);
+
+impl Default for PairBuffers {
+    fn default() -> Self {
+        PairBuffers([FrameData::Values(Vec::new()), FrameData::Values(Vec::new())])
+    }
+}
+
+/// The bright and dark pairs of one point, each frame read once into `buf`.
+pub fn measure_point(
+    point: &PairPoint,
+    shape: (usize, usize),
+    buf: &mut PairBuffers,
+) -> Result<PointStats> {
+    read_pair_data(&point.bright, shape, buf)?;
+    let bright = pair_stats_data(&buf.0[0], &buf.0[1]);
+    read_pair_data(&point.dark, shape, buf)?;
+    let dark = pair_stats_data(&buf.0[0], &buf.0[1]);
     Ok(PointStats {
         exposure_s: point.exposure_s,
         photons_per_px: point.photons_per_px,
@@ -134,6 +243,38 @@ pub(super) fn read_pair(
     Ok(())
 }
 
+/// [`read_pair`] into `buf`, as stored bytes where the files allow it.
+fn read_pair_data(
+    paths: &[PathBuf; 2],
+    shape: (usize, usize),
+    buf: &mut PairBuffers,
+) -> Result<()> {
+    let [a, b] = &mut buf.0;
+    if paths[0] == paths[1] {
+        let stack = open_shaped(&paths[0], shape)?;
+        stack.require_frames(2, "a pair of frames from one file")?;
+        let mut reader = stack.reader();
+        next_data(&mut reader, &paths[0], a)?;
+        return next_data(&mut reader, &paths[0], b);
+    }
+    for (path, out) in paths.iter().zip([a, b]) {
+        let stack = open_shaped(path, shape)?;
+        next_data(&mut stack.reader(), path, out)?;
+    }
+    Ok(())
+}
+
+fn next_data(
+    reader: &mut crate::io::StackReader<'_>,
+    path: &Path,
+    out: &mut FrameData,
+) -> Result<()> {
+    match reader.next_frame_data(out)? {
+        Some(_) => Ok(()),
+        None => Err(Error::input(path, "frame 0: the file holds no frame")),
+    }
+}
+
 fn open_shaped(path: &Path, shape: (usize, usize)) -> Result<FrameStack> {
     let stack = FrameStack::open(&[path.to_path_buf()])?;
     if stack.shape != shape {
@@ -157,5 +298,90 @@ fn read_next(
     match reader.next_frame(out)? {
         Some(_) => Ok(()),
         None => Err(Error::input(path, "frame 0: the file holds no frame")),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::io::fits::write_cube;
+
+    /// `frames` uint16 frames of `shape`, numbered from `first`, written as one FITS cube at
+    /// `path` (values from a hash of pixel and number, above 32,767 so that BZERO matters);
+    /// returns them.
+    fn write_u16(path: &Path, shape: (usize, usize), first: usize, frames: usize) -> Vec<Vec<f64>> {
+        let n = shape.0 * shape.1;
+        let all: Vec<Vec<f64>> = (first..first + frames)
+            .map(|k| {
+                (0..n)
+                    .map(|i| {
+                        let h =
+                            ((i * 7919 + k * 104_729) as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                        (40_000 + (h >> 52)) as f64
+                    })
+                    .collect()
+            })
+            .collect();
+        let mut next = all.iter().cloned();
+        write_cube(path, shape, frames, true, &mut || next.next().unwrap(), &[]).unwrap();
+        all
+    }
+
+    #[test]
+    fn stored_integer_pairs_give_the_same_bits_as_their_values() {
+        let dir = tempfile::tempdir().unwrap();
+        // 2,501 pixels: more than one block of CHUNK pixels, and a remainder of the lanes.
+        let shape = (41, 61);
+        let files: Vec<PathBuf> = (0..4)
+            .map(|k| dir.path().join(format!("f{k}.fits")))
+            .collect();
+        let frames: Vec<Vec<f64>> = files
+            .iter()
+            .enumerate()
+            .map(|(k, f)| write_u16(f, shape, k, 1).remove(0))
+            .collect();
+        let point = PairPoint {
+            exposure_s: 1.0,
+            photons_per_px: None,
+            bright: [files[0].clone(), files[1].clone()],
+            dark: [files[2].clone(), files[3].clone()],
+        };
+        let mut buf = PairBuffers::default();
+        let got = measure_point(&point, shape, &mut buf).unwrap();
+        assert!(
+            matches!(buf.0[0], FrameData::Raw(..)),
+            "read as stored bytes"
+        );
+        assert_eq!(got.bright, pair_stats(&frames[0], &frames[1]));
+        assert_eq!(got.dark, pair_stats(&frames[2], &frames[3]));
+        assert!(got.bright.variance_dn2 > 0.0 && got.bright.drift_dn != 0.0);
+        // A pair from one two-frame file, into the same (reused) buffers.
+        let cube = dir.path().join("pair.fits");
+        let two = write_u16(&cube, shape, 4, 2);
+        let point = PairPoint {
+            bright: [cube.clone(), cube.clone()],
+            dark: [cube.clone(), cube],
+            ..point
+        };
+        let got = measure_point(&point, shape, &mut buf).unwrap();
+        assert_eq!(got.bright, pair_stats(&two[0], &two[1]));
+    }
+
+    #[test]
+    fn lane_sums_are_exact_only_where_declared() {
+        let layout = |scale: f64, zero: f64| crate::io::RawLayout {
+            kind: crate::io::RawKind::I16,
+            big_endian: true,
+            scale,
+            zero,
+        };
+        let raw = |l| FrameData::Raw(vec![0; 8], l);
+        assert!(exact_sums(&raw(layout(1.0, 32768.0)), 1 << 20));
+        assert!(!exact_sums(&raw(layout(0.5, 32768.0)), 4));
+        assert!(!exact_sums(&raw(layout(1.0, 0.5)), 4));
+        assert!(!exact_sums(&raw(layout(1.0, 0.0)), 1 << 40));
+        assert!(!exact_sums(&FrameData::Values(vec![1.0; 4]), 4));
+        let v: Vec<f64> = (0..8197).map(|i| (i % 977) as f64 - 300.0).collect();
+        assert_eq!(lane_sum(&v), v.iter().sum::<f64>());
     }
 }
