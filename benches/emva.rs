@@ -230,6 +230,7 @@ fn main() {
         out: out.path().join(format!("sheet{k}")),
         force: false,
         spatial: Default::default(),
+        beyond: Default::default(),
     };
     println!(
         "EMVA dataset: {} points x 4 frames + 2 x {} spatial frames of {}x{} uint16, {:.2} GB; \
