@@ -14,7 +14,7 @@ pub use dir::{DirPlan, OutputDir};
 pub use file::{check_file, FileOut, StagedFiles};
 pub use table::{render, write_csv_json, TableFormat};
 
-/// Escape `&`, `<` and `>` for HTML text.
+/// Escape `&`, `<` and `>` for HTML (and XML element) text.
 pub fn html_escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")

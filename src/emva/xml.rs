@@ -308,11 +308,9 @@ pub fn py_float(v: f64) -> String {
     }
 }
 
-/// Text with XML's special characters escaped.
+/// Text with XML's special characters in element content escaped (the same three as HTML).
 fn escape(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
+    crate::output::html_escape(s)
 }
 
 #[cfg(test)]
