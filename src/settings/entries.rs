@@ -567,6 +567,12 @@ pub struct CommandDefault {
 /// Every command's own default for a registry setting; elsewhere the registry's holds.
 pub const COMMAND_DEFAULTS: &[CommandDefault] = &[
     CommandDefault {
+        command: "datasheet",
+        setting: &OPERATING_POINT,
+        default: Some("8,airy:2,50"),
+        why: "the report's operating point, for the effective read noise of the dark noise map",
+    },
+    CommandDefault {
         command: "effective",
         setting: &SUBAP_PX,
         default: Some("4,6,8,10,12,14,16"),
