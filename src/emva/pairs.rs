@@ -229,18 +229,7 @@ pub(super) fn read_pair(
     a: &mut Vec<f64>,
     b: &mut Vec<f64>,
 ) -> Result<()> {
-    if paths[0] == paths[1] {
-        let stack = open_shaped(&paths[0], shape)?;
-        stack.require_frames(2, "a pair of frames from one file")?;
-        let mut reader = stack.reader();
-        read_next(&mut reader, &paths[0], a)?;
-        return read_next(&mut reader, &paths[0], b);
-    }
-    for (path, out) in paths.iter().zip([a, b]) {
-        let stack = open_shaped(path, shape)?;
-        read_next(&mut stack.reader(), path, out)?;
-    }
-    Ok(())
+    read_pair_with(paths, shape, [a, b], read_next)
 }
 
 /// [`read_pair`] into `buf`, as stored bytes where the files allow it.
@@ -250,16 +239,27 @@ fn read_pair_data(
     buf: &mut PairBuffers,
 ) -> Result<()> {
     let [a, b] = &mut buf.0;
+    read_pair_with(paths, shape, [a, b], next_data)
+}
+
+/// The two frames of a pair, each read into its output by `next` (one file holding both, or
+/// two files of one frame each).
+fn read_pair_with<T>(
+    paths: &[PathBuf; 2],
+    shape: (usize, usize),
+    [a, b]: [&mut T; 2],
+    next: fn(&mut crate::io::StackReader<'_>, &Path, &mut T) -> Result<()>,
+) -> Result<()> {
     if paths[0] == paths[1] {
         let stack = open_shaped(&paths[0], shape)?;
         stack.require_frames(2, "a pair of frames from one file")?;
         let mut reader = stack.reader();
-        next_data(&mut reader, &paths[0], a)?;
-        return next_data(&mut reader, &paths[0], b);
+        next(&mut reader, &paths[0], a)?;
+        return next(&mut reader, &paths[0], b);
     }
     for (path, out) in paths.iter().zip([a, b]) {
         let stack = open_shaped(path, shape)?;
-        next_data(&mut stack.reader(), path, out)?;
+        next(&mut stack.reader(), path, out)?;
     }
     Ok(())
 }
