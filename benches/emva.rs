@@ -30,12 +30,25 @@ use detnoise::io::fits::write_cube;
 use detnoise::io::Checksum;
 use detnoise::progress::Silent;
 
-/// Frame shape (rows, cols).
-const SHAPE: (usize, usize) = (1024, 1024);
+/// Frame side (px): 1024, or 512 with `-- 512px` (darks' benchmark frames).
+static SIDE: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
 /// Photon-transfer points (each a bright and a dark pair).
 const POINTS: usize = 50;
-/// Frames of each spatial stack.
-const SPATIAL_FRAMES: usize = 156;
+/// Stored bytes of the whole dataset: 1 GiB.
+const DATASET_BYTES: usize = 1 << 30;
+
+/// Frame shape (rows, cols).
+fn shape() -> (usize, usize) {
+    let side = *SIDE.get_or_init(|| 1024);
+    (side, side)
+}
+
+/// Frames of each spatial stack: what the photon-transfer pairs leave of 1 GiB (156 at
+/// 1024 x 1024, 924 at 512 x 512).
+fn spatial_frames() -> usize {
+    let frame = shape().0 * shape().1 * 2;
+    (DATASET_BYTES / frame - 4 * POINTS) / 2
+}
 /// Bits per sample the descriptor declares.
 const BITS: u32 = 12;
 /// Exposure step of the series (ns).
@@ -78,7 +91,7 @@ fn prnu(i: usize) -> f64 {
 /// One frame at `photons` mean photons per pixel, clipped to the declared bits.
 fn frame(photons: f64, rng: &mut Rng) -> Vec<f64> {
     let top = f64::from((1u32 << BITS) - 1);
-    (0..SHAPE.0 * SHAPE.1)
+    (0..shape().0 * shape().1)
         .map(|i| {
             let e = QE * photons * prnu(i);
             let sigma = (e + DARK_NOISE_E * DARK_NOISE_E).sqrt();
@@ -100,7 +113,8 @@ fn dataset(dir: &Path) -> PathBuf {
     std::fs::create_dir_all(dir.join("images")).expect("the dataset's folder");
     let mut text = format!(
         "# detnoise benches/emva.rs\nv 4.0\nn {BITS} {} {}\n",
-        SHAPE.1, SHAPE.0
+        shape().1,
+        shape().0
     );
     let mut rng = Rng(7);
     let mut k = 0;
@@ -108,7 +122,7 @@ fn dataset(dir: &Path) -> PathBuf {
         for _ in 0..count {
             let name = format!("images/img{k:04}.fits");
             let mut next = || frame(photons, &mut rng);
-            write_cube(&dir.join(&name), SHAPE, 1, true, &mut next, &[]).expect("a frame");
+            write_cube(&dir.join(&name), shape(), 1, true, &mut next, &[]).expect("a frame");
             text.push_str(&format!("i {name}\n"));
             k += 1;
         }
@@ -127,9 +141,9 @@ fn dataset(dir: &Path) -> PathBuf {
         p * STEP_NS,
         p * PHOTONS_PER_STEP
     ));
-    images(SPATIAL_FRAMES, p * PHOTONS_PER_STEP, &mut text);
+    images(spatial_frames(), p * PHOTONS_PER_STEP, &mut text);
     text.push_str(&format!("d {:.1}\n", p * STEP_NS));
-    images(SPATIAL_FRAMES, 0.0, &mut text);
+    images(spatial_frames(), 0.0, &mut text);
     std::fs::write(&descriptor, text).expect("the descriptor");
     std::fs::write(&done, "").expect("the marker");
     println!(
@@ -184,7 +198,7 @@ fn timed<T>(label: &str, bytes: u64, f: impl FnOnce() -> T) -> T {
          cores), {mb:.0} MB peak = {:.1} frames of f64; load {:.1}",
         gb / wall,
         gb / (cpu / 2.0),
-        mb / (SHAPE.0 * SHAPE.1 * 8) as f64 * 1e6,
+        mb / (shape().0 * shape().1 * 8) as f64 * 1e6,
         load()
     );
     out
@@ -213,10 +227,16 @@ fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let runs: usize = args.iter().find_map(|a| a.parse().ok()).unwrap_or(1);
     let with_darks = !args.iter().any(|a| a == "sheet");
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("target/emva-bench-1024");
+    let side = if args.iter().any(|a| a == "512px") {
+        512
+    } else {
+        1024
+    };
+    SIDE.set(side).expect("the frame side is set once");
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("target/emva-bench-{side}"));
     let descriptor = dataset(&dir);
     let data = EmvaDataset::from_descriptor(&descriptor).expect("the descriptor reads");
-    let frame_bytes = (SHAPE.0 * SHAPE.1 * 2) as u64;
+    let frame_bytes = (shape().0 * shape().1 * 2) as u64;
     let (sb, sd) = (
         data.spatial_bright.as_ref().expect("a bright stack"),
         data.spatial_dark.as_ref().expect("a dark stack"),
@@ -237,8 +257,8 @@ fn main() {
          {} threads",
         data.points.len(),
         sb.files.len(),
-        SHAPE.0,
-        SHAPE.1,
+        shape().0,
+        shape().1,
         all as f64 / 1e9,
         rayon::current_num_threads()
     );
@@ -270,6 +290,29 @@ fn main() {
         if !with_darks {
             continue;
         }
+        // The same bytes as the datasheet: every file of the dataset as one stack.
+        let every: Vec<PathBuf> = data
+            .points
+            .iter()
+            .flat_map(|p| p.bright.iter().chain(&p.dark).cloned())
+            .chain(sb.files.iter().cloned())
+            .chain(sd.files.iter().cloned())
+            .collect();
+        let reading = timed(
+            "darks, checksums blake3, on every file of the dataset (one stack)",
+            all,
+            || {
+                darks(
+                    &every,
+                    out.path().join(format!("dall{k}")),
+                    Some(Checksum::Blake3),
+                )
+            },
+        );
+        println!(
+            "  its reading pass: {:.2} GB/s ({reading:.2} s)",
+            all as f64 / 1e9 / reading
+        );
         for (name, sum) in [("blake3", Some(Checksum::Blake3)), ("none", None)] {
             let reading = timed(
                 &format!("darks, checksums {name}, on the spatial stacks' files"),
@@ -281,8 +324,9 @@ fn main() {
             );
             println!(
                 "  its reading passes: {:.2} GB/s ({reading:.2} s; the rest is its per-pixel \
-                 maps and files, which 156 frames do not amortise)",
-                spatial_bytes as f64 / 1e9 / reading
+                 maps and files, which {} frames do not amortise)",
+                spatial_bytes as f64 / 1e9 / reading,
+                sb.files.len()
             );
         }
     }

@@ -16,7 +16,7 @@ use crate::error::{Error, Result};
 use crate::io::{FrameData, FrameStack};
 
 /// Pixels decoded at a time from stored bytes (two such blocks of f64 stay in L1).
-const CHUNK: usize = 2048;
+pub(super) const CHUNK: usize = 2048;
 
 /// The mean and temporal variance of one pair of frames (A, B) of the same scene.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -55,64 +55,115 @@ pub struct PointStats {
 /// is computed here (two passes over the pixels, no cancellation).
 pub fn pair_stats(a: &[f64], b: &[f64]) -> PairStats {
     assert_eq!(a.len(), b.len(), "a pair's frames differ in length");
-    stats_of_chunks(a.len(), false, |f| f(a, b))
+    stats_of(&(a, b), a.len())
 }
 
-/// [`pair_stats`] of two frames as read (stored bytes or values), with the same result bit for
-/// bit: the same sums in the same order, over blocks of [`CHUNK`] decoded pixels.
-fn pair_stats_data(a: &FrameData, b: &FrameData) -> PairStats {
-    if let (FrameData::Values(a), FrameData::Values(b)) = (a, b) {
-        return pair_stats(a, b);
+crate::io::widest! {
+    /// [`pair_stats`] of two frames as read (stored bytes or values), with the same result
+    /// bit for bit: the same sums in the same order, over blocks of [`CHUNK`] decoded pixels.
+    fn pair_stats_data(a: &FrameData, b: &FrameData) -> PairStats {
+        let n = a.pixels();
+        assert_eq!(n, b.pixels(), "a pair's frames differ in length");
+        stats_of(&(a, b), n)
     }
-    let n = pixels(a);
-    assert_eq!(n, pixels(b), "a pair's frames differ in length");
-    let exact = exact_sums(a, n) && exact_sums(b, n);
-    stats_of_chunks(n, exact, |f| {
-        let (mut ba, mut bb) = ([0.0; CHUNK], [0.0; CHUNK]);
-        for start in (0..n).step_by(CHUNK) {
-            let end = (start + CHUNK).min(n);
-            f(
-                values(a, start, end, &mut ba),
-                values(b, start, end, &mut bb),
-            );
-        }
-    })
 }
 
-/// The statistics of a pair of `n` pixels whose values `each` hands, block by block in pixel
-/// order, to the closure it is given. `exact`: every value is an integer and every partial
-/// sum of a frame's values stays below 2^53 in magnitude, so the frame sums are exact in any
-/// order and are taken in eight lanes (the sequential sum's latency chain halved the speed);
-/// otherwise, and always for the squares, the sums run in pixel order.
-fn stats_of_chunks(
-    n: usize,
-    exact: bool,
-    each: impl Fn(&mut dyn FnMut(&[f64], &[f64])),
-) -> PairStats {
-    let (mut sa, mut sb) = (0.0, 0.0);
-    each(&mut |a, b| {
-        if exact {
-            sa += lane_sum(a);
-            sb += lane_sum(b);
-        } else {
-            (sa, sb) = a
-                .iter()
-                .zip(b)
-                .fold((sa, sb), |(sa, sb), (x, y)| (sa + x, sb + y));
+/// A pair of frames handed out a block of [`CHUNK`] pixels at a time.
+trait PairBlocks {
+    /// Pixels `start..end` of both frames (decoded into `ba`, `bb` where stored as bytes).
+    fn block<'a>(
+        &'a self,
+        start: usize,
+        end: usize,
+        ba: &'a mut [f64; CHUNK],
+        bb: &'a mut [f64; CHUNK],
+    ) -> (&'a [f64], &'a [f64]);
+}
+
+impl PairBlocks for (&[f64], &[f64]) {
+    #[inline(always)]
+    fn block<'a>(
+        &'a self,
+        start: usize,
+        end: usize,
+        _: &'a mut [f64; CHUNK],
+        _: &'a mut [f64; CHUNK],
+    ) -> (&'a [f64], &'a [f64]) {
+        (&self.0[start..end], &self.1[start..end])
+    }
+}
+
+impl PairBlocks for (&FrameData, &FrameData) {
+    #[inline(always)]
+    fn block<'a>(
+        &'a self,
+        start: usize,
+        end: usize,
+        ba: &'a mut [f64; CHUNK],
+        bb: &'a mut [f64; CHUNK],
+    ) -> (&'a [f64], &'a [f64]) {
+        (self.0.block(start, end, ba), self.1.block(start, end, bb))
+    }
+}
+
+/// Running sums in [`LANES`] lanes, pixel i into lane i mod LANES (blocks start at multiples
+/// of LANES), added up lane by lane at the end: a fixed order whatever the blocks, with
+/// LANES independent additions per step instead of one chain (the chain's latency bound the
+/// pass), and exact for integer values whose sums stay below 2^53.
+const LANES: usize = 8;
+
+/// Add the values of frames `a` and `b` to their lanes.
+#[inline(always)]
+fn add_values(sa: &mut [f64; LANES], sb: &mut [f64; LANES], a: &[f64], b: &[f64]) {
+    let (mut ca, mut cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
+    for (xa, xb) in (&mut ca).zip(&mut cb) {
+        for k in 0..LANES {
+            sa[k] += xa[k];
+            sb[k] += xb[k];
         }
-    });
+    }
+    for (k, (x, y)) in ca.remainder().iter().zip(cb.remainder()).enumerate() {
+        sa[k] += x;
+        sb[k] += y;
+    }
+}
+
+/// Add e^2 and e^4, e = a - b - `drift`, to their lanes.
+#[inline(always)]
+fn add_moments(m2: &mut [f64; LANES], m4: &mut [f64; LANES], a: &[f64], b: &[f64], drift: f64) {
+    let (mut ca, mut cb) = (a.chunks_exact(LANES), b.chunks_exact(LANES));
+    for (xa, xb) in (&mut ca).zip(&mut cb) {
+        for k in 0..LANES {
+            let e = (xa[k] - xb[k]) - drift;
+            m2[k] += e * e;
+            m4[k] += e * e * (e * e);
+        }
+    }
+    for (k, (x, y)) in ca.remainder().iter().zip(cb.remainder()).enumerate() {
+        let e = (x - y) - drift;
+        m2[k] += e * e;
+        m4[k] += e * e * (e * e);
+    }
+}
+
+/// The statistics of a pair of `n` pixels (see [`PairStats`]).
+#[inline(always)]
+fn stats_of(pair: &impl PairBlocks, n: usize) -> PairStats {
+    let (mut ba, mut bb) = ([0.0; CHUNK], [0.0; CHUNK]);
+    let (mut sa, mut sb) = ([0.0; LANES], [0.0; LANES]);
+    for start in (0..n).step_by(CHUNK) {
+        let (a, b) = pair.block(start, (start + CHUNK).min(n), &mut ba, &mut bb);
+        add_values(&mut sa, &mut sb, a, b);
+    }
     let nf = n as f64;
-    let (mean_a, mean_b) = (sa / nf, sb / nf);
+    let (mean_a, mean_b) = (sa.iter().sum::<f64>() / nf, sb.iter().sum::<f64>() / nf);
     let drift = mean_a - mean_b;
-    let (mut m2, mut m4) = (0.0, 0.0);
-    each(&mut |a, b| {
-        (m2, m4) = a.iter().zip(b).fold((m2, m4), |(m2, m4), (x, y)| {
-            let e = (x - y) - drift;
-            let e2 = e * e;
-            (m2 + e2, m4 + e2 * e2)
-        });
-    });
-    let (m2, m4) = (m2 / nf, m4 / nf);
+    let (mut m2, mut m4) = ([0.0; LANES], [0.0; LANES]);
+    for start in (0..n).step_by(CHUNK) {
+        let (a, b) = pair.block(start, (start + CHUNK).min(n), &mut ba, &mut bb);
+        add_moments(&mut m2, &mut m4, a, b, drift);
+    }
+    let (m2, m4) = (m2.iter().sum::<f64>() / nf, m4.iter().sum::<f64>() / nf);
     let variance = m2 / 2.0;
     PairStats {
         mean_dn: (mean_a + mean_b) / 2.0,
@@ -121,53 +172,6 @@ fn stats_of_chunks(
         variance_dn2: variance,
         variance_se_dn2: ((m4 - m2 * m2).max(0.0) / nf).sqrt() / 2.0,
         pixels: n,
-    }
-}
-
-/// Sum of `v` in eight lanes (exact only for integers with small partial sums).
-fn lane_sum(v: &[f64]) -> f64 {
-    let mut lanes = [0.0; 8];
-    let mut blocks = v.chunks_exact(8);
-    for block in &mut blocks {
-        for (l, x) in lanes.iter_mut().zip(block) {
-            *l += x;
-        }
-    }
-    lanes.iter().chain(blocks.remainder()).sum()
-}
-
-/// Pixels of a frame as read.
-fn pixels(f: &FrameData) -> usize {
-    match f {
-        FrameData::Values(v) => v.len(),
-        FrameData::Raw(bytes, layout) => bytes.len() / layout.width(),
-    }
-}
-
-/// Whether `f`'s `n` values are integers whose sums over any subset stay below 2^53 (stored
-/// integers of at most 32 bits, unit scale, an integer zero).
-fn exact_sums(f: &FrameData, n: usize) -> bool {
-    let FrameData::Raw(_, layout) = f else {
-        return false;
-    };
-    let bits = 8 * layout.width() as i32;
-    let largest = 2f64.powi(bits) + layout.zero.abs();
-    layout.width() <= 4
-        && layout.scale == 1.0
-        && layout.zero.fract() == 0.0
-        && largest * (n as f64) < 2f64.powi(53)
-}
-
-/// Values `start..end` of `f`: a slice of its values, or its bytes decoded into `buf`.
-fn values<'a>(f: &'a FrameData, start: usize, end: usize, buf: &'a mut [f64; CHUNK]) -> &'a [f64] {
-    match f {
-        FrameData::Values(v) => &v[start..end],
-        FrameData::Raw(bytes, layout) => {
-            let w = layout.width();
-            let out = &mut buf[..end - start];
-            layout.decode(&bytes[start * w..end * w], out);
-            out
-        }
     }
 }
 
@@ -191,6 +195,13 @@ pub fn measure(dataset: &EmvaDataset) -> Result<Vec<PointStats>> {
 /// A worker's two frames as read (stored bytes or values), reused from pair to pair.
 #[derive(Debug)]
 pub struct PairBuffers([FrameData; 2]);
+
+impl PairBuffers {
+    /// The pair's two frames as last read.
+    pub fn frames(&self) -> [&FrameData; 2] {
+        [&self.0[0], &self.0[1]]
+    }
+}
 
 impl Default for PairBuffers {
     fn default() -> Self {
@@ -221,45 +232,24 @@ pub(super) fn frame_shape(path: &Path) -> Result<(usize, usize)> {
     Ok(FrameStack::open(&[path.to_path_buf()])?.shape)
 }
 
-/// Read a pair's two frames into `a` and `b`: the first frame of each file, or frames 0 and 1
-/// when both are the same file.
-pub(super) fn read_pair(
-    paths: &[PathBuf; 2],
-    shape: (usize, usize),
-    a: &mut Vec<f64>,
-    b: &mut Vec<f64>,
-) -> Result<()> {
-    read_pair_with(paths, shape, [a, b], read_next)
-}
-
-/// [`read_pair`] into `buf`, as stored bytes where the files allow it.
-fn read_pair_data(
+/// Read a pair's two frames into `buf`, as stored bytes where the files allow it: the first
+/// frame of each file, or frames 0 and 1 when both are the same file.
+pub(super) fn read_pair_data(
     paths: &[PathBuf; 2],
     shape: (usize, usize),
     buf: &mut PairBuffers,
 ) -> Result<()> {
     let [a, b] = &mut buf.0;
-    read_pair_with(paths, shape, [a, b], next_data)
-}
-
-/// The two frames of a pair, each read into its output by `next` (one file holding both, or
-/// two files of one frame each).
-fn read_pair_with<T>(
-    paths: &[PathBuf; 2],
-    shape: (usize, usize),
-    [a, b]: [&mut T; 2],
-    next: fn(&mut crate::io::StackReader<'_>, &Path, &mut T) -> Result<()>,
-) -> Result<()> {
     if paths[0] == paths[1] {
         let stack = open_shaped(&paths[0], shape)?;
         stack.require_frames(2, "a pair of frames from one file")?;
         let mut reader = stack.reader();
-        next(&mut reader, &paths[0], a)?;
-        return next(&mut reader, &paths[0], b);
+        next_data(&mut reader, &paths[0], a)?;
+        return next_data(&mut reader, &paths[0], b);
     }
     for (path, out) in paths.iter().zip([a, b]) {
         let stack = open_shaped(path, shape)?;
-        next(&mut stack.reader(), path, out)?;
+        next_data(&mut stack.reader(), path, out)?;
     }
     Ok(())
 }
@@ -287,18 +277,6 @@ fn open_shaped(path: &Path, shape: (usize, usize)) -> Result<FrameStack> {
         ));
     }
     Ok(stack)
-}
-
-fn read_next(
-    reader: &mut crate::io::StackReader<'_>,
-    path: &Path,
-    out: &mut Vec<f64>,
-) -> Result<()> {
-    out.resize(reader.stack().pixels(), 0.0);
-    match reader.next_frame(out)? {
-        Some(_) => Ok(()),
-        None => Err(Error::input(path, "frame 0: the file holds no frame")),
-    }
 }
 
 #[cfg(test)]
@@ -368,20 +346,27 @@ mod tests {
     }
 
     #[test]
-    fn lane_sums_are_exact_only_where_declared() {
-        let layout = |scale: f64, zero: f64| crate::io::RawLayout {
-            kind: crate::io::RawKind::I16,
-            big_endian: true,
-            scale,
-            zero,
-        };
-        let raw = |l| FrameData::Raw(vec![0; 8], l);
-        assert!(exact_sums(&raw(layout(1.0, 32768.0)), 1 << 20));
-        assert!(!exact_sums(&raw(layout(0.5, 32768.0)), 4));
-        assert!(!exact_sums(&raw(layout(1.0, 0.5)), 4));
-        assert!(!exact_sums(&raw(layout(1.0, 0.0)), 1 << 40));
-        assert!(!exact_sums(&FrameData::Values(vec![1.0; 4]), 4));
-        let v: Vec<f64> = (0..8197).map(|i| (i % 977) as f64 - 300.0).collect();
-        assert_eq!(lane_sum(&v), v.iter().sum::<f64>());
+    fn integer_sums_are_exact_and_the_variance_is_the_direct_sums() {
+        // 10,001 pixels: several blocks and a remainder of the lanes.
+        let n = 10_001;
+        let a: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 4093 + 40_000) as f64)
+            .collect();
+        let b: Vec<f64> = (0..n)
+            .map(|i| ((i * 104_729) % 4091 + 40_000) as f64)
+            .collect();
+        let got = pair_stats(&a, &b);
+        let exact = |v: &[f64]| v.iter().map(|&x| x as i64).sum::<i64>() as f64 / n as f64;
+        let drift = exact(&a) - exact(&b);
+        assert_eq!(got.drift_dn, drift);
+        assert_eq!(got.mean_dn, (exact(&a) + exact(&b)) / 2.0);
+        let direct = a
+            .iter()
+            .zip(&b)
+            .map(|(x, y)| (x - y - drift).powi(2))
+            .sum::<f64>()
+            / n as f64
+            / 2.0;
+        assert!((got.variance_dn2 / direct - 1.0).abs() < 1e-13);
     }
 }

@@ -92,8 +92,9 @@ pub fn write_all(
     let mut sheet = datasheet.sheet(dataset);
     let beyond = beyond(dataset, &datasheet, beyond_options)?;
     beyond.add_to(&mut sheet);
-    beyond.write(dir)?;
-    sheet.write(dir)?;
+    let (maps_written, sheet_written) = rayon::join(|| beyond.write(dir), || sheet.write(dir));
+    maps_written?;
+    sheet_written?;
     // The reference implementation's XML result file, beside the sheet.
     super::xml::write_xml(&datasheet, dir)?;
     Ok((datasheet, sheet))

@@ -267,9 +267,61 @@ pub fn spatial_from_images(
         }
     };
 
+    // The spectrograms, the histograms and the defect counts are independent: in parallel.
+    let ((spectrogram_horizontal, spectrogram_vertical), (histograms, defects)) = rayon::join(
+        || rayon::join(|| spectrogram(false), || spectrogram(true)),
+        || {
+            rayon::join(
+                || histograms(bright, dark, signal, options.histogram_bins),
+                || defects(&md, &diff, shape, signal, options.defect_factor),
+            )
+        },
+    );
+    let (histogram_dsnu, histogram_dsnu_accumulated, histogram_prnu, histogram_prnu_accumulated) =
+        histograms;
+    let (defects_dark, defects_bright) = defects;
+
+    Ok(SpatialResult {
+        rows: shape.0,
+        cols: shape.1,
+        frames_bright: bright.frames,
+        frames_dark: dark.frames,
+        saturation_fraction,
+        dark: terms(&sd, dark, parts_ok),
+        bright: terms(&sb, bright, parts_ok),
+        dsnu_dn,
+        dsnu_e,
+        prnu_percent,
+        spectrogram_horizontal,
+        spectrogram_vertical,
+        profile_horizontal_dark: profile(&md, shape, false),
+        profile_horizontal_bright: profile(&diff, shape, false),
+        profile_vertical_dark: profile(&md, shape, true),
+        profile_vertical_bright: profile(&diff, shape, true),
+        histogram_dsnu,
+        histogram_dsnu_accumulated,
+        histogram_prnu,
+        histogram_prnu_accumulated,
+        defects_dark,
+        defects_bright,
+    })
+}
+
+/// The standard's histograms: DSNU of the dark image, PRNU of the highpassed bright less dark
+/// image (each plain and accumulated), `qmax` bins at most; `signal` (DN) for PRNU in %.
+fn histograms(
+    bright: &StackImage,
+    dark: &StackImage,
+    signal: f64,
+    qmax: usize,
+) -> (
+    Histogram,
+    AccumulatedHistogram,
+    Histogram,
+    AccumulatedHistogram,
+) {
     // The histograms bin sums of L frames, as the standard does, so that integer samples give
     // integer values and bins of whole DN / L.
-    let qmax = options.histogram_bins;
     let lb = bright.frames as f64;
     let ld = dark.frames as f64;
     let dsnu_bins = bin1288(&dark.sum_dn, qmax);
@@ -296,7 +348,7 @@ pub fn spatial_from_images(
         .zip(&dark.sum_dn)
         .map(|(b, d)| b - d * lb / ld)
         .collect();
-    let (filtered, _) = highpass(&diff_sum, shape, HIGHPASS_SIZE);
+    let (filtered, _) = highpass(&diff_sum, bright.shape, HIGHPASS_SIZE);
     let hp_scale = lb * (HIGHPASS_SIZE * HIGHPASS_SIZE) as f64;
     let to_percent = |dn: &[f64]| Some(dn.iter().map(|v| 100.0 * v / signal).collect());
     let prnu_bins = bin1288(&filtered, qmax);
@@ -314,35 +366,31 @@ pub fn spatial_from_images(
         bins_dn,
         pixels_percent: prnu_acc.accumulated_percent(),
     };
-    let defects_percent: Vec<f64> = median_highpass(&diff, shape, HIGHPASS_SIZE)
-        .iter()
-        .map(|v| 100.0 * v / signal)
-        .collect();
-
-    Ok(SpatialResult {
-        rows: shape.0,
-        cols: shape.1,
-        frames_bright: bright.frames,
-        frames_dark: dark.frames,
-        saturation_fraction,
-        dark: terms(&sd, dark, parts_ok),
-        bright: terms(&sb, bright, parts_ok),
-        dsnu_dn,
-        dsnu_e,
-        prnu_percent,
-        spectrogram_horizontal: spectrogram(false),
-        spectrogram_vertical: spectrogram(true),
-        profile_horizontal_dark: profile(&md, shape, false),
-        profile_horizontal_bright: profile(&diff, shape, false),
-        profile_vertical_dark: profile(&md, shape, true),
-        profile_vertical_bright: profile(&diff, shape, true),
+    (
         histogram_dsnu,
         histogram_dsnu_accumulated,
         histogram_prnu,
         histogram_prnu_accumulated,
-        defects_dark: outliers(&md, options.defect_factor),
-        defects_bright: outliers(&defects_percent, options.defect_factor),
-    })
+    )
+}
+
+/// Defect counts of the dark image `md` (DN) and of the bright less dark image `diff` (DN,
+/// each pixel less its neighbourhood's median, in % of `signal`).
+fn defects(
+    md: &[f64],
+    diff: &[f64],
+    shape: (usize, usize),
+    signal: f64,
+    factor: f64,
+) -> (Outliers, Outliers) {
+    let defects_percent: Vec<f64> = median_highpass(diff, shape, HIGHPASS_SIZE)
+        .iter()
+        .map(|v| 100.0 * v / signal)
+        .collect();
+    rayon::join(
+        || outliers(md, factor),
+        || outliers(&defects_percent, factor),
+    )
 }
 
 /// The temporal variance left in a stack's averaged image, sigma^2_y.stack / L, and its

@@ -152,6 +152,29 @@ impl FrameData {
         }
     }
 
+    /// Pixels of the frame.
+    pub fn pixels(&self) -> usize {
+        match self {
+            FrameData::Values(v) => v.len(),
+            FrameData::Raw(bytes, layout) => bytes.len() / layout.width(),
+        }
+    }
+
+    /// Values `start..end`: a slice of a decoded frame, or a raw frame's bytes decoded into
+    /// `buf` (at least `end - start` long), so that a block stays in cache.
+    #[inline(always)]
+    pub fn block<'a>(&'a self, start: usize, end: usize, buf: &'a mut [f64]) -> &'a [f64] {
+        match self {
+            FrameData::Values(v) => &v[start..end],
+            FrameData::Raw(bytes, layout) => {
+                let w = layout.width();
+                let out = &mut buf[..end - start];
+                layout.decode(&bytes[start * w..end * w], out);
+                out
+            }
+        }
+    }
+
     /// The values of a decoded frame (panics on a raw frame: call `decode_in_place` first).
     pub fn values(&self) -> &[f64] {
         match self {
@@ -193,6 +216,42 @@ pub(crate) fn widen<T: Copy + Into<f64>>(
 pub(crate) fn to_u16(x: f64) -> u16 {
     x.round().clamp(0.0, u16::MAX as f64) as u16
 }
+
+/// Define `fn NAME(ARGS) -> RET { BODY }` compiled three times (AVX-512F, AVX2, the
+/// baseline) and dispatched at run time on the CPU's features: loops in the body, and those
+/// inlined into it (such as [`RawLayout::decode`], always inlined), are vectorised with the
+/// widest registers. Every version does the same IEEE operations in the same order (no fused
+/// multiply-add is enabled), so the results do not depend on the CPU.
+macro_rules! widest {
+    ($(#[$meta:meta])* $vis:vis fn $name:ident($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
+        $(#[$meta])*
+        $vis fn $name($($arg: $ty),*) $(-> $ret)? {
+            #[inline(always)]
+            fn baseline($($arg: $ty),*) $(-> $ret)? $body
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx512f")]
+                unsafe fn avx512($($arg: $ty),*) $(-> $ret)? {
+                    baseline($($arg),*)
+                }
+                #[target_feature(enable = "avx2")]
+                unsafe fn avx2($($arg: $ty),*) $(-> $ret)? {
+                    baseline($($arg),*)
+                }
+                if std::arch::is_x86_feature_detected!("avx512f") {
+                    // SAFETY: the CPU supports AVX-512F (checked just above).
+                    return unsafe { avx512($($arg),*) };
+                }
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU supports AVX2 (checked just above).
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            baseline($($arg),*)
+        }
+    };
+}
+pub(crate) use widest;
 
 #[cfg(test)]
 mod tests {

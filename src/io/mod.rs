@@ -31,6 +31,7 @@ pub(crate) use digest::one_shot_digest;
 pub use digest::{checksum_file, hash_stack_while, ByteTap, Checksum};
 pub use file::{read_image, Image, SourceFile};
 pub use format::{SampleType, StackFormat};
+pub(crate) use frame::widest;
 pub use frame::{FrameData, FrameOrigin, RawKind, RawLayout};
 pub use inputs::expand_inputs;
 pub use reader::StackReader;

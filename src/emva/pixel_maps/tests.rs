@@ -77,14 +77,7 @@ fn gain_and_dark_current_maps_match_the_pixels_truth_within_their_ses() {
         .collect();
     let result = temporal(&stats);
     let k = result.system_gain_dn_per_e.value;
-    let mut acc = MapAccumulator::new(PIXELS);
-    for (i, [a, b, da, db]) in frames.iter().enumerate() {
-        acc.add_dark_point(da, db, &stats[i]);
-        if i <= result.sensitivity_fit[1] {
-            acc.add_gain_point([a, b, da, db], &stats[i], k);
-        }
-    }
-    let maps = acc.finish((50, 50), k);
+    let maps = accumulate(frames.iter().flatten(), &stats, &result);
     let (mean, rms) = pulls(&maps.gain_dn_per_e, &maps.gain_se_dn_per_e, &truth.gain);
     eprintln!("gain map pulls: mean {mean}, rms {rms}");
     assert!(
@@ -105,11 +98,27 @@ fn gain_and_dark_current_maps_match_the_pixels_truth_within_their_ses() {
     );
 }
 
+/// The maps of in-memory frames (four per point: bright pair, dark pair), point by point.
+fn accumulate<'a>(
+    frames: impl Iterator<Item = &'a Vec<f64>>,
+    stats: &[PointStats],
+    result: &TemporalResult,
+) -> PixelMaps {
+    let k = result.system_gain_dn_per_e.value;
+    let frames: Vec<FrameData> = frames.map(|f| FrameData::Values(f.clone())).collect();
+    let mut acc = MapAccumulator::new(PIXELS);
+    for (i, f) in frames.chunks(4).enumerate() {
+        let bright = (i <= result.sensitivity_fit[1]).then(|| [&f[0], &f[1]]);
+        acc.add_point([&f[2], &f[3]], bright, &stats[i], k);
+    }
+    acc.finish((50, 50), k)
+}
+
 #[test]
 fn pixel_maps_read_from_files_equal_the_accumulated_frames() {
     use crate::emva::pairs::measure;
     use crate::emva::{EmvaDataset, PairPoint};
-    use crate::io::fits::{write_image, ImageData};
+    use crate::io::fits::write_cube;
     let truth = truth();
     let dir = tempfile::tempdir().unwrap();
     let mut frames = Vec::new();
@@ -121,7 +130,9 @@ fn pixel_maps_read_from_files_equal_the_accumulated_frames() {
         for (k, e) in [2000.0 * t, 2000.0 * t, 0.0, 0.0].into_iter().enumerate() {
             let v = frame(&truth, e, t, &mut rng);
             let path = dir.path().join(format!("p{i}f{k}.fits"));
-            write_image(&path, (50, 50), ImageData::F64(&v), "", &[]).unwrap();
+            // Stored as uint16 (read as stored bytes, decoded block by block).
+            let mut once = Some(v.clone());
+            write_cube(&path, (50, 50), 1, true, &mut || once.take().unwrap(), &[]).unwrap();
             frames.push(v);
             paths.push(path);
         }
@@ -142,14 +153,6 @@ fn pixel_maps_read_from_files_equal_the_accumulated_frames() {
     let stats = measure(&dataset).unwrap();
     let result = temporal(&stats);
     let maps = pixel_maps(&dataset, &stats, &result).unwrap();
-    let k = result.system_gain_dn_per_e.value;
-    let mut acc = MapAccumulator::new(PIXELS);
-    for (i, f) in frames.chunks(4).enumerate() {
-        acc.add_dark_point(&f[2], &f[3], &stats[i]);
-        if i <= result.sensitivity_fit[1] {
-            acc.add_gain_point([&f[0], &f[1], &f[2], &f[3]], &stats[i], k);
-        }
-    }
-    assert_eq!(maps, acc.finish((50, 50), k));
+    assert_eq!(maps, accumulate(frames.iter(), &stats, &result));
     assert!(maps.gain_dn_per_e.iter().all(|g| g.is_finite()));
 }

@@ -1,6 +1,8 @@
 //! The standard's logarithmic and accumulated histograms, its 5 x 5 highpass filter and the
 //! defect pixel counts.
 
+use rayon::prelude::*;
+
 /// A histogram with the standard's binning (release 4.0, as `emva1288`'s `Histogram1288`):
 /// integer bin width W >= 1 in the units of the values binned (sums of L frames), at most
 /// `qmax` bins from the smallest value.
@@ -137,20 +139,99 @@ pub fn median_highpass(image: &[f64], shape: (usize, usize), dim: usize) -> Vec<
         return Vec::new();
     }
     let half = dim / 2;
-    let mut window = vec![0.0; dim * dim];
-    let mut out = Vec::with_capacity((rows - 2 * half) * (cols - 2 * half));
-    for r in half..rows - half {
-        for c in half..cols - half {
-            for (k, w) in window.iter_mut().enumerate() {
-                *w = image[(r + k / dim - half) * cols + c + k % dim - half];
+    let ocols = cols - 2 * half;
+    let mut out = vec![0.0; (rows - 2 * half) * ocols];
+    // 5 x 5 boxes of numbers (no NaN, whose place in the order the network's comparisons do
+    // not follow) go through the selection network, LANES pixels at a time; other boxes are
+    // selected one by one. Output rows in parallel: each pixel's value is its own.
+    let network = dim == 5 && !image.iter().any(|v| v.is_nan());
+    out.par_chunks_mut(ocols)
+        .enumerate()
+        .for_each(|(orow, line)| {
+            let r = orow + half;
+            if network {
+                median5_row(image, cols, r, line);
+            } else {
+                median_row(image, cols, dim, r, line);
             }
-            let median = *window
-                .select_nth_unstable_by(dim * dim / 2, f64::total_cmp)
-                .1;
-            out.push(image[r * cols + c] - median);
+        });
+    out
+}
+
+/// Output `line` of [`median_highpass`] (box centred on image row `r`), one pixel at a time.
+fn median_row(image: &[f64], cols: usize, dim: usize, r: usize, line: &mut [f64]) {
+    let half = dim / 2;
+    let mut window = vec![0.0; dim * dim];
+    for (oc, o) in line.iter_mut().enumerate() {
+        let c = oc + half;
+        for (wr, w) in window.chunks_exact_mut(dim).enumerate() {
+            let from = (r + wr - half) * cols + c - half;
+            w.copy_from_slice(&image[from..from + dim]);
+        }
+        let median = *window
+            .select_nth_unstable_by(dim * dim / 2, f64::total_cmp)
+            .1;
+        *o = image[r * cols + c] - median;
+    }
+}
+
+/// Output pixels whose 5 x 5 medians [`median25`] takes at once.
+const LANES: usize = 8;
+
+/// Output `line` of [`median_highpass`] for a 5 x 5 box (centred on image row `r`), LANES
+/// pixels at a time through [`median25`].
+fn median5_row(image: &[f64], cols: usize, r: usize, line: &mut [f64]) {
+    let ocols = line.len();
+    for c0 in (0..ocols).step_by(LANES) {
+        let mut w = [[0.0; LANES]; 25];
+        for (k, lanes) in w.iter_mut().enumerate() {
+            let from = (r + k / 5 - 2) * cols + k % 5;
+            for (l, x) in lanes.iter_mut().enumerate() {
+                // Lanes past the row's end repeat its last box (their medians are not used).
+                *x = image[from + (c0 + l).min(ocols - 1)];
+            }
+        }
+        let median = median25(&mut w);
+        for (l, o) in line[c0..].iter_mut().take(LANES).enumerate() {
+            *o = image[r * cols + c0 + l + 2] - median[l];
         }
     }
-    out
+}
+
+/// Batcher's odd-even merge sort of 32 inputs, the last 7 of them +inf, pruned to the
+/// compare-exchanges (min to the first wire, max to the second) that the 13th smallest, on
+/// wire 12, depends on (scripts/median25_network.py writes and checks it).
+#[rustfmt::skip]
+const NET: [(u8, u8); 113] = [
+    (0, 1), (2, 3), (4, 5), (6, 7), (8, 9), (10, 11), (12, 13), (14, 15), (16, 17), (18, 19),
+    (20, 21), (22, 23), (0, 2), (1, 3), (4, 6), (5, 7), (8, 10), (9, 11), (12, 14), (13, 15),
+    (16, 18), (17, 19), (20, 22), (21, 23), (1, 2), (5, 6), (9, 10), (13, 14), (17, 18),
+    (21, 22), (0, 4), (1, 5), (2, 6), (3, 7), (8, 12), (9, 13), (10, 14), (11, 15), (16, 20),
+    (17, 21), (18, 22), (19, 23), (2, 4), (3, 5), (10, 12), (11, 13), (18, 20), (19, 21),
+    (1, 2), (3, 4), (5, 6), (9, 10), (11, 12), (13, 14), (17, 18), (19, 20), (21, 22), (0, 8),
+    (1, 9), (2, 10), (3, 11), (4, 12), (5, 13), (6, 14), (7, 15), (16, 24), (4, 8), (5, 9),
+    (6, 10), (7, 11), (20, 24), (2, 4), (3, 5), (6, 8), (7, 9), (10, 12), (11, 13), (18, 20),
+    (19, 21), (22, 24), (1, 2), (3, 4), (5, 6), (7, 8), (9, 10), (11, 12), (13, 14), (17, 18),
+    (19, 20), (21, 22), (23, 24), (0, 16), (1, 17), (2, 18), (3, 19), (4, 20), (5, 21),
+    (6, 22), (7, 23), (8, 24), (8, 16), (9, 17), (10, 18), (11, 19), (12, 20), (13, 21),
+    (6, 10), (7, 11), (12, 16), (13, 17), (10, 12), (11, 13), (11, 12),
+];
+
+crate::io::widest! {
+    /// The medians of LANES boxes of 25 numbers at once (box `l`'s values in `w[..][l]`):
+    /// [`NET`]'s compare-exchanges, branch-free, leave the 13th smallest value on wire 12, the
+    /// value a sort puts in the middle.
+    fn median25(w: &mut [[f64; LANES]; 25]) -> [f64; LANES] {
+        for &(a, b) in &NET {
+            let (x, y) = (w[a as usize], w[b as usize]);
+            for l in 0..LANES {
+                let lower = x[l] < y[l];
+                w[a as usize][l] = if lower { x[l] } else { y[l] };
+                w[b as usize][l] = if lower { y[l] } else { x[l] };
+            }
+        }
+        w[12]
+    }
 }
 
 /// Pixels far from the bulk of an image: counts above and below the median by more than
@@ -189,5 +270,48 @@ pub fn outliers(values: &[f64], factor: f64) -> Outliers {
         robust_std,
         above: values.iter().filter(|&&v| v > med + t).count() as u64,
         below: values.iter().filter(|&&v| v < med - t).count() as u64,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 37 x 29 image (output rows of 25 pixels: three full groups of LANES and a part one)
+    /// of values from a hash, drawn from `levels` distinct values so that boxes hold ties.
+    fn image(levels: u64, seed: u64) -> Vec<f64> {
+        (0..37 * 29)
+            .map(|i| {
+                let h = (i as u64 ^ seed).wrapping_mul(0x9e37_79b9_7f4a_7c15);
+                ((h >> 40) % levels) as f64 * 0.5 - 3.0
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_median_network_gives_the_middle_of_every_box() {
+        let shape = (37, 29);
+        for (levels, seed) in [(3, 1), (7, 2), (1000, 3), (1 << 20, 4)] {
+            let img = image(levels, seed);
+            let got = median_highpass(&img, shape, 5);
+            let mut want = vec![0.0; got.len()];
+            for (orow, line) in want.chunks_mut(25).enumerate() {
+                median_row(&img, 29, 5, orow + 2, line);
+            }
+            assert_eq!(got, want, "{levels} levels");
+        }
+        // Every one of the 25 ranks on the middle wire for some box: a sort's middle element.
+        for k in 0..25 {
+            let mut w = [[0.0; LANES]; 25];
+            for (i, v) in w.iter_mut().enumerate() {
+                *v = [((i + k) % 25) as f64; LANES];
+            }
+            assert_eq!(median25(&mut w), [12.0; LANES]);
+        }
+        // A NaN anywhere: every box is selected one by one (NaN sorts last).
+        let mut img = image(7, 5);
+        img[100] = f64::NAN;
+        let got = median_highpass(&img, shape, 5);
+        assert!(got.iter().filter(|v| v.is_nan()).count() == 1);
     }
 }

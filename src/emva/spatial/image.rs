@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 
 use crate::error::{Error, Result};
-use crate::io::{read_batches, FrameData, FrameStack, RawLayout};
+use crate::io::{read_batches, FrameData, FrameStack};
 
 /// Pixels per rayon task when a frame is added to the sums.
 const CHUNK: usize = 16_384;
@@ -47,7 +47,7 @@ impl StackImage {
     ) -> Result<StackImage> {
         let mut acc = Accumulator::new(shape);
         for f in frames {
-            acc.add(f);
+            acc.add_batch(&[FrameData::Values(f.to_vec())]);
         }
         acc.finish(Path::new("<memory>"))
     }
@@ -75,46 +75,30 @@ impl Accumulator {
         }
     }
 
-    fn add(&mut self, frame: &[f64]) {
-        assert_eq!(frame.len(), self.s1.len(), "frame of the wrong size");
+    /// Add a batch of frames as read (stored bytes or values), pixels in parallel: each task
+    /// walks its pixels a block at a time through every frame of the batch, so the sums are
+    /// read and written once per batch, not once per frame (and every pixel's sums still run
+    /// over the frames in their order, whatever the threads).
+    fn add_batch(&mut self, frames: &[FrameData]) {
+        let Some(first) = frames.first() else {
+            return;
+        };
+        let n = self.s1.len();
+        assert!(
+            frames.iter().all(|f| f.pixels() == n),
+            "frame of the wrong size"
+        );
         if self.frames == 0 {
-            self.first = frame.to_vec();
+            let mut buf = vec![0.0; n];
+            self.first = first.block(0, n, &mut buf).to_vec();
         }
-        self.frames += 1;
+        self.frames += frames.len();
         self.s1
             .par_chunks_mut(CHUNK)
             .zip(self.s2.par_chunks_mut(CHUNK))
-            .zip(self.first.par_chunks(CHUNK).zip(frame.par_chunks(CHUNK)))
-            .for_each(|((s1, s2), (y0, y))| add_values(s1, s2, y0, y));
-    }
-
-    /// [`Accumulator::add`] of a frame's stored bytes, decoded block by block inside each task
-    /// (no frame of f64 is written and read back; the same values and sums).
-    fn add_raw(&mut self, bytes: &[u8], layout: RawLayout) {
-        let w = layout.width();
-        assert_eq!(bytes.len(), self.s1.len() * w, "frame of the wrong size");
-        if self.frames == 0 {
-            self.first = vec![0.0; self.s1.len()];
-            layout.decode(bytes, &mut self.first);
-        }
-        self.frames += 1;
-        self.s1
-            .par_chunks_mut(CHUNK)
-            .zip(self.s2.par_chunks_mut(CHUNK))
-            .zip(
-                self.first
-                    .par_chunks(CHUNK)
-                    .zip(bytes.par_chunks(CHUNK * w)),
-            )
-            .for_each(|((s1, s2), (y0, raw))| {
-                let mut y = [0.0; BLOCK];
-                for start in (0..s1.len()).step_by(BLOCK) {
-                    let end = (start + BLOCK).min(s1.len());
-                    let y = &mut y[..end - start];
-                    layout.decode(&raw[start * w..end * w], y);
-                    add_values(&mut s1[start..end], &mut s2[start..end], &y0[start..end], y);
-                }
-            });
+            .zip(self.first.par_chunks(CHUNK))
+            .enumerate()
+            .for_each(|(task, ((s1, s2), y0))| add_task(s1, s2, y0, frames, task * CHUNK));
     }
 
     /// The sums as a [`StackImage`]; `source` names the stack in the error for fewer than
@@ -151,6 +135,21 @@ impl Accumulator {
     }
 }
 
+crate::io::widest! {
+    /// Add `frames`' pixels `base..` (as many as `s1` holds) to a task's sums, a block at a
+    /// time through every frame.
+    fn add_task(s1: &mut [f64], s2: &mut [f64], y0: &[f64], frames: &[FrameData], base: usize) {
+        let mut buf = [0.0; BLOCK];
+        for start in (0..s1.len()).step_by(BLOCK) {
+            let end = (start + BLOCK).min(s1.len());
+            let (s1, s2, y0) = (&mut s1[start..end], &mut s2[start..end], &y0[start..end]);
+            for f in frames {
+                add_values(s1, s2, y0, f.block(base + start, base + end, &mut buf));
+            }
+        }
+    }
+}
+
 /// Add one frame's `y` less the first frame's `y0` and its square to the sums.
 #[inline(always)]
 fn add_values(s1: &mut [f64], s2: &mut [f64], y0: &[f64], y: &[f64]) {
@@ -174,12 +173,7 @@ pub fn read_stack_image(files: &[PathBuf]) -> Result<StackImage> {
     stack.require_frames(2, "a spatial stack's temporal variance")?;
     let mut acc = Accumulator::new(stack.shape);
     read_batches(&stack, None, |batch| {
-        for frame in batch.frames() {
-            match frame {
-                FrameData::Values(v) => acc.add(v),
-                FrameData::Raw(bytes, layout) => acc.add_raw(bytes, *layout),
-            }
-        }
+        acc.add_batch(batch.frames());
         Ok(())
     })?;
     stack.require_all_read(acc.frames)?;
