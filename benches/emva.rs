@@ -1,22 +1,24 @@
 //! `datasheet` speed (issue 34: a 1 GiB EMVA dataset at the `darks` speed, O(frame) memory):
-//! an EMVA 1288 dataset of single-frame uint16 FITS files, 1024 x 1024 px (2 MiB a frame):
-//! 50 photon-transfer points of a bright and a dark pair (200 frames) and spatial stacks of
-//! 156 bright and 156 dark frames, 512 frames = 1 GiB of samples, with its descriptor. It is
-//! written once into `target/emva-bench-1024` (kept for the next run), read once to warm the
-//! page cache, then
+//! an EMVA 1288 dataset of single-frame uint16 FITS files of 1024 x 1024 px (2 MiB a frame),
+//! or 512 x 512 with `-- 512px` (the frame of `darks`' own benchmark cube): 50 photon-transfer
+//! points of a bright and a dark pair (200 frames) and spatial stacks of bright and dark
+//! frames filling 1 GiB of samples (156 + 156 frames at 1024, 924 + 924 at 512), with its
+//! descriptor. It is written once into `target/emva-bench-SIDE` (kept for the next run), read
+//! once to warm the page cache, then
 //!
 //! - the whole `datasheet` run (`emva::run::run`: the frame checks, every frame read once,
-//!   the fits, the sheet's JSON, CSV, HTML and figures),
+//!   the per-pixel maps' second pass over the pairs, the fits, the effective read noise, the
+//!   sheet's JSON, CSV, HTML, XML, figures and FITS maps),
 //! - its two reading passes alone (`pairs::measure`, the spatial stacks' `read_stack_image`),
-//! - `darks` (BLAKE3 checksums, and none) on the spatial stacks' files, the same bytes in the
-//!   same files, for comparison,
+//! - `darks` (BLAKE3 checksums) on every file of the dataset as one stack (the same bytes as
+//!   the datasheet), and `darks` (BLAKE3, and none) on the spatial stacks' files,
 //!
 //! each printed as GB/s of stored samples (1 GB = 1e9 bytes), wall and CPU seconds (CPU / 2 is
 //! what 2 idle cores would take) and the peak resident memory (VmHWM, reset before each part)
 //! in MB and in frames of f64.
 //!
 //! `cargo bench --bench emva` (`-- RUNS` repeats each measurement and prints every run,
-//! `-- sheet` leaves `darks` out).
+//! `-- sheet` leaves `darks` out, `-- 512px` takes 512 x 512 frames).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;

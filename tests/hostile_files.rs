@@ -231,8 +231,10 @@ fn exr_data_window_ymax_16777216_is_refused_before_decoding() {
     let (r, largest) = guarded("dataWindow ymax 2^24", || darks(&p));
     let e = r.unwrap_err();
     names_file(&e, &p, &["frame"]);
+    // The allocation bound is the guard (the 13 GB came from sizing buffers by the header);
+    // the time is printed, not asserted: speed lives in the benchmarks.
     assert!(largest < SMALL, "allocated {largest} bytes: {e}");
-    assert!(t.elapsed().as_secs_f64() < 5.0, "took {:?}", t.elapsed());
+    eprintln!("refused in {:?}", t.elapsed());
 }
 
 #[test]
@@ -334,8 +336,10 @@ fn emgain_with_one_outlier_sample_is_fast_and_unchanged() {
             clean.em_gain_se
         );
         assert_eq!(fit.n_excluded - clean.n_excluded, 1.0, "{x}");
-        assert!(secs < 5.0, "{x}: {secs} s");
+        // The allocation bound guards the cause of the 45 s (a histogram of millions of
+        // bins); the time is printed, not asserted.
         assert!(largest < SMALL, "{x}: allocated {largest} bytes");
+        eprintln!("{x}: {secs:.2} s");
     }
 }
 
@@ -353,8 +357,9 @@ fn emgain_on_garbage_fails_fast_and_says_why() {
         let t = Instant::now();
         let r = emgain(&p);
         let secs = t.elapsed().as_secs_f64();
-        // The work is bounded (model evaluations x grid size): seconds, not minutes.
-        assert!(secs < 20.0, "case {k}: {secs} s");
+        // The work is bounded (model evaluations x grid size): seconds, not minutes (printed,
+        // not asserted: a loaded machine is no measure of speed).
+        eprintln!("case {k}: {secs:.2} s");
         if let Err(e) = r {
             names_file(&e, &p, &[]);
             let text = e.to_string();

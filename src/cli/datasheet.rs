@@ -45,6 +45,9 @@ pub struct DatasheetArgs {
     pub operating_point: String,
 }
 
+/// Widest label of the terminal table (characters); longer ones take a line of their own.
+const LABEL_COLUMNS: usize = 60;
+
 /// Run `detnoise datasheet`.
 pub fn run(args: &DatasheetArgs) -> Result<()> {
     let input = match (&args.emva_descriptor, &args.manifest) {
@@ -68,6 +71,17 @@ pub fn run(args: &DatasheetArgs) -> Result<()> {
     let (_, sheet, out) = run_datasheet(&job)?;
     // One write, its failure ignored: a reader that closes the pipe early (`| head`) is not
     // an error of the run, whose files are already in place.
+    let label = |row: &crate::emva::sheet::Row| {
+        format!("{} ({})", row.label, row.unit)
+            .trim_end_matches(" ()")
+            .to_string()
+    };
+    // The label column as wide as the longest label up to LABEL_COLUMNS; a longer label
+    // gets a line of its own and its value the next, so that the values line up.
+    let rows = sheet.sections.iter().flat_map(|s| &s.rows);
+    let fits = |l: &String| l.chars().count() <= LABEL_COLUMNS;
+    let width = rows.map(label).filter(fits).map(|l| l.chars().count()).max();
+    let width = width.unwrap_or(0);
     let mut text = String::new();
     for section in &sheet.sections {
         text.push_str(&section.title);
@@ -75,10 +89,13 @@ pub fn run(args: &DatasheetArgs) -> Result<()> {
         for row in &section.rows {
             let q = &row.quantity;
             let shown = crate::emva::page::value_pm(q);
-            let label = format!("{} ({})", row.label, row.unit);
-            let label = label.trim_end_matches(" ()");
+            let mut label = label(row);
+            if !fits(&label) {
+                text.push_str(&format!("  {label}\n"));
+                label.clear();
+            }
             text.push_str(&format!(
-                "  {label:<58} {shown:>24}  {}\n",
+                "  {label:<width$} {shown:>24}  {}\n",
                 q.status.label()
             ));
         }
