@@ -80,7 +80,11 @@ pub fn run(args: &DatasheetArgs) -> Result<()> {
     // gets a line of its own and its value the next, so that the values line up.
     let rows = sheet.sections.iter().flat_map(|s| &s.rows);
     let fits = |l: &String| l.chars().count() <= LABEL_COLUMNS;
-    let width = rows.map(label).filter(fits).map(|l| l.chars().count()).max();
+    let width = rows
+        .map(label)
+        .filter(fits)
+        .map(|l| l.chars().count())
+        .max();
     let width = width.unwrap_or(0);
     let mut text = String::new();
     for section in &sheet.sections {

@@ -55,7 +55,7 @@ pub struct PointStats {
 /// is computed here (two passes over the pixels, no cancellation).
 pub fn pair_stats(a: &[f64], b: &[f64]) -> PairStats {
     assert_eq!(a.len(), b.len(), "a pair's frames differ in length");
-    stats_of(&(a, b), a.len())
+    stats_of(a, b, a.len())
 }
 
 crate::io::widest! {
@@ -64,45 +64,27 @@ crate::io::widest! {
     fn pair_stats_data(a: &FrameData, b: &FrameData) -> PairStats {
         let n = a.pixels();
         assert_eq!(n, b.pixels(), "a pair's frames differ in length");
-        stats_of(&(a, b), n)
+        stats_of(a, b, n)
     }
 }
 
-/// A pair of frames handed out a block of [`CHUNK`] pixels at a time.
-trait PairBlocks {
-    /// Pixels `start..end` of both frames (decoded into `ba`, `bb` where stored as bytes).
-    fn block<'a>(
-        &'a self,
-        start: usize,
-        end: usize,
-        ba: &'a mut [f64; CHUNK],
-        bb: &'a mut [f64; CHUNK],
-    ) -> (&'a [f64], &'a [f64]);
+/// A frame handed out a block of pixels at a time.
+trait Blocks {
+    /// Pixels `start..end` (decoded into `buf` where stored as bytes).
+    fn block<'a>(&'a self, start: usize, end: usize, buf: &'a mut [f64; CHUNK]) -> &'a [f64];
 }
 
-impl PairBlocks for (&[f64], &[f64]) {
+impl Blocks for [f64] {
     #[inline(always)]
-    fn block<'a>(
-        &'a self,
-        start: usize,
-        end: usize,
-        _: &'a mut [f64; CHUNK],
-        _: &'a mut [f64; CHUNK],
-    ) -> (&'a [f64], &'a [f64]) {
-        (&self.0[start..end], &self.1[start..end])
+    fn block<'a>(&'a self, start: usize, end: usize, _: &'a mut [f64; CHUNK]) -> &'a [f64] {
+        &self[start..end]
     }
 }
 
-impl PairBlocks for (&FrameData, &FrameData) {
+impl Blocks for FrameData {
     #[inline(always)]
-    fn block<'a>(
-        &'a self,
-        start: usize,
-        end: usize,
-        ba: &'a mut [f64; CHUNK],
-        bb: &'a mut [f64; CHUNK],
-    ) -> (&'a [f64], &'a [f64]) {
-        (self.0.block(start, end, ba), self.1.block(start, end, bb))
+    fn block<'a>(&'a self, start: usize, end: usize, buf: &'a mut [f64; CHUNK]) -> &'a [f64] {
+        FrameData::block(self, start, end, buf)
     }
 }
 
@@ -148,11 +130,12 @@ fn add_moments(m2: &mut [f64; LANES], m4: &mut [f64; LANES], a: &[f64], b: &[f64
 
 /// The statistics of a pair of `n` pixels (see [`PairStats`]).
 #[inline(always)]
-fn stats_of(pair: &impl PairBlocks, n: usize) -> PairStats {
+fn stats_of<F: Blocks + ?Sized>(fa: &F, fb: &F, n: usize) -> PairStats {
     let (mut ba, mut bb) = ([0.0; CHUNK], [0.0; CHUNK]);
     let (mut sa, mut sb) = ([0.0; LANES], [0.0; LANES]);
     for start in (0..n).step_by(CHUNK) {
-        let (a, b) = pair.block(start, (start + CHUNK).min(n), &mut ba, &mut bb);
+        let end = (start + CHUNK).min(n);
+        let (a, b) = (fa.block(start, end, &mut ba), fb.block(start, end, &mut bb));
         add_values(&mut sa, &mut sb, a, b);
     }
     let nf = n as f64;
@@ -160,7 +143,8 @@ fn stats_of(pair: &impl PairBlocks, n: usize) -> PairStats {
     let drift = mean_a - mean_b;
     let (mut m2, mut m4) = ([0.0; LANES], [0.0; LANES]);
     for start in (0..n).step_by(CHUNK) {
-        let (a, b) = pair.block(start, (start + CHUNK).min(n), &mut ba, &mut bb);
+        let end = (start + CHUNK).min(n);
+        let (a, b) = (fa.block(start, end, &mut ba), fb.block(start, end, &mut bb));
         add_moments(&mut m2, &mut m4, a, b, drift);
     }
     let (m2, m4) = (m2.iter().sum::<f64>() / nf, m4.iter().sum::<f64>() / nf);
