@@ -29,6 +29,9 @@ use detnoise::io::fits::write_cube;
 use detnoise::io::Checksum;
 use detnoise::progress::Silent;
 
+mod support;
+use support::{cpu_seconds, peak_mb, reset_peak};
+
 /// Frame shape (rows, cols) of the stacks.
 const SHAPE: (usize, usize) = (512, 512);
 
@@ -97,37 +100,6 @@ fn write_campaign(dir: &Path, frames: usize, gains: &[Option<f64>]) -> (PathBuf,
     let m = dir.join("campaign.csv");
     std::fs::write(&m, manifest).expect("write the manifest");
     (m, files)
-}
-
-/// Reset the peak resident memory (VmHWM) of this process to its current size.
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
-/// Peak resident memory (MB) since the last [`reset_peak`] (NaN where /proc does not say).
-fn peak_mb() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1e3)
-}
-
-/// CPU seconds (user + system, every thread) this process has used, from /proc/self/stat
-/// (clock ticks of 10 ms).
-fn cpu_seconds() -> f64 {
-    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    // Fields after the command name (which may hold spaces): utime and stime are the 12th
-    // and 13th.
-    let rest = stat.rsplit_once(')').map_or("", |(_, r)| r);
-    let f: Vec<f64> = rest
-        .split_whitespace()
-        .skip(11)
-        .take(2)
-        .filter_map(|v| v.parse().ok())
-        .collect();
-    f.iter().sum::<f64>() / 100.0
 }
 
 /// Peak memory as text: MB, and in frames of `pixels` f64.

@@ -32,6 +32,9 @@ use detnoise::io::fits::write_cube;
 use detnoise::io::Checksum;
 use detnoise::progress::Silent;
 
+mod support;
+use support::{cpu_seconds, load, peak_mb, reset_peak};
+
 /// Frame side (px): 1024, or 512 with `-- 512px` (darks' benchmark frames).
 static SIDE: std::sync::OnceLock<usize> = std::sync::OnceLock::new();
 /// Photon-transfer points (each a bright and a dark pair).
@@ -153,38 +156,6 @@ fn dataset(dir: &Path) -> PathBuf {
         t.elapsed().as_secs_f64()
     );
     descriptor
-}
-
-/// Reset the peak resident memory (VmHWM) of this process to its current size.
-fn reset_peak() {
-    let _ = std::fs::write("/proc/self/clear_refs", "5");
-}
-
-/// Peak resident memory (MB) since the last [`reset_peak`] (NaN where /proc does not say).
-fn peak_mb() -> f64 {
-    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
-    status
-        .lines()
-        .find_map(|l| l.strip_prefix("VmHWM:"))
-        .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<f64>().ok())
-        .map_or(f64::NAN, |kb| kb / 1e3)
-}
-
-/// CPU time of the whole process so far (user + system, every thread, s).
-fn cpu_seconds() -> f64 {
-    // SAFETY: getrusage writes one rusage through a valid pointer.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) };
-    let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    seconds(usage.ru_utime) + seconds(usage.ru_stime)
-}
-
-/// The 1-minute load average (NaN where /proc does not say).
-fn load() -> f64 {
-    std::fs::read_to_string("/proc/loadavg")
-        .ok()
-        .and_then(|s| s.split_whitespace().next()?.parse().ok())
-        .unwrap_or(f64::NAN)
 }
 
 /// Run `f`, printing `label`'s GB/s over `bytes`, wall and CPU seconds and peak memory.

@@ -18,18 +18,11 @@ use detnoise::progress::Silent;
 use detnoise::subaps::{solve_all, Geometry, GridSpec, SubapsJob};
 use std::time::Instant;
 
+mod support;
+use support::cpu_seconds;
+
 /// Side of the sub-apertures (px).
 const SUBAP_PX: usize = 16;
-
-/// CPU time of the whole process so far (user + system, s): on a machine shared with other
-/// work, CPU seconds over the cores used estimate the wall time the job would take alone.
-fn process_cpu_seconds() -> f64 {
-    // SAFETY: getrusage writes one rusage through a valid pointer.
-    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
-    unsafe { libc::getrusage(libc::RUSAGE_SELF, &mut usage) };
-    let seconds = |t: libc::timeval| t.tv_sec as f64 + t.tv_usec as f64 * 1e-6;
-    seconds(usage.ru_utime) + seconds(usage.ru_stime)
-}
 
 /// A `side` x `side` map (e-) drawn from the paper's sCMOS pdf.
 fn bench_map(side: usize) -> Map {
@@ -68,10 +61,10 @@ fn main() {
         floors.len(),
         start.elapsed().as_secs_f64()
     );
-    let (start, cpu0) = (Instant::now(), process_cpu_seconds());
+    let (start, cpu0) = (Instant::now(), cpu_seconds());
     let (_, records) = solve_all(&job, &Silent).expect("the bench job runs");
     let seconds = start.elapsed().as_secs_f64();
-    let cpu = process_cpu_seconds() - cpu0;
+    let cpu = cpu_seconds() - cpu0;
     let threads = rayon::current_num_threads();
     let n = records.len();
     println!(
