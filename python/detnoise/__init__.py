@@ -7,6 +7,7 @@ numpy in and out, units in names (``_e`` electrons, ``_adu`` camera counts, ``_p
 - ``dark_maps(paths, gain_e_per_adu=None, ...)``: offset, read-noise and flag maps;
 - ``campaign(manifest=..., out=..., gain_e_per_adu=...)``: darks at several exposures, EM gains
   and temperatures decomposed per pixel into offset, CIC and dark current (a ``Campaign``);
+- ``datasheet(emva=..., out=...)``: the EMVA 1288 datasheet of a camera (a ``Datasheet``);
 - ``fit_pdf(rms_e)``, ``fit_emgain(paths, ...)``: calibration fits with standard errors;
 - ``Readout(model, **params)``: a camera as a noise generator, ``cam.read(image_e)``;
 - ``simulate(...)``, ``effective(...)``: Monte-Carlo records for ``pandas.DataFrame``;
@@ -29,6 +30,7 @@ from ._detnoise import (
     SETTINGS,
     Campaign,
     DarkMaps,
+    Datasheet,
     DetnoiseWarning,
     EmGainFit,
     PdfFit,
@@ -48,6 +50,7 @@ __all__ = [
     "SETTINGS",
     "Campaign",
     "DarkMaps",
+    "Datasheet",
     "DetnoiseWarning",
     "EmGainFit",
     "PdfFit",
@@ -56,6 +59,7 @@ __all__ = [
     "StackIterator",
     "__version__",
     "campaign",
+    "datasheet",
     "dark_maps",
     "effective",
     "fit_emgain",
@@ -144,6 +148,7 @@ def _with_progress(function):
 
 dark_maps = _with_progress(_detnoise.dark_maps)
 campaign = _with_progress(_detnoise.campaign)
+datasheet = _detnoise.datasheet
 simulate = _with_progress(_detnoise.simulate)
 effective = _with_progress(_detnoise.effective)
 report = _with_progress(_detnoise.report)

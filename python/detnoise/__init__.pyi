@@ -314,6 +314,36 @@ def campaign(
     (0, 1). Writes `out` (replaced only if detnoise wrote it; force: write into a folder of
     other files)."""
 
+class Datasheet:
+    """The EMVA 1288 datasheet of a camera as `detnoise datasheet` writes it into `out`."""
+
+    @property
+    def out(self) -> Path:
+        """The output directory written (datasheet.json/.csv/.html/.xml, figures, FITS maps)."""
+    @property
+    def sheet(self) -> Dict[str, Any]:
+        """datasheet.json: sections of rows (label, unit, value, se, status) and figures."""
+    @property
+    def maps(self) -> Dict[str, npt.NDArray[np.float64]]:
+        """The per-pixel maps by file name without .fits: gain_dn_per_e, gain_se_dn_per_e,
+        dark_current_e_per_s, dark_current_se_e_per_s, rms_e, rms_se_e."""
+
+def datasheet(
+    *,
+    emva: Optional[_Path] = None,
+    manifest: Optional[_Path] = None,
+    out: _Path,
+    force: bool = False,
+    defect_sigma: float = 6.0,
+    operating_point: str = "8,airy:2,50",
+) -> Datasheet:
+    """The EMVA 1288 (release 4.0) datasheet of the dataset named by exactly one of emva (the
+    reference implementation's descriptor file) and manifest (campaign CSV), as `detnoise
+    datasheet`: defect pixels beyond defect_sigma robust standard deviations (in (0, 1000]);
+    the effective read noise of the dark noise map at operating_point (SUBAP,SPOT,SIGNAL, as
+    the report's). Writes `out` (replaced only if detnoise wrote it; force: write into a folder
+    of other files)."""
+
 class PdfFit:
     """A fit of the per-pixel read-noise pdf; pass it as ``pdf=`` to simulate with it."""
 

@@ -1,7 +1,8 @@
 //! The Python extension module `detnoise._detnoise`: numpy in and out over the detnoise
 //! library (see the pure-Python package `python/detnoise/` for the public names and the
 //! `.pyi` stubs). One job per file: `readout` (the camera as a noise generator), `calib`
-//! (frames and dark maps), `campaign` (a campaign measured and decomposed), `fit` (the pdf and EM-gain fits), `sim` (simulate, effective),
+//! (frames and dark maps), `campaign` (a campaign measured and decomposed), `datasheet` (the
+//! EMVA 1288 datasheet), `fit` (the pdf and EM-gain fits), `sim` (simulate, effective),
 //! `report`, `cli` (the `detnoise` command); `params` (readout-model keywords), `observer`
 //! (progress, warnings, Ctrl-C), `errors` and `convert` are shared.
 
@@ -9,6 +10,7 @@ mod calib;
 mod campaign;
 mod cli;
 mod convert;
+mod datasheet;
 mod errors;
 mod fit;
 mod observer;
@@ -43,9 +45,11 @@ fn _detnoise(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<fit::PyEmGainFit>()?;
     m.add_class::<report::Report>()?;
     m.add_class::<campaign::PyCampaign>()?;
+    m.add_class::<datasheet::PyDatasheet>()?;
     m.add_function(wrap_pyfunction!(calib::read_stack, m)?)?;
     m.add_function(wrap_pyfunction!(calib::dark_maps_py, m)?)?;
     m.add_function(wrap_pyfunction!(campaign::campaign_py, m)?)?;
+    m.add_function(wrap_pyfunction!(datasheet::datasheet_py, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit_pdf_py, m)?)?;
     m.add_function(wrap_pyfunction!(fit::fit_emgain_py, m)?)?;
     m.add_function(wrap_pyfunction!(sim::simulate, m)?)?;
