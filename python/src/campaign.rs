@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 
 use crate::calib::paths_of;
-use crate::convert::{array2, json_to_py, to_py};
+use crate::convert::{images_dict, json_to_py, to_py};
 use crate::errors::invalid;
 use detnoise::calib::darks::Clip;
 use detnoise::campaign::fit::{FitThresholds, HotRule, TemperatureTerm, OUTPUT_NAMES};
@@ -59,12 +59,7 @@ impl PyCampaign {
     /// fitted, cic_e_per_frame and cic_se_e_per_frame.
     #[getter]
     fn maps<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for (name, image) in &self.maps {
-            let (rows, cols) = image.shape;
-            d.set_item(name, array2(py, image.data.clone(), rows, cols)?)?;
-        }
-        Ok(d)
+        images_dict(py, &self.maps)
     }
 
     /// The camera model folder written (for `Readout.from_camera`, `--camera`); None when the

@@ -60,6 +60,19 @@ pub fn array2<'py, T: numpy::Element>(
         .into_any())
 }
 
+/// Images read from FITS, by name, as a dict of 2-D numpy arrays.
+pub fn images_dict<'py>(
+    py: Python<'py>,
+    images: &[(String, detnoise::io::Image)],
+) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    for (name, image) in images {
+        let (rows, cols) = image.shape;
+        d.set_item(name, array2(py, image.data.clone(), rows, cols)?)?;
+    }
+    Ok(d)
+}
+
 /// A map as a 2-D numpy array.
 pub fn map_array<'py>(py: Python<'py>, map: &Map) -> PyResult<Bound<'py, PyAny>> {
     array2(py, map.data.clone(), map.rows, map.cols)

@@ -3,7 +3,7 @@
 
 use std::path::PathBuf;
 
-use crate::convert::{array2, json_to_py};
+use crate::convert::{images_dict, json_to_py};
 use crate::errors::{invalid, IntoPy};
 use detnoise::emva::beyond::BeyondOptions;
 use detnoise::emva::run::{run, DatasheetInput, DatasheetRun, DATASHEET_NAMES};
@@ -41,12 +41,7 @@ impl PyDatasheet {
     /// rms_se_e.
     #[getter]
     fn maps<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyDict>> {
-        let d = PyDict::new(py);
-        for (name, image) in &self.maps {
-            let (rows, cols) = image.shape;
-            d.set_item(name, array2(py, image.data.clone(), rows, cols)?)?;
-        }
-        Ok(d)
+        images_dict(py, &self.maps)
     }
 
     fn __repr__(&self) -> String {
