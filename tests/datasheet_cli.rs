@@ -6,7 +6,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::detnoise;
+use common::{datasheet, detnoise};
 
 /// The bundled dataset's folder.
 fn bundled() -> PathBuf {
@@ -66,14 +66,7 @@ fn subset(dir: &Path, points: usize, spatial: bool) -> PathBuf {
 fn the_bundled_dataset_gives_its_datasheet_and_every_file() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("ds");
-    let o = detnoise()
-        .args(["datasheet", "--emva-descriptor"])
-        .arg(bundled().join("EMVA1288descriptor.txt"))
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = datasheet(&bundled().join("EMVA1288descriptor.txt"), &out);
     let stdout = String::from_utf8_lossy(&o.stdout);
     assert!(stdout.contains("System gain K (DN/e-)"), "{stdout}");
     for name in [
@@ -145,14 +138,7 @@ fn a_dataset_out_of_the_rules_is_computed_with_statuses_naming_the_rule() {
     let d = tempfile::tempdir().unwrap();
     let descriptor = subset(d.path(), 12, false);
     let out = d.path().join("ds");
-    let o = detnoise()
-        .args(["datasheet", "--emva-descriptor"])
-        .arg(&descriptor)
-        .arg("--out")
-        .arg(&out)
-        .output()
-        .unwrap();
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = datasheet(&descriptor, &out);
     let csv = std::fs::read_to_string(out.join("datasheet.csv")).unwrap();
     let k = csv
         .lines()
@@ -229,14 +215,7 @@ fn a_second_run_replaces_its_own_folder() {
     let d = tempfile::tempdir().unwrap();
     let out = d.path().join("ds");
     for _ in 0..2 {
-        let o = detnoise()
-            .args(["datasheet", "--emva-descriptor"])
-            .arg(bundled().join("EMVA1288descriptor.txt"))
-            .arg("--out")
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        datasheet(&bundled().join("EMVA1288descriptor.txt"), &out);
     }
     assert!(out.join("datasheet.json").is_file());
 }

@@ -4,18 +4,16 @@
 //! FITS maps with BUNIT, rms_e.fits read by `simulate --model scmos-map`, and the effective
 //! read noise beside sigma_d.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::OnceLock;
 
+use common::{datasheet, detnoise};
 use serde_json::Value;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-fn detnoise() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_detnoise"))
 }
 
 /// One datasheet run of the bundled dataset for every test: its folder and datasheet.json.
@@ -25,15 +23,7 @@ fn run() -> &'static (tempfile::TempDir, Value) {
         let dir = tempfile::tempdir().unwrap();
         let out = dir.path().join("ds");
         let descriptor = root().join("data-synthetic/emva-cmos-64x96/EMVA1288descriptor.txt");
-        let o = detnoise()
-            .arg("datasheet")
-            .arg("--emva-descriptor")
-            .arg(&descriptor)
-            .arg("--out")
-            .arg(&out)
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        datasheet(&descriptor, &out);
         let text = std::fs::read_to_string(out.join("datasheet.json")).unwrap();
         (dir, serde_json::from_str(&text).unwrap())
     })

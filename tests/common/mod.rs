@@ -25,6 +25,19 @@ pub fn detnoise() -> Command {
     Command::cargo_bin("detnoise").unwrap()
 }
 
+/// `detnoise datasheet --emva-descriptor descriptor --out out`, which must succeed; its output.
+pub fn datasheet(descriptor: &Path, out: &Path) -> std::process::Output {
+    let o = detnoise()
+        .args(["datasheet", "--emva-descriptor"])
+        .arg(descriptor)
+        .arg("--out")
+        .arg(out)
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    o
+}
+
 /// Path of the bundled stack `name` under `data-synthetic/`.
 pub fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))
